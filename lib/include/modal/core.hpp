@@ -1,0 +1,220 @@
+// modal/core.hpp — the Lagrangian core.
+//
+// A System is the constant model of a tree of rigid bodies joined by joints,
+// with springs, joint springs and dampers, and dead loads: everything needed to
+// evaluate, at generalized coordinates q (n of them) and velocities q̇,
+//
+//   M(q)        mass matrix (n×n, symmetric positive semidefinite)      [kg·m², kg·m, kg]
+//   V(q)        potential energy (gravity, springs, dead loads)           [J]
+//   Q(q, q̇)     non-conservative generalized forces (dampers)             [N·m or N]
+//
+// and their exact derivatives. All evaluation is by free functions taking the
+// System (constant) and a Workspace (scratch memory, one per thread):
+//
+//   modal::System sys = modal::build_system(modal::load_scene("models/double_pendulum.toml"));
+//   modal::Workspace ws(sys);
+//   const Eigen::VectorXd q = sys.initial_configuration();
+//   double V = modal::potential(sys, ws, q);
+//   const Eigen::VectorXd& g = modal::potential_gradient(sys, ws, q);    // ∇V, n
+//   const Eigen::MatrixXd& K = modal::potential_hessian(sys, ws, q);     // ∇∇V, n×n
+//   const Eigen::MatrixXd& M = modal::mass_matrix(sys, ws, q);           // n×n
+//
+// How derivatives are exact: joints and elements (springs, loads, gravity) are
+// written once, templated on the scalar (see lib/core/model.hpp). Their local
+// derivatives come from forward-mode automatic differentiation (modal/ad.hpp);
+// the chain rule through the kinematic tree is applied by a tree-structured
+// accumulation of the element cotangents (the data flow of reverse mode), which
+// costs O(n·depth) for a Hessian instead of O(n²·depth) for nested forward
+// mode through the whole tree. Tests check it against nested forward AD through
+// the same templated model and against central differences.
+//
+// Conventions (DESIGN.md §1): coordinates are joint values relative to the
+// parent body (hinge angle in rad, slide in m, ball: rotation vector relative to
+// the written orientation, free: translation then rotation vector). Body frames
+// coincide with the parent frame moved to the joint origin at q = 0.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace modal {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+using VectorX = Eigen::VectorXd;
+using MatrixX = Eigen::MatrixXd;
+
+// Numerical trouble that makes a result impossible or untrustworthy (singular
+// mass matrix, no equilibrium, non-convergence). The message says what failed
+// in words a user can act on. Command-line exit status 4.
+class NumericalError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class JointType { hinge, slide, ball, free, fixed };
+
+// What a coordinate measures; decides wrapping and search ranges.
+enum class CoordinateKind {
+  angle,     // hinge angle, rad, periodic with period 2π
+  length,    // slide or free translation, m
+  rotation,  // component of a rotation vector (ball, free), rad
+};
+
+struct Coordinate {
+  std::string name;  // hinge/slide: body name; ball: body.rx|ry|rz; free: body.x|y|z|rx|ry|rz
+  CoordinateKind kind = CoordinateKind::angle;
+  int body = -1;       // index of the body whose joint owns the coordinate
+  double initial = 0;  // starting value for searches
+};
+
+// A point fixed to a body (point in the body frame) or to the world (body = -1,
+// point in world coordinates).
+struct Attachment {
+  int body = -1;
+  Vec3 point = Vec3::Zero();
+};
+
+struct Body {
+  std::string name;
+  int parent = -1;  // index of the parent body; -1 is the world. Parents precede children.
+  JointType joint = JointType::hinge;
+  Vec3 axis = Vec3::UnitY();     // unit axis of a hinge or slide, parent frame
+  Vec3 origin = Vec3::Zero();    // joint position, parent frame, m
+  double mass = 0;               // kg
+  Vec3 com = Vec3::Zero();       // centre of mass, body frame, m
+  Mat3 inertia = Mat3::Zero();   // about the centre of mass, body frame, kg·m²
+  double stiffness = 0;          // joint spring, N·m/rad (hinge, ball) or N/m (slide)
+  double damping = 0;            // joint damper, N·m·s/rad or N·s/m
+  VectorX rest;                  // joint spring rest values (size = joint coordinates)
+  VectorX initial;               // joint starting values (size = joint coordinates)
+};
+
+struct Spring {
+  Attachment a, b;
+  double stiffness = 0;    // N/m
+  double rest_length = 0;  // m
+  double damping = 0;      // N·s/m, along the spring
+};
+
+// A force of fixed direction in the scene frame applied at a body point
+// (conservative: V = −f·x).
+struct DeadLoad {
+  Attachment at;
+  Vec3 force = Vec3::Zero();  // N
+};
+
+struct SystemDescription {
+  std::string title;
+  Vec3 gravity{0, 0, -9.81};  // m/s²
+  std::vector<Body> bodies;   // parents before children
+  std::vector<Spring> springs;
+  std::vector<DeadLoad> loads;
+};
+
+// The constant model. Construction validates (throws std::invalid_argument on
+// misuse: bad parent order, non-unit axis, negative mass, …) and precomputes
+// the coordinate layout. Copyable value; thread-safe to share.
+class System {
+ public:
+  explicit System(SystemDescription description);
+
+  int size() const { return n_; }  // number of generalized coordinates n
+  const std::string& title() const { return d_.title; }
+  const Vec3& gravity() const { return d_.gravity; }
+  const std::vector<Body>& bodies() const { return d_.bodies; }
+  const std::vector<Spring>& springs() const { return d_.springs; }
+  const std::vector<DeadLoad>& loads() const { return d_.loads; }
+  const std::vector<Coordinate>& coordinates() const { return coords_; }
+  std::vector<std::string> coordinate_names() const;
+
+  int first_coordinate(int body) const { return q_index_[static_cast<std::size_t>(body)]; }
+  int joint_size(int body) const { return nq_[static_cast<std::size_t>(body)]; }
+  const std::vector<int>& children(int body) const { return children_[static_cast<std::size_t>(body)]; }
+
+  VectorX initial_configuration() const;  // from the joints' `initial` values
+  bool has_damping() const { return has_damping_; }
+  // A length that characterizes the scene (largest distance of a body point,
+  // joint or attachment from the origin at q = 0; at least 1e-3 m). Used for
+  // search ranges of translations and for relative tolerances.
+  double length_scale() const { return length_scale_; }
+
+ private:
+  SystemDescription d_;
+  int n_ = 0;
+  std::vector<int> q_index_, nq_;
+  std::vector<std::vector<int>> children_;
+  std::vector<Coordinate> coords_;
+  bool has_damping_ = false;
+  double length_scale_ = 1.0;
+};
+
+// Scratch memory for evaluating one System. Results returned by reference live
+// here and are overwritten by the next call of the same function.
+struct KinematicsCache;
+class Workspace {
+ public:
+  explicit Workspace(const System& system);
+  ~Workspace();
+  Workspace(Workspace&&) noexcept;
+  Workspace& operator=(Workspace&&) noexcept;
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+
+  KinematicsCache& cache() { return *cache_; }
+  VectorX gradient;  // last potential_gradient
+  MatrixX hessian;   // last potential_hessian
+  MatrixX mass;      // last mass_matrix
+
+ private:
+  KinematicsCache* cache_;
+};
+
+// --- potential energy --------------------------------------------------------
+double potential(const System& s, Workspace& w, const VectorX& q);                     // V, J
+const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
+const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
+
+// A scale for generalized forces at q, used to make residuals relative: the sum
+// over elements of |element force| × |point Jacobian| (springs counted at 100 %
+// strain, joint springs at 1 rad or the length scale). Same units as ∇V.
+double force_scale(const System& s, Workspace& w, const VectorX& q);
+
+// --- kinetic energy, forces --------------------------------------------------
+const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
+double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);  // ½q̇ᵀMq̇, J
+double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);    // T + V, J
+// Damping matrix D(q) (n×n, symmetric PSD): the dampers' forces are Q = −D q̇.
+MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q);
+// Non-conservative generalized forces Q(q, q̇), n (dampers).
+VectorX generalized_forces(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+
+// ∂M/∂q: n matrices, entry k is ∂M/∂q_k (n×n). Exact (AD through the templated mass matrix).
+std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& w, const VectorX& q);
+// Christoffel symbols of the first kind Γ_ijk = ½(∂M_ij/∂q_k + ∂M_ik/∂q_j − ∂M_jk/∂q_i),
+// returned as n matrices: entry i is the n×n matrix (Γ_ijk)_jk (symmetric in j, k).
+std::vector<MatrixX> christoffel(const System& s, Workspace& w, const VectorX& q);
+// Coriolis matrix C_ij = Σ_k Γ_ijk q̇_k (n×n); Ṁ − 2C is skew-symmetric.
+MatrixX coriolis(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+// Accelerations q̈ = M⁻¹(Q − C q̇ − ∇V). Throws NumericalError if M is singular.
+VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+
+// World pose of every body at q: rotation (body → world) and frame origin.
+struct Pose {
+  Mat3 rotation = Mat3::Identity();
+  Vec3 position = Vec3::Zero();
+};
+std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q);
+
+// Coordinates brought to their canonical chart: hinge angles to (−π, π],
+// rotation vectors to length ≤ π (the same rotation). Used to compare
+// configurations and to report them.
+VectorX canonical_coordinates(const System& s, const VectorX& q);
+// Distance between configurations after canonicalization (angles modulo 2π,
+// rotations by their geodesic angle, translations divided by the length scale).
+double configuration_distance(const System& s, const VectorX& a, const VectorX& b);
+
+}  // namespace modal

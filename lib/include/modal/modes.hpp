@@ -1,0 +1,70 @@
+// modal/modes.hpp — eigen-solution of a LinearModel and stability.
+//
+//   modal::ModalResult r = modal::solve_modes(lin);
+//   for (const modal::Mode& m : r.modes) std::cout << m.omega << "\n";
+//
+// Symmetric problems (no damping, gyroscopic or circulatory terms) are solved
+// as K φ = λ M φ with λ = ω² and M-normalized modes (ΦᵀMΦ = I); a negative λ
+// is a divergent mode and is reported as negative, never as |λ|. Otherwise the
+// 2n first-order system is solved for s = σ ± iω. Stability classes follow
+// DESIGN.md §1. Every eigenvalue carries an error estimate.
+#pragma once
+
+#include "modal/linearize.hpp"
+
+#include <complex>
+#include <string>
+#include <vector>
+
+namespace modal {
+
+enum class Stability { asymptotically_stable, stable, marginal, divergence, flutter };
+const char* to_string(Stability s);  // "asymptotically stable", "stable", "marginal", "divergence", "flutter"
+
+// What one mode does.
+enum class ModeKind {
+  oscillatory,  // σ = 0 (within error), ω > 0
+  damped,       // σ < 0
+  zero,         // s = 0 within its error estimate (rigid-body motion, ignorable coordinate)
+  divergent,    // real s > 0 (symmetric: λ < 0)
+  flutter,      // σ > 0, ω > 0
+};
+const char* to_string(ModeKind k);
+
+struct Mode {
+  double omega2 = 0;          // λ = ω² for symmetric problems (negative: divergent); NaN otherwise
+  std::complex<double> s;     // eigenvalue of the first-order system, σ + iω with ω ≥ 0, 1/s
+  double growth_rate = 0;     // σ = Re s, 1/s
+  double omega = 0;           // ω = Im s, rad/s
+  double frequency_hz = 0;    // ω / 2π, Hz
+  double period = 0;          // 2π / ω, s (infinity when ω = 0)
+  double damping_ratio = 0;   // −σ / |s| (NaN when s = 0)
+  double error_estimate = 0;  // absolute error estimate of the eigenvalue: of omega2
+                              // (rad²/s²) for symmetric problems, of s (rad/s) otherwise
+  ModeKind kind = ModeKind::oscillatory;
+  Eigen::VectorXcd shape;     // n; symmetric: real, M-normalized, largest |component| positive
+};
+
+struct ModalResult {
+  std::vector<Mode> modes;  // symmetric: ascending λ; first-order: ascending ω, then σ
+  Stability stability = Stability::stable;
+  int morse_index = 0;      // number of divergent modes (negative λ, real s > 0)
+  int zero_modes = 0;
+  std::string solver;       // which solver ran, e.g. "dense symmetric (Eigen, Cholesky)"
+  std::vector<std::string> notes;  // diagnostics a user should read
+};
+
+// The mass matrix is singular (or not positive definite) at the point: the
+// message names the coordinates that carry no inertia there.
+class SingularMassMatrix : public NumericalError {
+ public:
+  using NumericalError::NumericalError;
+};
+
+struct ModalOptions {
+  int modes = -1;  // how many of the lowest modes to return (-1: all)
+};
+
+ModalResult solve_modes(const LinearModel& model, const ModalOptions& options = {});
+
+}  // namespace modal

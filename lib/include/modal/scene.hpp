@@ -1,0 +1,60 @@
+// modal/scene.hpp — scene files (TOML, DESIGN.md §3) to validated Scenes to Systems.
+//
+//   modal::Scene scene = modal::load_scene("models/double_pendulum.toml", {{"m", "2"}});
+//   modal::System sys = modal::build_system(scene);
+//
+// Every error names the file, line, column and key and says what is wrong
+// (SceneError; command-line exit status 2).
+#pragma once
+
+#include "modal/core.hpp"
+
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace modal {
+
+struct SourceLocation {
+  std::string file;
+  int line = 0;    // 1-based; 0 when unknown
+  int column = 0;  // 1-based; 0 when unknown
+};
+
+// what() is "<file>:<line>:<column>: <key>: <reason>" (key is a dotted path such
+// as "body[2].mass" or "parameters.l"; the key part is omitted when empty).
+class SceneError : public std::runtime_error {
+ public:
+  SceneError(SourceLocation where, std::string key, std::string reason);
+  const SourceLocation& where() const { return where_; }
+  const std::string& key() const { return key_; }
+  const std::string& reason() const { return reason_; }
+
+ private:
+  SourceLocation where_;
+  std::string key_, reason_;
+};
+
+// --set NAME=VALUE; VALUE may be an expression over the other parameters.
+struct ParameterOverride {
+  std::string name;
+  std::string value;
+};
+// Parses "NAME=VALUE"; throws SceneError (file "--set") when malformed.
+ParameterOverride parse_override(std::string_view text);
+
+struct Scene {
+  std::string file;                                       // as given
+  SystemDescription description;                          // validated, generators expanded
+  std::vector<std::pair<std::string, double>> parameters; // final values, file order
+  std::vector<SourceLocation> body_locations;             // parallel to description.bodies
+};
+
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
+Scene parse_scene(std::string_view text, const std::string& file_name,
+                  const std::vector<ParameterOverride>& overrides = {});
+System build_system(const Scene& scene);
+
+}  // namespace modal
