@@ -1,0 +1,456 @@
+// Evaluation of a System and its exact derivatives.
+//
+// Gradient and Hessian of V by tree-structured accumulation. Every element
+// (gravity on a body, a dead load, a spring) depends on world points x attached
+// to bodies; forward-mode AD of the element's templated energy gives its local
+// cotangent e = ∂V_e/∂x and local Hessian. The chain rule through the tree uses
+// the world twists (ω_k, v_k) of the coordinates (∂x/∂q_k = ω_k × x + v_k):
+//
+//   ∂V/∂q_k        = ω_k·τ + v_k·F                       (τ = Σ x × e, F = Σ e over the subtree of k)
+//   Σ e·∂²x/∂q_j∂q_k = ω_j·(P ω_k − tr(P) ω_k + v_k × F)  (P = Σ x eᵀ; j at or above k, j before k in the joint)
+//
+// The second line follows from ∂ξ_k/∂q_j = [ξ_j, ξ_k] (the twist of a joint is
+// carried by every joint above it) and the Jacobi identity. Inside one
+// rotation-vector joint the twists depend on the joint's own coordinates
+// through the left Jacobian J_l(φ); that derivative comes from AD of J_l.
+// Elements with a local Hessian add Jᵀ H J. Cost: O(n·depth) for the Hessian.
+#include "modal/core.hpp"
+
+#include "core/model.hpp"
+
+#include <Eigen/Cholesky>
+
+#include <cmath>
+#include <string>
+
+namespace modal {
+
+struct KinematicsCache {
+  model::TreeState<double> st;
+  std::vector<Vec3> F, tau;  // per body: subtree sums of cotangents and their moments
+  std::vector<Mat3> P;       // per body: subtree sums of x eᵀ
+};
+
+Workspace::Workspace(const System& system) : cache_(new KinematicsCache) {
+  cache_->st.resize(system);
+  const auto nb = system.bodies().size();
+  cache_->F.resize(nb);
+  cache_->tau.resize(nb);
+  cache_->P.resize(nb);
+}
+Workspace::~Workspace() { delete cache_; }
+Workspace::Workspace(Workspace&& o) noexcept
+    : gradient(std::move(o.gradient)), hessian(std::move(o.hessian)), mass(std::move(o.mass)), cache_(o.cache_) {
+  o.cache_ = nullptr;
+}
+Workspace& Workspace::operator=(Workspace&& o) noexcept {
+  if (this != &o) {
+    delete cache_;
+    cache_ = o.cache_;
+    o.cache_ = nullptr;
+    gradient = std::move(o.gradient);
+    hessian = std::move(o.hessian);
+    mass = std::move(o.mass);
+  }
+  return *this;
+}
+
+namespace {
+
+using model::TreeState;
+
+void check_size(const System& s, const VectorX& q, const char* what) {
+  if (q.size() != s.size())
+    throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(s.size()) +
+                                " coordinates, got " + std::to_string(q.size()));
+}
+
+const TreeState<double>& kinematics(const System& s, Workspace& w, const VectorX& q) {
+  check_size(s, q, "kinematics");
+  model::forward_kinematics(s, q.data(), w.cache().st);
+  return w.cache().st;
+}
+
+// Calls f(k) for every coordinate that moves points of `body` (its joint's and its ancestors').
+template <class F> void for_each_path_coordinate(const System& s, int body, F&& f) {
+  for (int a = body; a >= 0; a = s.bodies()[static_cast<std::size_t>(a)].parent) {
+    const int a0 = s.first_coordinate(a);
+    for (int j = a0; j < a0 + s.joint_size(a); ++j) f(j);
+  }
+}
+
+// ∂x/∂q_k for a point x moved by coordinate k.
+Vec3 point_velocity(const TreeState<double>& st, int k, const Vec3& x) {
+  const auto kk = static_cast<std::size_t>(k);
+  return st.omega[kk].cross(x) + st.vel[kk];
+}
+
+// Sparse point Jacobian: the columns of the coordinates that move the point.
+struct PointJacobian {
+  std::vector<int> index;
+  std::vector<Vec3> column;
+};
+PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a, const Vec3& x) {
+  PointJacobian J;
+  if (a.body >= 0)
+    for_each_path_coordinate(s, a.body, [&](int k) {
+      J.index.push_back(k);
+      J.column.push_back(point_velocity(st, k, x));
+    });
+  return J;
+}
+double frobenius(const PointJacobian& J) {
+  double s2 = 0;
+  for (const Vec3& c : J.column) s2 += c.squaredNorm();
+  return std::sqrt(s2);
+}
+
+Eigen::Matrix<double, 6, 1> stack(const Vec3& a, const Vec3& b) {
+  Eigen::Matrix<double, 6, 1> r;
+  r << a, b;
+  return r;
+}
+
+// The element cotangents e = ∂V_e/∂x at world points, handed to `deposit(body, x, e)`;
+// springs also hand their local Hessian (6×6 in (xa, xb)) to `spring_hessian` when given.
+template <class Deposit, class SpringHessian>
+void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit, SpringHessian&& spring_hessian,
+                        bool second_order) {
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    if (body.mass == 0.0) continue;
+    deposit(static_cast<int>(b), Vec3(st.position[b] + st.rotation[b] * body.com), Vec3(-body.mass * s.gravity()));
+  }
+  for (const DeadLoad& l : s.loads()) deposit(l.at.body, model::world_point(st, l.at), Vec3(-l.force));
+  for (const Spring& sp : s.springs()) {
+    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
+    if (sp.rest_length != 0.0 && (xa - xb).norm() == 0.0)
+      throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
+                           " m has coincident end points: its force direction is undefined");
+    auto energy = [&sp](const auto& x) {
+      using S = std::decay_t<decltype(x[0])>;
+      const model::V3<S> a(x[0], x[1], x[2]), b(x[3], x[4], x[5]);
+      return model::spring_energy<S>(sp, a, b);
+    };
+    Eigen::Matrix<double, 6, 1> g;
+    if (second_order) {
+      const auto r = ad::hessian<6>(energy, stack(xa, xb));
+      g = r.gradient;
+      spring_hessian(sp, xa, xb, r.hessian);
+    } else {
+      g = ad::gradient<6>(energy, stack(xa, xb)).gradient;
+    }
+    if (sp.a.body >= 0) deposit(sp.a.body, xa, Vec3(g.head<3>()));
+    if (sp.b.body >= 0) deposit(sp.b.body, xb, Vec3(g.tail<3>()));
+  }
+}
+
+// Fills the subtree sums F, τ, P of the cotangents.
+template <class SpringHessian>
+void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&& spring_hessian) {
+  KinematicsCache& c = w.cache();
+  const auto nb = s.bodies().size();
+  for (std::size_t b = 0; b < nb; ++b) {
+    c.F[b].setZero();
+    c.tau[b].setZero();
+    c.P[b].setZero();
+  }
+  for_each_cotangent(
+      s, c.st,
+      [&](int body, const Vec3& x, const Vec3& e) {
+        if (body < 0) return;
+        const auto b = static_cast<std::size_t>(body);
+        c.F[b] += e;
+        c.tau[b] += x.cross(e);
+        if (second_order) c.P[b] += x * e.transpose();
+      },
+      spring_hessian, second_order);
+  for (std::size_t b = nb; b-- > 0;) {
+    const int p = s.bodies()[b].parent;
+    if (p < 0) continue;
+    const auto pp = static_cast<std::size_t>(p);
+    c.F[pp] += c.F[b];
+    c.tau[pp] += c.tau[b];
+    if (second_order) c.P[pp] += c.P[b];
+  }
+}
+
+bool is_rotation_vector(const Body& body, int local) {
+  return body.joint == JointType::ball || (body.joint == JointType::free && local >= 3);
+}
+
+}  // namespace
+
+double potential(const System& s, Workspace& w, const VectorX& q) {
+  return model::potential(s, kinematics(s, w, q), q.data());
+}
+
+const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  accumulate(s, w, false, [](auto&&...) {});
+  const KinematicsCache& c = w.cache();
+  VectorX& g = w.gradient;
+  g.setZero(s.size());
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
+      const auto k = static_cast<std::size_t>(k0 + i);
+      g[k0 + i] = st.omega[k].dot(c.tau[b]) + st.vel[k].dot(c.F[b]) + bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
+    }
+  }
+  return g;
+}
+
+const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  MatrixX& H = w.hessian;
+  H.setZero(s.size(), s.size());
+  // Elements' local Hessians: Jᵀ H_e J.
+  auto spring_hessian = [&](const Spring& sp, const Vec3& xa, const Vec3& xb, const Eigen::Matrix<double, 6, 6>& He) {
+    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
+    const PointJacobian* J[2] = {&Ja, &Jb};
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) {
+        const Mat3 block = He.block<3, 3>(3 * u, 3 * v);
+        for (std::size_t i = 0; i < J[u]->index.size(); ++i) {
+          const Vec3 left = block.transpose() * J[u]->column[i];
+          for (std::size_t j = 0; j < J[v]->index.size(); ++j) H(J[u]->index[i], J[v]->index[j]) += left.dot(J[v]->column[j]);
+        }
+      }
+  };
+  accumulate(s, w, true, spring_hessian);
+  const KinematicsCache& c = w.cache();
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    const int nq = s.joint_size(static_cast<int>(b));
+    const Vec3& F = c.F[b];
+    const Mat3& P = c.P[b];
+    const double trP = P.trace();
+    // Rotation-vector joints: derivative of the twists with respect to the joint's own coordinates.
+    Eigen::Matrix<double, 3, 9> dW;  // columns 3i..3i+2: ∂(R_p J_l e_k)/∂φ_i for k = 0..2
+    int r0 = -1;
+    if (body.joint == JointType::ball || body.joint == JointType::free) {
+      r0 = k0 + (body.joint == JointType::free ? 3 : 0);
+      const Mat3 Rp = body.parent >= 0 ? st.rotation[static_cast<std::size_t>(body.parent)] : Mat3::Identity();
+      using D3 = Dual<double, 3>;
+      const model::V3<D3> phi(D3(q[r0], 0), D3(q[r0 + 1], 1), D3(q[r0 + 2], 2));
+      const model::M3<D3> Jl = model::rotation_left_jacobian(phi);
+      for (int i = 0; i < 3; ++i) {
+        Mat3 dJ;
+        for (int a = 0; a < 3; ++a)
+          for (int e = 0; e < 3; ++e) dJ(a, e) = Jl(a, e).d[static_cast<std::size_t>(i)];
+        dW.block<3, 3>(0, 3 * i) = Rp * dJ;
+      }
+    }
+    for (int k = k0; k < k0 + nq; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      const Vec3 wk = P * st.omega[kk] - trP * st.omega[kk] + st.vel[kk].cross(F);
+      auto pair = [&](int j) {
+        const double h = st.omega[static_cast<std::size_t>(j)].dot(wk);
+        H(j, k) += h;
+        if (j != k) H(k, j) += h;
+      };
+      const bool rot_k = is_rotation_vector(body, k - k0);
+      for (int j = k0; j <= k; ++j) {
+        if (rot_k && is_rotation_vector(body, j - k0)) continue;  // handled below
+        pair(j);
+      }
+      for (int a = body.parent; a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
+        const int a0 = s.first_coordinate(a);
+        for (int j = a0; j < a0 + s.joint_size(a); ++j) pair(j);
+      }
+    }
+    if (r0 >= 0) {
+      // Σ e·∂²x/∂φ_j∂φ_k = (∂ω_k/∂φ_j)·(τ − c×F) + ω_k·(P_c ω_j − tr(P_c) ω_j), x − c = r, P_c = Σ r eᵀ.
+      const Vec3& ctr = st.position[b];
+      const Mat3 Pc = P - ctr * F.transpose();
+      const double trPc = Pc.trace();
+      const Vec3 tc = c.tau[b] - ctr.cross(F);
+      Mat3 h;
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) {
+          const Vec3& wj = st.omega[static_cast<std::size_t>(r0 + j)];
+          const Vec3& wk = st.omega[static_cast<std::size_t>(r0 + k)];
+          const Vec3 dwk = dW.block<3, 3>(0, 3 * j).col(k);
+          h(j, k) = dwk.dot(tc) + wk.dot(Pc * wj - trPc * wj);
+        }
+      H.block<3, 3>(r0, r0) += 0.5 * (h + h.transpose());
+    }
+    for (int i = 0; i < nq; ++i) H(k0 + i, k0 + i) += body.stiffness;
+  }
+  return H;
+}
+
+double force_scale(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  double scale = 0;
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    if (body.mass != 0.0) {
+      const Attachment at{static_cast<int>(b), body.com};
+      scale += body.mass * s.gravity().norm() * frobenius(point_jacobian(s, st, at, model::world_point(st, at)));
+    }
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
+      const double unit = s.coordinates()[static_cast<std::size_t>(k0 + i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
+      scale += body.stiffness * (std::abs(q[k0 + i] - body.rest[i]) + unit);
+    }
+  }
+  for (const DeadLoad& l : s.loads())
+    scale += l.force.norm() * frobenius(point_jacobian(s, st, l.at, model::world_point(st, l.at)));
+  for (const Spring& sp : s.springs()) {
+    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
+    const double len = (xa - xb).norm();
+    const double force = sp.stiffness * (std::abs(len - sp.rest_length) + std::max(sp.rest_length, len));
+    scale += force * (frobenius(point_jacobian(s, st, sp.a, xa)) + frobenius(point_jacobian(s, st, sp.b, xb)));
+  }
+  return scale;
+}
+
+const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q) {
+  model::mass_matrix(s, kinematics(s, w, q), w.mass);
+  return w.mass;
+}
+
+double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  check_size(s, qd, "kinetic_energy");
+  return 0.5 * qd.dot(mass_matrix(s, w, q) * qd);
+}
+
+double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  return kinetic_energy(s, w, q, qd) + potential(s, w, q);
+}
+
+MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  const int n = s.size();
+  MatrixX D = MatrixX::Zero(n, n);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    if (body.damping == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    const int nq = s.joint_size(static_cast<int>(b));
+    for (int i = 0; i < nq; ++i)
+      if (!is_rotation_vector(body, i)) D(k0 + i, k0 + i) += body.damping;
+    if (body.joint == JointType::ball || body.joint == JointType::free) {
+      // The damper resists the relative angular velocity J_l(φ) φ̇.
+      const int r0 = k0 + (body.joint == JointType::free ? 3 : 0);
+      const Mat3 Jl = model::rotation_left_jacobian<double>(q.segment<3>(r0));
+      D.block<3, 3>(r0, r0) += body.damping * Jl.transpose() * Jl;
+    }
+  }
+  for (const Spring& sp : s.springs()) {
+    if (sp.damping == 0.0) continue;
+    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
+    const double len = (xa - xb).norm();
+    if (len == 0.0)
+      throw NumericalError("a damped spring has coincident end points: the damper's direction is undefined");
+    const Vec3 u = (xa - xb) / len;
+    VectorX row = VectorX::Zero(n);  // uᵀ (J_a − J_b)
+    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
+    for (std::size_t i = 0; i < Ja.index.size(); ++i) row[Ja.index[i]] += u.dot(Ja.column[i]);
+    for (std::size_t i = 0; i < Jb.index.size(); ++i) row[Jb.index[i]] -= u.dot(Jb.column[i]);
+    D += sp.damping * row * row.transpose();
+  }
+  return D;
+}
+
+VectorX generalized_forces(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  check_size(s, qd, "generalized_forces");
+  if (!s.has_damping()) return VectorX::Zero(s.size());
+  return -(damping_matrix(s, w, q) * qd);
+}
+
+namespace {
+
+// Directional derivatives of M along up to B directions at once (forward-mode AD).
+template <int B>
+void mass_matrix_directional(const System& s, const VectorX& q, const std::vector<VectorX>& dirs, std::size_t first,
+                             std::vector<MatrixX>& out) {
+  using D = Dual<double, B>;
+  const int n = s.size();
+  model::VX<D> qd(n);
+  for (int i = 0; i < n; ++i) {
+    qd[i] = D(q[i]);
+    for (int d = 0; d < B && first + static_cast<std::size_t>(d) < dirs.size(); ++d)
+      qd[i].d[static_cast<std::size_t>(d)] = dirs[first + static_cast<std::size_t>(d)][i];
+  }
+  TreeState<D> st;
+  model::forward_kinematics(s, qd.data(), st);
+  model::MX<D> M;
+  model::mass_matrix(s, st, M);
+  for (int d = 0; d < B && first + static_cast<std::size_t>(d) < dirs.size(); ++d) {
+    MatrixX& dM = out[first + static_cast<std::size_t>(d)];
+    dM.resize(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) dM(i, j) = M(i, j).d[static_cast<std::size_t>(d)];
+  }
+}
+
+std::vector<MatrixX> mass_matrix_along(const System& s, const VectorX& q, const std::vector<VectorX>& dirs) {
+  constexpr int B = 4;
+  std::vector<MatrixX> out(dirs.size());
+  for (std::size_t first = 0; first < dirs.size(); first += B) mass_matrix_directional<B>(s, q, dirs, first, out);
+  return out;
+}
+
+}  // namespace
+
+std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& /*w*/, const VectorX& q) {
+  check_size(s, q, "mass_matrix_derivatives");
+  std::vector<VectorX> dirs;
+  for (int k = 0; k < s.size(); ++k) dirs.push_back(VectorX::Unit(s.size(), k));
+  return mass_matrix_along(s, q, dirs);
+}
+
+std::vector<MatrixX> christoffel(const System& s, Workspace& w, const VectorX& q) {
+  const std::vector<MatrixX> dM = mass_matrix_derivatives(s, w, q);
+  const int n = s.size();
+  std::vector<MatrixX> G(static_cast<std::size_t>(n), MatrixX(n, n));
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k)
+        G[static_cast<std::size_t>(i)](j, k) =
+            0.5 * (dM[static_cast<std::size_t>(k)](i, j) + dM[static_cast<std::size_t>(j)](i, k) - dM[static_cast<std::size_t>(i)](j, k));
+  return G;
+}
+
+MatrixX coriolis(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  check_size(s, qd, "coriolis");
+  const std::vector<MatrixX> G = christoffel(s, w, q);
+  const int n = s.size();
+  MatrixX C(n, n);
+  for (int i = 0; i < n; ++i) C.row(i) = (G[static_cast<std::size_t>(i)] * qd).transpose();
+  return C;
+}
+
+VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  check_size(s, qd, "accelerations");
+  // C q̇ = Ṁ q̇ − ½ ∂(q̇ᵀ M q̇)/∂q: one directional derivative along q̇ and n along the axes.
+  const int n = s.size();
+  std::vector<VectorX> dirs{qd};
+  for (int k = 0; k < n; ++k) dirs.push_back(VectorX::Unit(n, k));
+  const std::vector<MatrixX> dM = mass_matrix_along(s, q, dirs);
+  VectorX cqd = dM[0] * qd;
+  for (int k = 0; k < n; ++k) cqd[k] -= 0.5 * qd.dot(dM[static_cast<std::size_t>(k + 1)] * qd);
+  VectorX rhs = generalized_forces(s, w, q, qd) - cqd - potential_gradient(s, w, q);
+  const Eigen::LLT<MatrixX> llt(mass_matrix(s, w, q));
+  if (llt.info() != Eigen::Success)
+    throw NumericalError("the mass matrix is not positive definite at this configuration: accelerations are undefined");
+  return llt.solve(rhs);
+}
+
+std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  std::vector<Pose> poses(s.bodies().size());
+  for (std::size_t b = 0; b < poses.size(); ++b) poses[b] = {st.rotation[b], st.position[b]};
+  return poses;
+}
+
+}  // namespace modal

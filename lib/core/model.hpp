@@ -1,0 +1,255 @@
+// lib/core/model.hpp — the model written once, templated on the scalar.
+//
+// Everything a System computes comes from the functions here: the joint maps,
+// the forward kinematics of the tree, the elements' energies, the mass matrix.
+// With S = double they evaluate; with S = Dual (modal/ad.hpp) the same code gives
+// exact derivatives. Internal header (used by lib/core and by the tests).
+#pragma once
+
+#include "modal/ad.hpp"
+#include "modal/core.hpp"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <vector>
+
+namespace modal::model {
+
+template <class S> using V3 = Eigen::Matrix<S, 3, 1>;
+template <class S> using M3 = Eigen::Matrix<S, 3, 3>;
+template <class S> using VX = Eigen::Matrix<S, Eigen::Dynamic, 1>;
+template <class S> using MX = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
+
+template <class S> M3<S> hat(const V3<S>& w) {
+  M3<S> h;
+  h << S(0.0), -w.z(), w.y(), w.z(), S(0.0), -w.x(), -w.y(), w.x(), S(0.0);
+  return h;
+}
+
+template <class S, class Derived> V3<S> cast3(const Eigen::MatrixBase<Derived>& v) {
+  return V3<S>(S(v[0]), S(v[1]), S(v[2]));
+}
+template <class S> M3<S> cast33(const Mat3& m) {
+  M3<S> r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r(i, j) = S(m(i, j));
+  return r;
+}
+
+// Coefficients of the rotation-vector maps as functions of θ² = |φ|², smooth
+// at 0 (series below a small θ², so that nested AD stays exact there):
+//   a = sin θ / θ,  b = (1 − cos θ) / θ²,  c = (θ − sin θ) / θ³
+template <class S> void rotation_coefficients(const S& t2, S& a, S& b, S& c) {
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  if (value(t2) < 1e-4) {  // truncation error below θ⁸/9! ≈ 3e-22
+    a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0));
+    b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0));
+    c = 1.0 / 6.0 - t2 / 120.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0));
+  } else {
+    const S t = sqrt(t2);
+    const S s = sin(t);
+    a = s / t;
+    b = (1.0 - cos(t)) / t2;
+    c = (t - s) / (t2 * t);
+  }
+}
+
+// exp(φ̂): the rotation by angle |φ| about φ/|φ| (Rodrigues).
+template <class S> M3<S> rotation_exp(const V3<S>& phi) {
+  S a, b, c;
+  rotation_coefficients(phi.squaredNorm(), a, b, c);
+  const M3<S> h = hat(phi);
+  return M3<S>::Identity() + a * h + b * (h * h);
+}
+
+// Left Jacobian of SO(3): d exp(φ̂) = (J_l(φ) dφ)^ exp(φ̂).
+template <class S> M3<S> rotation_left_jacobian(const V3<S>& phi) {
+  S a, b, c;
+  rotation_coefficients(phi.squaredNorm(), a, b, c);
+  const M3<S> h = hat(phi);
+  return M3<S>::Identity() + b * h + c * (h * h);
+}
+
+// Rotation by angle q about the unit axis u.
+template <class S> M3<S> rotation_axis_angle(const Vec3& u, const S& q) {
+  using std::cos;
+  using std::sin;
+  const M3<S> h = hat(cast3<S>(u));
+  return M3<S>::Identity() + sin(q) * h + (1.0 - cos(q)) * (h * h);
+}
+
+// World kinematics of the tree at q. For every coordinate k, the world twist
+// (ω_k, v_k) gives the derivative of any point x moved by it: ∂x/∂q_k = ω_k × x + v_k.
+template <class S> struct TreeState {
+  std::vector<M3<S>> rotation;  // per body: body → world
+  std::vector<V3<S>> position;  // per body: frame origin = joint centre, world
+  std::vector<V3<S>> omega;     // per coordinate
+  std::vector<V3<S>> vel;       // per coordinate
+
+  void resize(const System& sys) {
+    const auto nb = sys.bodies().size();
+    rotation.resize(nb);
+    position.resize(nb);
+    omega.resize(static_cast<std::size_t>(sys.size()));
+    vel.resize(static_cast<std::size_t>(sys.size()));
+  }
+};
+
+template <class S> void forward_kinematics(const System& sys, const S* q, TreeState<S>& st) {
+  st.resize(sys);
+  const auto& bodies = sys.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    M3<S> Rp = M3<S>::Identity();
+    V3<S> pp = V3<S>::Zero();
+    if (body.parent >= 0) {
+      Rp = st.rotation[static_cast<std::size_t>(body.parent)];
+      pp = st.position[static_cast<std::size_t>(body.parent)];
+    }
+    const int k0 = sys.first_coordinate(static_cast<int>(b));
+    const auto k = static_cast<std::size_t>(k0);
+    V3<S> origin = cast3<S>(body.origin);
+    switch (body.joint) {
+      case JointType::fixed:
+        st.rotation[b] = Rp;
+        st.position[b] = pp + Rp * origin;
+        break;
+      case JointType::hinge: {
+        st.rotation[b] = Rp * rotation_axis_angle(body.axis, q[k0]);
+        st.position[b] = pp + Rp * origin;
+        st.omega[k] = Rp * cast3<S>(body.axis);
+        st.vel[k] = st.position[b].cross(st.omega[k]);
+        break;
+      }
+      case JointType::slide: {
+        const V3<S> axis = Rp * cast3<S>(body.axis);
+        st.rotation[b] = Rp;
+        st.position[b] = pp + Rp * origin + axis * q[k0];
+        st.omega[k] = V3<S>::Zero();
+        st.vel[k] = axis;
+        break;
+      }
+      case JointType::ball:
+      case JointType::free: {
+        std::size_t r = k;  // first rotation-vector coordinate
+        if (body.joint == JointType::free) {
+          origin += V3<S>(q[k0], q[k0 + 1], q[k0 + 2]);
+          for (std::size_t i = 0; i < 3; ++i) {
+            st.omega[k + i] = V3<S>::Zero();
+            st.vel[k + i] = Rp.col(static_cast<Eigen::Index>(i));
+          }
+          r = k + 3;
+        }
+        const V3<S> phi(q[r], q[r + 1], q[r + 2]);
+        st.rotation[b] = Rp * rotation_exp(phi);
+        st.position[b] = pp + Rp * origin;
+        const M3<S> W = Rp * rotation_left_jacobian(phi);
+        for (std::size_t i = 0; i < 3; ++i) {
+          st.omega[r + i] = W.col(static_cast<Eigen::Index>(i));
+          st.vel[r + i] = st.position[b].cross(st.omega[r + i]);
+        }
+        break;
+      }
+    }
+  }
+}
+
+// World position of an attachment.
+template <class S> V3<S> world_point(const TreeState<S>& st, const Attachment& a) {
+  if (a.body < 0) return cast3<S>(a.point);
+  const auto b = static_cast<std::size_t>(a.body);
+  return st.position[b] + st.rotation[b] * cast3<S>(a.point);
+}
+
+// --- elements -------------------------------------------------------------------
+
+// Spring energy ½k(|xa − xb| − L)²; for L = 0 written as ½k|d|² (smooth at d = 0).
+template <class S> S spring_energy(const Spring& sp, const V3<S>& xa, const V3<S>& xb) {
+  using std::sqrt;
+  const V3<S> d = xa - xb;
+  if (sp.rest_length == 0.0) return 0.5 * sp.stiffness * d.squaredNorm();
+  const S ext = sqrt(d.squaredNorm()) - sp.rest_length;
+  return 0.5 * sp.stiffness * ext * ext;
+}
+
+// Joint spring energy ½k|q − rest|² over the joint's coordinates.
+template <class S> S joint_spring_energy(const Body& body, const S* qj, int nq) {
+  S e(0.0);
+  for (int i = 0; i < nq; ++i) {
+    const S d = qj[i] - body.rest[i];
+    e += d * d;
+  }
+  return 0.5 * body.stiffness * e;
+}
+
+// V(q) in J.
+template <class S> S potential(const System& sys, const TreeState<S>& st, const S* q) {
+  S v(0.0);
+  const auto& bodies = sys.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    if (body.mass != 0.0) {
+      const V3<S> x = st.position[b] + st.rotation[b] * cast3<S>(body.com);
+      v -= body.mass * x.dot(cast3<S>(sys.gravity()));
+    }
+    if (body.stiffness != 0.0) {
+      const int k0 = sys.first_coordinate(static_cast<int>(b));
+      v += joint_spring_energy(body, q + k0, sys.joint_size(static_cast<int>(b)));
+    }
+  }
+  for (const Spring& sp : sys.springs()) v += spring_energy(sp, world_point(st, sp.a), world_point(st, sp.b));
+  for (const DeadLoad& ld : sys.loads()) v -= world_point(st, ld.at).dot(cast3<S>(ld.force));
+  return v;
+}
+
+// Spatial inertia (6×6, twist order (ω, v)) of one body in world coordinates:
+// ½ξᵀIξ is its kinetic energy for the world twist ξ.
+template <class S> Eigen::Matrix<S, 6, 6> spatial_inertia(const Body& body, const TreeState<S>& st, std::size_t b) {
+  Eigen::Matrix<S, 6, 6> I = Eigen::Matrix<S, 6, 6>::Zero();
+  const V3<S> x = st.position[b] + st.rotation[b] * cast3<S>(body.com);
+  const M3<S> Iw = st.rotation[b] * cast33<S>(body.inertia) * st.rotation[b].transpose();
+  const M3<S> xh = hat(x);
+  const S m(body.mass);
+  I.template block<3, 3>(0, 0) = Iw - m * (xh * xh);
+  I.template block<3, 3>(0, 3) = m * xh;
+  I.template block<3, 3>(3, 0) = -m * xh;
+  I.template block<3, 3>(3, 3) = m * M3<S>::Identity();
+  return I;
+}
+
+// M(q) (n×n) by composite inertias: M_jk = ξ_jᵀ Ic(b(k)) ξ_k for j at or above k.
+template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, MX<S>& M) {
+  const int n = sys.size();
+  const auto& bodies = sys.bodies();
+  const std::size_t nb = bodies.size();
+  M.setZero(n, n);
+  std::vector<Eigen::Matrix<S, 6, 6>> Ic(nb);
+  for (std::size_t b = 0; b < nb; ++b) Ic[b] = spatial_inertia(bodies[b], st, b);
+  for (std::size_t b = nb; b-- > 0;)
+    if (bodies[b].parent >= 0) Ic[static_cast<std::size_t>(bodies[b].parent)] += Ic[b];
+  for (std::size_t b = 0; b < nb; ++b) {
+    const int k0 = sys.first_coordinate(static_cast<int>(b));
+    for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) {
+      Eigen::Matrix<S, 6, 1> xk;
+      xk << st.omega[static_cast<std::size_t>(k)], st.vel[static_cast<std::size_t>(k)];
+      const Eigen::Matrix<S, 6, 1> u = Ic[b] * xk;
+      // coordinates of this joint up to k, then of every ancestor
+      auto visit = [&](int j) {
+        const auto jj = static_cast<std::size_t>(j);
+        const S mjk = st.omega[jj].dot(u.template head<3>()) + st.vel[jj].dot(u.template tail<3>());
+        M(j, k) = mjk;
+        M(k, j) = mjk;
+      };
+      for (int j = k0; j <= k; ++j) visit(j);
+      for (int a = bodies[b].parent; a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
+        const int a0 = sys.first_coordinate(a);
+        for (int j = a0; j < a0 + sys.joint_size(a); ++j) visit(j);
+      }
+    }
+  }
+}
+
+}  // namespace modal::model

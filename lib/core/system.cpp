@@ -1,0 +1,193 @@
+// System: validation and coordinate layout of the constant model.
+#include "modal/core.hpp"
+
+#include "core/model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+namespace modal {
+namespace {
+
+int joint_coordinates(JointType t) {
+  switch (t) {
+    case JointType::hinge:
+    case JointType::slide: return 1;
+    case JointType::ball: return 3;
+    case JointType::free: return 6;
+    case JointType::fixed: return 0;
+  }
+  return 0;
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("System: " + what);
+}
+
+bool finite(const Eigen::Ref<const Eigen::MatrixXd>& m) { return m.allFinite(); }
+
+}  // namespace
+
+System::System(SystemDescription description) : d_(std::move(description)) {
+  const auto nb = d_.bodies.size();
+  q_index_.resize(nb);
+  nq_.resize(nb);
+  children_.assign(nb, {});
+  require(finite(d_.gravity), "gravity is not finite");
+  for (std::size_t b = 0; b < nb; ++b) {
+    Body& body = d_.bodies[b];
+    const std::string who = "body '" + body.name + "': ";
+    require(body.parent < static_cast<int>(b), who + "its parent must precede it");
+    if (body.parent >= 0) children_[static_cast<std::size_t>(body.parent)].push_back(static_cast<int>(b));
+    require(std::isfinite(body.mass) && body.mass >= 0, who + "mass must be finite and non-negative");
+    require(finite(body.origin) && finite(body.com) && finite(body.inertia), who + "non-finite geometry");
+    require(std::isfinite(body.stiffness) && body.stiffness >= 0, who + "stiffness must be non-negative");
+    require(std::isfinite(body.damping) && body.damping >= 0, who + "damping must be non-negative");
+    if (body.joint == JointType::hinge || body.joint == JointType::slide)
+      require(std::abs(body.axis.norm() - 1.0) < 1e-12, who + "axis must be a unit vector");
+    const int nq = joint_coordinates(body.joint);
+    if (body.rest.size() == 0) body.rest = VectorX::Zero(nq);
+    if (body.initial.size() == 0) body.initial = VectorX::Zero(nq);
+    require(body.rest.size() == nq && body.initial.size() == nq, who + "rest/initial size does not match the joint");
+    require(finite(body.rest) && finite(body.initial), who + "non-finite rest or initial value");
+    q_index_[b] = n_;
+    nq_[b] = nq;
+    n_ += nq;
+    if (body.damping > 0) has_damping_ = true;
+
+    auto add = [&](const std::string& suffix, CoordinateKind kind, int i) {
+      coords_.push_back({body.name + suffix, kind, static_cast<int>(b), body.initial[i]});
+    };
+    switch (body.joint) {
+      case JointType::hinge: add("", CoordinateKind::angle, 0); break;
+      case JointType::slide: add("", CoordinateKind::length, 0); break;
+      case JointType::ball:
+        add(".rx", CoordinateKind::rotation, 0);
+        add(".ry", CoordinateKind::rotation, 1);
+        add(".rz", CoordinateKind::rotation, 2);
+        break;
+      case JointType::free:
+        add(".x", CoordinateKind::length, 0);
+        add(".y", CoordinateKind::length, 1);
+        add(".z", CoordinateKind::length, 2);
+        add(".rx", CoordinateKind::rotation, 3);
+        add(".ry", CoordinateKind::rotation, 4);
+        add(".rz", CoordinateKind::rotation, 5);
+        break;
+      case JointType::fixed: break;
+    }
+  }
+  auto check_attachment = [&](const Attachment& a, const std::string& who) {
+    require(a.body >= -1 && a.body < static_cast<int>(nb), who + ": attachment to a body that does not exist");
+    require(finite(a.point), who + ": non-finite attachment point");
+  };
+  for (const Spring& s : d_.springs) {
+    check_attachment(s.a, "spring");
+    check_attachment(s.b, "spring");
+    require(std::isfinite(s.stiffness) && s.stiffness >= 0, "spring stiffness must be non-negative");
+    require(std::isfinite(s.rest_length) && s.rest_length >= 0, "spring rest length must be non-negative");
+    require(std::isfinite(s.damping) && s.damping >= 0, "spring damping must be non-negative");
+    if (s.damping > 0) has_damping_ = true;
+  }
+  for (const DeadLoad& l : d_.loads) {
+    check_attachment(l.at, "load");
+    require(l.at.body >= 0, "a load must act on a body");
+    require(finite(l.force), "load force is not finite");
+  }
+
+  // Length scale: farthest joint, centre of mass or attachment from the origin at q = 0.
+  std::vector<Vec3> origin_at_zero(nb);
+  double scale = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Body& body = d_.bodies[b];
+    origin_at_zero[b] = (body.parent >= 0 ? origin_at_zero[static_cast<std::size_t>(body.parent)] : Vec3::Zero()) + body.origin;
+    scale = std::max({scale, origin_at_zero[b].norm(), (origin_at_zero[b] + body.com).norm()});
+  }
+  auto point_at_zero = [&](const Attachment& a) {
+    return a.body < 0 ? a.point : Vec3(origin_at_zero[static_cast<std::size_t>(a.body)] + a.point);
+  };
+  for (const Spring& s : d_.springs)
+    scale = std::max({scale, point_at_zero(s.a).norm(), point_at_zero(s.b).norm(), s.rest_length});
+  for (const DeadLoad& l : d_.loads) scale = std::max(scale, point_at_zero(l.at).norm());
+  length_scale_ = std::max(scale, 1e-3);
+}
+
+std::vector<std::string> System::coordinate_names() const {
+  std::vector<std::string> names;
+  names.reserve(coords_.size());
+  for (const auto& c : coords_) names.push_back(c.name);
+  return names;
+}
+
+VectorX System::initial_configuration() const {
+  VectorX q(n_);
+  for (int i = 0; i < n_; ++i) q[i] = coords_[static_cast<std::size_t>(i)].initial;
+  return q;
+}
+
+namespace {
+
+// Angle brought to (−π, π].
+double wrap_angle(double a) {
+  constexpr double two_pi = 2 * std::numbers::pi;
+  double r = std::remainder(a, two_pi);  // in [−π, π]
+  if (r <= -std::numbers::pi) r += two_pi;
+  return r;
+}
+
+// Rotation vector of the same rotation with length ≤ π.
+Vec3 wrap_rotation(const Vec3& phi) {
+  const double t = phi.norm();
+  if (t <= std::numbers::pi || !std::isfinite(t)) return phi;
+  return phi * (wrap_angle(t) / t);
+}
+
+}  // namespace
+
+VectorX canonical_coordinates(const System& s, const VectorX& q) {
+  VectorX r = q;
+  const auto& coords = s.coordinates();
+  for (int i = 0; i < s.size(); ++i) {
+    const auto& c = coords[static_cast<std::size_t>(i)];
+    if (c.kind == CoordinateKind::angle) {
+      r[i] = wrap_angle(q[i]);
+    } else if (c.kind == CoordinateKind::rotation && (i == 0 || coords[static_cast<std::size_t>(i - 1)].kind != CoordinateKind::rotation ||
+                                                      coords[static_cast<std::size_t>(i - 1)].body != c.body)) {
+      r.segment<3>(i) = wrap_rotation(q.segment<3>(i));
+    }
+  }
+  return r;
+}
+
+double configuration_distance(const System& s, const VectorX& a, const VectorX& b) {
+  const VectorX ca = canonical_coordinates(s, a), cb = canonical_coordinates(s, b);
+  const auto& coords = s.coordinates();
+  double d2 = 0;
+  for (int i = 0; i < s.size();) {
+    const auto& c = coords[static_cast<std::size_t>(i)];
+    if (c.kind == CoordinateKind::angle) {
+      const double d = wrap_angle(ca[i] - cb[i]);
+      d2 += d * d;
+      ++i;
+    } else if (c.kind == CoordinateKind::length) {
+      const double d = (ca[i] - cb[i]) / s.length_scale();
+      d2 += d * d;
+      ++i;
+    } else {  // a rotation vector: geodesic angle between the two rotations
+      const Mat3 Ra = model::rotation_exp<double>(ca.segment<3>(i));
+      const Mat3 Rb = model::rotation_exp<double>(cb.segment<3>(i));
+      const double c2 = std::clamp(((Ra.transpose() * Rb).trace() - 1.0) / 2.0, -1.0, 1.0);
+      // acos loses accuracy near 0: use the skew part for small angles.
+      const Mat3 Rrel = Ra.transpose() * Rb;
+      const double sn = 0.5 * Vec3(Rrel(2, 1) - Rrel(1, 2), Rrel(0, 2) - Rrel(2, 0), Rrel(1, 0) - Rrel(0, 1)).norm();
+      const double angle = std::atan2(sn, c2);
+      d2 += angle * angle;
+      i += 3;
+    }
+  }
+  return std::sqrt(d2);
+}
+
+}  // namespace modal
