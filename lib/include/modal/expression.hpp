@@ -44,6 +44,9 @@ class Expression {
   // Throws ExpressionError.
   static Expression parse(std::string_view text, const std::vector<std::string>& variables);
   static Expression constant(double value);
+  // True for the names of the built-in functions (sin, atan2, …), which cannot
+  // be used as variable names.
+  static bool is_function(std::string_view name);
 
   // Evaluates with variables[i] the value of variable i. S: double or modal::Dual.
   template <class S> S evaluate(const S* variables) const;
@@ -69,6 +72,12 @@ class Expression {
   int stack_depth_ = 0;
   std::string text_;
 };
+
+// Candidates close to `name` (small edit distance, or differing only in case),
+// closest first: the suggestions of "did you mean …?" messages.
+std::vector<std::string> close_matches(std::string_view name, const std::vector<std::string>& candidates);
+// The same as a message suffix: " (did you mean 'a' or 'b'?)", or "" without matches.
+std::string did_you_mean(std::string_view name, const std::vector<std::string>& candidates);
 
 }  // namespace modal
 

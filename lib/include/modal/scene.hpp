@@ -24,7 +24,11 @@ struct SourceLocation {
 };
 
 // what() is "<file>:<line>:<column>: <key>: <reason>" (key is a dotted path such
-// as "body[2].mass" or "parameters.l"; the key part is omitted when empty).
+// as "body[2].mass" or "parameters.l"; the key part is omitted when empty, the
+// line and column parts when unknown, e.g. for a missing file or a --set value,
+// whose file is "--set"). Errors inside expression strings point at the
+// offending character and quote it: `in "2*q" at 3: unknown name 'q'` (the
+// position is 1-based, counted in the string).
 class SceneError : public std::runtime_error {
  public:
   SceneError(SourceLocation where, std::string key, std::string reason);

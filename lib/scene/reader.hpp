@@ -1,0 +1,124 @@
+// Private to lib/scene: reading typed values from a parsed TOML scene, each with
+// its source location and dotted key, so that every error names the file, line,
+// column and key (DESIGN.md §3).
+//
+// A Reader knows the scene text (to point into expression strings) and the
+// resolved parameters (to evaluate expressions); a Section is one table of the
+// scene with its key path ("body[2]") and reads the keys of that table.
+#pragma once
+
+#include "modal/core.hpp"
+#include "modal/expression.hpp"
+#include "modal/scene.hpp"
+
+#include <toml++/toml.h>
+
+#include <initializer_list>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace modal::scene_detail {
+
+// Parameters visible to expressions: names and final values, file order.
+struct Parameters {
+  std::vector<std::string> names;
+  std::vector<double> values;
+};
+
+// A constraint on a number read from the scene.
+enum class Range { any, nonnegative, positive };
+
+// "1.5", "-2", "nan": shortest round-trip text of a value, for messages.
+std::string format_number(double value);
+// "an integer", "a string", "a table", …: a TOML node's type, for messages.
+std::string describe_type(const toml::node& node);
+// 'stem' of a path: "models/seesaw.toml" → "seesaw".
+std::string file_stem(const std::string& path);
+
+class Reader {
+ public:
+  Reader(std::string file, std::string_view text);
+
+  const std::string& file() const { return file_; }
+  SourceLocation location(const toml::source_region& region) const;
+  SourceLocation location(const toml::node& node) const { return location(node.source()); }
+  // The location of character `position` (0-based) of a string node's value,
+  // when the string is written plainly on one line (else the string's start).
+  SourceLocation location_in_string(const toml::node& node, int position) const;
+
+  [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& reason) const;
+
+  void set_parameters(Parameters parameters) { parameters_ = std::move(parameters); }
+  const Parameters& parameters() const { return parameters_; }
+
+  // A number: TOML integer or float, or a string expression over the
+  // parameters; finite, and within `range`.
+  double number(const toml::node& node, const std::string& key, Range range = Range::any) const;
+  // An array of exactly `size` numbers.
+  VectorX numbers(const toml::node& node, const std::string& key, int size, Range range = Range::any) const;
+  std::string string(const toml::node& node, const std::string& key) const;
+  bool boolean(const toml::node& node, const std::string& key) const;
+  // The tables of an array of tables ([[body]]), in file order.
+  std::vector<const toml::table*> tables(const toml::node& node, const std::string& key) const;
+
+  // Turns an expression error in the string node `node` into a SceneError
+  // pointing at the offending character.
+  [[noreturn]] void fail_expression(const toml::node& node, const std::string& key, const std::string& text,
+                                    int position, const std::string& message) const;
+
+ private:
+  std::string file_;
+  std::vector<std::string_view> lines_;  // the scene text, line by line
+  Parameters parameters_;
+};
+
+// One table of the scene: reads its keys with defaults and checks.
+class Section {
+ public:
+  // `path`: dotted key of the table ("" at the top level, "body[2]");
+  // `kind`: how messages name it ("[[body]]", "the top level").
+  Section(const Reader& reader, const toml::table& table, std::string path, std::string kind)
+      : reader_(reader), table_(table), path_(std::move(path)), kind_(std::move(kind)) {}
+
+  const toml::table& table() const { return table_; }
+  const std::string& path() const { return path_; }
+  SourceLocation location() const { return reader_.location(table_); }
+  std::string key(std::string_view name) const;  // dotted key of a key of this table
+  const toml::node* find(std::string_view name) const { return table_.get(name); }
+  bool has(std::string_view name) const { return find(name) != nullptr; }
+
+  // Every key must be in `allowed`; keys in `later` belong to later versions
+  // of the format and get their own message.
+  void check_keys(std::initializer_list<std::string_view> allowed,
+                  std::initializer_list<std::string_view> later = {}) const;
+
+  [[noreturn]] void fail(std::string_view name, const std::string& reason) const;  // at the key's value
+  [[noreturn]] void missing(std::string_view name) const;                          // at the table
+
+  double number(std::string_view name, double fallback, Range range = Range::any) const;
+  double required_number(std::string_view name, Range range = Range::any) const;
+  VectorX numbers(std::string_view name, const VectorX& fallback, Range range = Range::any) const;
+  Vec3 vector3(std::string_view name, const Vec3& fallback) const;
+  Vec3 required_vector3(std::string_view name) const;
+  // A direction: three numbers, not zero, returned normalized.
+  Vec3 unit_vector(std::string_view name, const Vec3& fallback) const;
+  std::string string(std::string_view name, const std::string& fallback) const;
+  std::string required_string(std::string_view name) const;
+  bool boolean(std::string_view name, bool fallback) const;
+
+ private:
+  const toml::node& required(std::string_view name) const;
+
+  const Reader& reader_;
+  const toml::table& table_;
+  std::string path_, kind_;
+};
+
+// Resolves [parameters] (may be null) with the command-line overrides:
+// definitions in any order, expressions over other parameters, cycles and
+// undefined names reported with their location.
+Parameters resolve_parameters(const Reader& reader, const toml::table* table,
+                              const std::vector<ParameterOverride>& overrides);
+
+}  // namespace modal::scene_detail

@@ -1,0 +1,502 @@
+// Scene files (DESIGN.md §3, version 1) to validated SystemDescriptions.
+//
+// Reading goes section by section: [parameters] first (every other number may
+// use them), then [[body]] and [[chain]] (chains expand into hinge bodies), the
+// bodies ordered so that parents precede children, then [[spring]] and [[load]]
+// (which refer to bodies by name). Every check that System's constructor makes
+// is made here first, with a located message, so that building never throws.
+#include "modal/scene.hpp"
+
+#include "scene/reader.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <queue>
+#include <sstream>
+#include <tuple>
+
+namespace modal {
+
+namespace {
+
+std::string compose_message(const SourceLocation& where, const std::string& key, const std::string& reason) {
+  std::string s = where.file;
+  if (where.line > 0) {
+    s += ":" + std::to_string(where.line);
+    if (where.column > 0) s += ":" + std::to_string(where.column);
+  }
+  s += ": ";
+  if (!key.empty()) s += key + ": ";
+  return s + reason;
+}
+
+std::string_view trim(std::string_view s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string_view::npos) return {};
+  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
+}
+
+}  // namespace
+
+SceneError::SceneError(SourceLocation where, std::string key, std::string reason)
+    : std::runtime_error(compose_message(where, key, reason)),
+      where_(std::move(where)),
+      key_(std::move(key)),
+      reason_(std::move(reason)) {}
+
+ParameterOverride parse_override(std::string_view text) {
+  const SourceLocation where{"--set", 0, 0};
+  const auto equals = text.find('=');
+  if (equals == std::string_view::npos)
+    throw SceneError(where, "", "expected NAME=VALUE, got '" + std::string(text) + "'");
+  const std::string_view name = trim(text.substr(0, equals));
+  const std::string_view value = trim(text.substr(equals + 1));
+  if (name.empty()) throw SceneError(where, "", "missing parameter name before '=' in '" + std::string(text) + "'");
+  if (value.empty())
+    throw SceneError(where, std::string(name), "missing value after '=' in '" + std::string(text) + "'");
+  return ParameterOverride{std::string(name), std::string(value)};
+}
+
+namespace {
+
+using scene_detail::Range;
+using scene_detail::Reader;
+using scene_detail::Section;
+using scene_detail::format_number;
+
+constexpr std::array<std::pair<std::string_view, JointType>, 5> joint_types{{
+    {"hinge", JointType::hinge},
+    {"slide", JointType::slide},
+    {"ball", JointType::ball},
+    {"free", JointType::free},
+    {"fixed", JointType::fixed},
+}};
+
+// Number of generalized coordinates of a joint.
+int joint_size(JointType type) {
+  switch (type) {
+    case JointType::hinge:
+    case JointType::slide: return 1;
+    case JointType::ball: return 3;
+    case JointType::free: return 6;
+    case JointType::fixed: return 0;
+  }
+  return 0;
+}
+
+std::string index_key(std::string_view array, std::size_t index) {
+  return std::string(array) + "[" + std::to_string(index + 1) + "]";
+}
+
+// A body as read, before the bodies are ordered and parents resolved.
+struct BodyEntry {
+  Body body;
+  std::string parent = "world";
+  const toml::node* parent_node = nullptr;  // where the parent is named (null: default or generated)
+  std::string parent_key;
+  const toml::node* name_node = nullptr;    // where the name is given
+  std::string name_key;
+  std::string chain;                        // the generating chain's name, "" for [[body]]
+  SourceLocation location;                  // the [[body]] or [[chain]] table
+  std::tuple<int, int, int> order;          // file position of the table, then link number
+};
+
+// A computed value for messages, to 6 significant digits.
+std::string approximate(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  return buffer;
+}
+
+// Joint values of size n (hinge/slide: one number; ball, free: an array).
+VectorX joint_values(const Section& s, std::string_view key, int n) {
+  if (n == 1) return VectorX::Constant(1, s.number(key, 0.0));
+  return s.numbers(key, VectorX::Zero(n));
+}
+
+// inertia = [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, body frame (kg·m²);
+// a physical tensor is positive semidefinite with principal moments obeying
+// the triangle inequality.
+Mat3 read_inertia(const Section& s) {
+  const VectorX v = s.numbers("inertia", VectorX::Zero(6));
+  Mat3 inertia;
+  inertia << v[0], v[3], v[4],
+             v[3], v[1], v[5],
+             v[4], v[5], v[2];
+  const Vec3 moments = Eigen::SelfAdjointEigenSolver<Mat3>(inertia, Eigen::EigenvaluesOnly).eigenvalues();  // ascending
+  const double tolerance = 1e-12 * moments.cwiseAbs().maxCoeff();
+  const std::string listed = approximate(moments[0]) + ", " + approximate(moments[1]) + ", " + approximate(moments[2]);
+  if (moments[0] < -tolerance)
+    s.fail("inertia", "the inertia tensor is not positive semidefinite (principal moments " + listed + " kg·m²)");
+  if (moments[2] > moments[0] + moments[1] + tolerance)
+    s.fail("inertia", "the principal moments " + listed +
+                          " kg·m² violate the triangle inequality: the largest exceeds the sum of the other two");
+  return inertia;
+}
+
+BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
+  const Section s(reader, table, index_key("body", index), "[[body]]");
+  s.check_keys({"name", "parent", "joint", "axis", "origin", "mass", "com", "inertia", "stiffness", "rest",
+                "damping", "initial"});
+  BodyEntry e;
+  Body& b = e.body;
+  b.name = s.required_string("name");
+  e.name_node = s.find("name");
+  e.name_key = s.key("name");
+  if (b.name.empty()) s.fail("name", "a body name must not be empty");
+  if (b.name == "world") s.fail("name", "'world' is reserved for the fixed frame; choose another name");
+
+  const std::string joint = s.required_string("joint");
+  const auto type = std::find_if(joint_types.begin(), joint_types.end(), [&](const auto& t) { return t.first == joint; });
+  if (type == joint_types.end())
+    s.fail("joint", "unknown joint type '" + joint + "'; expected hinge, slide, ball, free or fixed" +
+                        did_you_mean(joint, {"hinge", "slide", "ball", "free", "fixed"}));
+  b.joint = type->second;
+  const bool has_axis = b.joint == JointType::hinge || b.joint == JointType::slide;
+  const bool has_spring = has_axis || b.joint == JointType::ball;
+  const bool has_initial = b.joint != JointType::fixed;
+  for (const auto& [key, used] : {std::pair<std::string_view, bool>{"axis", has_axis}, {"stiffness", has_spring},
+                                  {"rest", has_spring}, {"damping", has_spring}, {"initial", has_initial}})
+    if (!used && s.has(key)) s.fail(key, "'" + std::string(key) + "' is not used by a " + joint + " joint");
+
+  e.parent = s.string("parent", "world");
+  e.parent_node = s.find("parent");
+  e.parent_key = s.key("parent");
+  if (has_axis) b.axis = s.unit_vector("axis", Vec3::UnitY());
+  b.origin = s.vector3("origin", Vec3::Zero());
+  b.mass = s.number("mass", 0.0, Range::nonnegative);
+  b.com = s.vector3("com", Vec3::Zero());
+  b.inertia = read_inertia(s);
+  b.stiffness = s.number("stiffness", 0.0, Range::nonnegative);
+  b.damping = s.number("damping", 0.0, Range::nonnegative);
+  const int n = joint_size(b.joint);
+  b.rest = has_spring ? joint_values(s, "rest", n) : VectorX::Zero(n);
+  b.initial = joint_values(s, "initial", n);
+
+  e.location = s.location();
+  e.order = {e.location.line, e.location.column, 0};
+  return e;
+}
+
+// [[chain]]: `links` equal hinge bodies in series, link i's joint at the far
+// end of link i−1 (the first at `origin` in the parent).
+std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table, std::size_t index) {
+  const Section s(reader, table, index_key("chain", index), "[[chain]]");
+  s.check_keys({"name", "links", "length", "mass", "mass_model", "axis", "direction", "stiffness", "damping", "rest",
+                "parent", "origin", "initial"});
+  const std::string name = s.required_string("name");
+  if (name.empty()) s.fail("name", "a chain name must not be empty");
+
+  constexpr double max_links = 100000;
+  const double links_value = s.required_number("links");
+  if (links_value != std::floor(links_value)) s.fail("links", "must be an integer, got " + format_number(links_value));
+  if (links_value < 1) s.fail("links", "must be at least 1, got " + format_number(links_value));
+  if (links_value > max_links) s.fail("links", "at most " + format_number(max_links) + " links are supported");
+  const int links = static_cast<int>(links_value);
+
+  const double length = s.required_number("length", Range::positive);  // total, m
+  const double mass = s.required_number("mass", Range::nonnegative);   // total, kg
+  const std::string model = s.string("mass_model", "point");
+  if (model != "point" && model != "rod")
+    s.fail("mass_model", "unknown mass model '" + model + "'; expected \"point\" (mass at each link's end) or "
+                         "\"rod\" (uniform rods)" + did_you_mean(model, {"point", "rod"}));
+  const Vec3 axis = s.unit_vector("axis", Vec3::UnitY());
+  const Vec3 direction = s.unit_vector("direction", -Vec3::UnitZ());
+  if (axis.cross(direction).norm() < 1e-9)
+    s.fail("direction", "the chain's direction is parallel to its hinge axis, so its links could not swing");
+  const double stiffness = s.number("stiffness", 0.0, Range::nonnegative);
+  const double damping = s.number("damping", 0.0, Range::nonnegative);
+  const double rest = s.number("rest", 0.0);
+  const Vec3 origin = s.vector3("origin", Vec3::Zero());
+  VectorX initial = VectorX::Zero(links);
+  if (const toml::node* node = s.find("initial")) {
+    if (node->is_array())
+      initial = reader.numbers(*node, s.key("initial"), links);
+    else
+      initial[0] = reader.number(*node, s.key("initial"));
+  }
+
+  const double a = length / links;      // link length, m
+  const double m = mass / links;        // link mass, kg
+  std::vector<BodyEntry> entries(static_cast<std::size_t>(links));
+  for (int k = 0; k < links; ++k) {
+    BodyEntry& e = entries[static_cast<std::size_t>(k)];
+    Body& b = e.body;
+    b.name = name + std::to_string(k + 1);
+    b.joint = JointType::hinge;
+    b.axis = axis;
+    b.origin = k == 0 ? origin : Vec3(a * direction);
+    b.mass = m;
+    if (model == "point") {
+      b.com = a * direction;
+    } else {
+      b.com = 0.5 * a * direction;
+      b.inertia = m * a * a / 12.0 * (Mat3::Identity() - direction * direction.transpose());
+    }
+    b.stiffness = stiffness;
+    b.damping = damping;
+    b.rest = VectorX::Constant(1, rest);
+    b.initial = VectorX::Constant(1, initial[k]);
+    if (k == 0) {
+      e.parent = s.string("parent", "world");
+      e.parent_node = s.find("parent");
+      e.parent_key = s.key("parent");
+    } else {
+      e.parent = name + std::to_string(k);
+    }
+    e.name_node = s.find("name");
+    e.name_key = s.key("name");
+    e.chain = name;
+    e.location = s.location();
+    e.order = {e.location.line, e.location.column, k};
+  }
+  return entries;
+}
+
+[[noreturn]] void fail_entry(const Reader& reader, const BodyEntry& e, const toml::node* node, const std::string& key,
+                             const std::string& reason) {
+  if (node != nullptr) reader.fail(*node, key, reason);
+  throw SceneError(e.location, key, reason);
+}
+
+// Orders bodies so that parents precede children, keeping file order where
+// the tree allows (among the bodies whose parent is placed, the earliest in the
+// file comes next), and resolves parent names to indices.
+void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemDescription& description,
+                  std::vector<SourceLocation>& locations) {
+  std::map<std::string, std::size_t> by_name;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const BodyEntry& e = entries[i];
+    const auto [it, inserted] = by_name.emplace(e.body.name, i);
+    if (!inserted) {
+      const BodyEntry& first = entries[it->second];
+      const std::string user = (first.chain.empty() ? "the [[body]]" : "chain '" + first.chain + "'") +
+                               " at line " + std::to_string(first.location.line);
+      const std::string reason =
+          e.chain.empty() ? "duplicate body name '" + e.body.name + "': already used by " + user
+                          : "chain '" + e.chain + "' generates the body name '" + e.body.name +
+                                "', which is already used by " + user;
+      fail_entry(reader, e, e.name_node, e.name_key, reason);
+    }
+    names.push_back(e.body.name);
+  }
+
+  const std::size_t n = entries.size();
+  constexpr std::size_t world = static_cast<std::size_t>(-1);
+  std::vector<std::size_t> parent(n, world);
+  std::vector<std::vector<std::size_t>> children(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const BodyEntry& e = entries[i];
+    if (e.parent == "world") continue;
+    const auto it = by_name.find(e.parent);
+    if (it == by_name.end())
+      fail_entry(reader, e, e.parent_node, e.parent_key,
+                 "unknown parent body '" + e.parent + "'" + did_you_mean(e.parent, names) +
+                     "; a parent is \"world\" or the name of a body of this scene");
+    parent[i] = it->second;
+    children[it->second].push_back(i);
+  }
+
+  std::priority_queue<std::size_t, std::vector<std::size_t>, std::greater<>> ready;
+  for (std::size_t i = 0; i < n; ++i)
+    if (parent[i] == world) ready.push(i);
+  std::vector<int> new_index(n, -1);
+  std::vector<std::size_t> sequence;
+  while (!ready.empty()) {
+    const std::size_t i = ready.top();
+    ready.pop();
+    new_index[i] = static_cast<int>(sequence.size());
+    sequence.push_back(i);
+    for (const std::size_t c : children[i]) ready.push(c);
+  }
+
+  if (sequence.size() < n) {
+    // Some bodies never reach the world: follow parents from one of them
+    // until a body repeats; that part is a cycle.
+    std::size_t i = static_cast<std::size_t>(std::find(new_index.begin(), new_index.end(), -1) - new_index.begin());
+    std::vector<bool> seen(n, false);
+    while (!seen[i]) {
+      seen[i] = true;
+      i = parent[i];
+    }
+    std::vector<std::size_t> cycle{i};
+    for (std::size_t j = parent[i]; j != i; j = parent[j]) cycle.push_back(j);
+    // Report where a member names its parent, the earliest in the file.
+    std::size_t culprit = cycle.front();
+    for (const std::size_t j : cycle)
+      if (entries[j].parent_node != nullptr && (entries[culprit].parent_node == nullptr || j < culprit)) culprit = j;
+    const auto start = std::find(cycle.begin(), cycle.end(), culprit);
+    std::rotate(cycle.begin(), start, cycle.end());
+    std::string path;
+    for (const std::size_t j : cycle) path += entries[j].body.name + " -> ";
+    path += entries[culprit].body.name;
+    const BodyEntry& e = entries[culprit];
+    fail_entry(reader, e, e.parent_node, e.parent_key,
+               "bodies form a parent cycle (each followed by its parent): " + path);
+  }
+
+  for (const std::size_t i : sequence) {
+    BodyEntry& e = entries[i];
+    e.body.parent = parent[i] == world ? -1 : new_index[parent[i]];
+    description.bodies.push_back(std::move(e.body));
+    locations.push_back(e.location);
+  }
+}
+
+// A body index by name ("world" is −1) for springs and loads.
+class BodyNames {
+ public:
+  explicit BodyNames(const std::vector<Body>& bodies) {
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      index_.emplace(bodies[i].name, static_cast<int>(i));
+      names_.push_back(bodies[i].name);
+    }
+  }
+  int find(const Section& s, std::string_view key, const std::string& name, bool allow_world) const {
+    if (name == "world") {
+      if (!allow_world) s.fail(key, "must name a body, not the world");
+      return -1;
+    }
+    const auto it = index_.find(name);
+    if (it == index_.end()) {
+      std::vector<std::string> candidates = names_;
+      if (allow_world) candidates.emplace_back("world");
+      s.fail(key, "unknown body '" + name + "'" + did_you_mean(name, candidates));
+    }
+    return it->second;
+  }
+
+ private:
+  std::map<std::string, int> index_;
+  std::vector<std::string> names_;
+};
+
+// World position of each body frame at q = 0 (frames are translated copies of
+// their parent's, so positions add up along the path).
+std::vector<Vec3> frame_positions(const std::vector<Body>& bodies) {
+  std::vector<Vec3> p(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    p[i] = (bodies[i].parent < 0 ? Vec3::Zero() : p[static_cast<std::size_t>(bodies[i].parent)]) + bodies[i].origin;
+  return p;
+}
+
+Spring read_spring(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
+                   const std::vector<Vec3>& frames) {
+  const Section s(reader, table, index_key("spring", index), "[[spring]]");
+  s.check_keys({"a", "b", "a_point", "b_point", "stiffness", "rest_length", "damping"});
+  Spring spring;
+  const std::string a = s.required_string("a");
+  const std::string b = s.required_string("b");
+  spring.a.body = names.find(s, "a", a, true);
+  spring.b.body = names.find(s, "b", b, true);
+  if (a == b) s.fail("b", "a spring must join two different bodies; both ends are '" + a + "'");
+  spring.a.point = s.vector3("a_point", Vec3::Zero());
+  spring.b.point = s.vector3("b_point", Vec3::Zero());
+  spring.stiffness = s.required_number("stiffness", Range::positive);
+  spring.damping = s.number("damping", 0.0, Range::nonnegative);
+  auto world = [&](const Attachment& at) {
+    return at.body < 0 ? at.point : Vec3(frames[static_cast<std::size_t>(at.body)] + at.point);
+  };
+  spring.rest_length = s.has("rest_length") ? s.number("rest_length", 0.0, Range::nonnegative)
+                                            : (world(spring.a) - world(spring.b)).norm();
+  return spring;
+}
+
+DeadLoad read_load(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names) {
+  const Section s(reader, table, index_key("load", index), "[[load]]");
+  s.check_keys({"body", "point", "force", "follower"});
+  if (s.boolean("follower", false))
+    s.fail("follower", "follower loads are not supported by this version of modal (dead loads only)");
+  DeadLoad load;
+  load.at.body = names.find(s, "body", s.required_string("body"), false);
+  load.at.point = s.vector3("point", Vec3::Zero());
+  load.force = s.required_vector3("force");
+  return load;
+}
+
+// The tables of the array `key` of the root, or none.
+std::vector<const toml::table*> tables_of(const Reader& reader, const toml::table& root, std::string_view key) {
+  const toml::node* node = root.get(key);
+  return node != nullptr ? reader.tables(*node, std::string(key)) : std::vector<const toml::table*>{};
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& file_name, const std::vector<ParameterOverride>& overrides) {
+  toml::table root;
+  try {
+    root = toml::parse(text, std::string_view(file_name));
+  } catch (const toml::parse_error& e) {
+    const auto& begin = e.source().begin;
+    throw SceneError(SourceLocation{file_name, static_cast<int>(begin.line), static_cast<int>(begin.column)}, "",
+                     std::string(e.description()));
+  }
+
+  Reader reader(file_name, text);
+  const Section top(reader, root, "", "the top level of the scene");
+  top.check_keys({"title", "gravity", "parameters", "body", "chain", "spring", "load"},
+                 {"frame_rotation", "particle", "constraint", "coordinates", "point", "potential", "lattice"});
+
+  const toml::table* parameters = nullptr;
+  if (const toml::node* node = top.find("parameters")) {
+    parameters = node->as_table();
+    if (parameters == nullptr)
+      reader.fail(*node, "parameters", "expected a table ([parameters]), got " + scene_detail::describe_type(*node));
+  }
+  reader.set_parameters(scene_detail::resolve_parameters(reader, parameters, overrides));
+
+  Scene scene;
+  scene.file = file_name;
+  for (std::size_t i = 0; i < reader.parameters().names.size(); ++i)
+    scene.parameters.emplace_back(reader.parameters().names[i], reader.parameters().values[i]);
+  SystemDescription& d = scene.description;
+  d.title = top.string("title", scene_detail::file_stem(file_name));
+  d.gravity = top.vector3("gravity", Vec3(0, 0, -9.81));
+
+  std::vector<BodyEntry> entries;
+  const auto bodies = tables_of(reader, root, "body");
+  for (std::size_t i = 0; i < bodies.size(); ++i) entries.push_back(read_body(reader, *bodies[i], i));
+  const auto chains = tables_of(reader, root, "chain");
+  for (std::size_t i = 0; i < chains.size(); ++i)
+    for (BodyEntry& e : read_chain(reader, *chains[i], i)) entries.push_back(std::move(e));
+  if (entries.empty())
+    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]] or a [[chain]]");
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const BodyEntry& x, const BodyEntry& y) { return x.order < y.order; });
+  order_bodies(reader, entries, d, scene.body_locations);
+
+  const BodyNames names(d.bodies);
+  const std::vector<Vec3> frames = frame_positions(d.bodies);
+  const auto springs = tables_of(reader, root, "spring");
+  for (std::size_t i = 0; i < springs.size(); ++i) d.springs.push_back(read_spring(reader, *springs[i], i, names, frames));
+  const auto loads = tables_of(reader, root, "load");
+  for (std::size_t i = 0; i < loads.size(); ++i) d.loads.push_back(read_load(reader, *loads[i], i, names));
+  return scene;
+}
+
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw SceneError(SourceLocation{path, 0, 0}, "", "cannot read the scene file: it is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(SourceLocation{path, 0, 0}, "", std::string("cannot open the scene file: ") + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw SceneError(SourceLocation{path, 0, 0}, "", std::string("cannot read the scene file: ") + std::strerror(errno));
+  return parse_scene(text.str(), path, overrides);
+}
+
+System build_system(const Scene& scene) { return System(scene.description); }
+
+}  // namespace modal

@@ -1,0 +1,201 @@
+// Malformed scenes: every error names the file, line, column and key and says
+// what is wrong (DESIGN.md §3). Each case asserts all four.
+#include "modal/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace {
+
+struct Expected {
+  int line;
+  int column;
+  std::string key;
+  std::string message;  // a substring of the reason
+};
+
+void check_error(const std::string& text, const Expected& expected,
+                 const std::vector<modal::ParameterOverride>& overrides = {}) {
+  try {
+    (void)modal::parse_scene(text, "bad.toml", overrides);
+    ADD_FAILURE() << "no error for:\n" << text;
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().file, overrides.empty() || expected.line > 0 ? "bad.toml" : "--set") << e.what();
+    EXPECT_EQ(e.where().line, expected.line) << e.what();
+    EXPECT_EQ(e.where().column, expected.column) << e.what();
+    EXPECT_EQ(e.key(), expected.key) << e.what();
+    EXPECT_NE(e.reason().find(expected.message), std::string::npos) << e.what();
+  }
+}
+
+// A valid hinge body to which cases append.
+const std::string pendulum = "[[body]]\nname = \"p\"\njoint = \"hinge\"\nmass = 1\n";  // lines 1-4
+
+TEST(scene_errors, TomlSyntax) {
+  check_error("[[body]\nname = \"p\"\n", {1, 8, "", "expected ']'"});
+  check_error(pendulum + "mass = 2\n", {5, 8, "", "cannot redefine existing integer 'mass'"});
+}
+
+TEST(scene_errors, UnknownKeys) {
+  check_error(pendulum + "masss = 2\n", {5, 1, "body[1].masss", "unknown key 'masss' in [[body]] (did you mean 'mass'?)"});
+  check_error("titel = \"x\"\n" + pendulum, {1, 1, "titel", "unknown key 'titel' in the top level of the scene (did you mean 'title'?)"});
+  check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"world\"\nstifness = 1\n",
+              {8, 1, "spring[1].stifness", "(did you mean 'stiffness'?)"});
+  check_error("[[chain]]\nname = \"c\"\nlinks = 2\nlength = 1\nmass = 1\ncolour = 3\n",
+              {6, 1, "chain[1].colour", "unknown key 'colour' in [[chain]]"});
+}
+
+TEST(scene_errors, KeysOfLaterVersions) {
+  check_error("frame_rotation = [0, 0, 1]\n" + pendulum,
+              {1, 1, "frame_rotation", "'frame_rotation' is not supported by this version of modal"});
+  check_error(pendulum + "[[particle]]\nname = \"q\"\n", {5, 3, "particle", "'particle' is not supported by this version of modal"});
+  check_error(pendulum + "potential = \"x^2\"\n", {5, 1, "body[1].potential", "unknown key 'potential' in [[body]]"});
+}
+
+TEST(scene_errors, WrongTypes) {
+  check_error("body = \"p\"\n", {1, 8, "body", "expected an array of tables ([[body]]), got a string"});
+  check_error("[body]\nname = \"p\"\n", {1, 1, "body", "write [[body]], not [body]"});
+  check_error("parameters = 3\n" + pendulum, {1, 14, "parameters", "expected a table ([parameters]), got an integer"});
+  check_error(pendulum + "com = [0, 0, true]\n", {5, 14, "body[1].com[3]", "expected a number or an expression string, got a boolean"});
+  check_error("title = 3\n" + pendulum, {1, 9, "title", "expected a string, got an integer"});
+  check_error(pendulum + "[[load]]\nbody = \"p\"\nforce = [0, 0, 1]\nfollower = \"no\"\n",
+              {8, 12, "load[1].follower", "expected true or false, got a string"});
+}
+
+TEST(scene_errors, MissingRequiredKeys) {
+  check_error("[[body]]\nname = \"p\"\nmass = 1\n", {1, 1, "body[1].joint", "missing required key 'joint' in [[body]]"});
+  check_error(pendulum + "[[chain]]\nname = \"c\"\nlinks = 2\nmass = 1\n",
+              {5, 1, "chain[1].length", "missing required key 'length' in [[chain]]"});
+}
+
+TEST(scene_errors, BodyNamesAndParents) {
+  check_error(pendulum + "[[body]]\nname = \"q\"\nparent = \"pp\"\njoint = \"hinge\"\n",
+              {7, 10, "body[2].parent", "unknown parent body 'pp' (did you mean 'p'?)"});
+  check_error(pendulum + "[[body]]\nname = \"p\"\njoint = \"slide\"\n",
+              {6, 8, "body[2].name", "duplicate body name 'p': already used by the [[body]] at line 1"});
+  check_error("[[body]]\nname = \"a\"\nparent = \"b\"\njoint = \"hinge\"\n"
+              "[[body]]\nname = \"b\"\nparent = \"a\"\njoint = \"hinge\"\n",
+              {3, 10, "body[1].parent", "parent cycle (each followed by its parent): a -> b -> a"});
+  check_error("[[body]]\nname = \"world\"\njoint = \"hinge\"\n", {2, 8, "body[1].name", "'world' is reserved"});
+  check_error(pendulum + "[[chain]]\nname = \"p\"\nlinks = 3\nlength = 1\nmass = 1\n[[body]]\nname = \"p2\"\njoint = \"free\"\n",
+              {11, 8, "body[2].name", "duplicate body name 'p2': already used by chain 'p' at line 5"});
+}
+
+TEST(scene_errors, PhysicallyMeaninglessValues) {
+  check_error(pendulum + "[[body]]\nname = \"q\"\njoint = \"hinge\"\nmass = -2\n",
+              {8, 8, "body[2].mass", "must be non-negative, got -2"});
+  check_error(pendulum + "axis = [0, 0, 0]\n", {5, 8, "body[1].axis", "must be a nonzero direction, got [0, 0, 0]"});
+  check_error(pendulum + "inertia = [1, 1, 1, 2, 0, 0]\n",
+              {5, 11, "body[1].inertia", "not positive semidefinite (principal moments -1, 1, 3 kg·m²)"});
+  check_error(pendulum + "inertia = [1, 1, 3, 0, 0, 0]\n",
+              {5, 11, "body[1].inertia", "violate the triangle inequality"});
+  check_error(pendulum + "stiffness = \"-1e3\"\n", {5, 13, "body[1].stiffness", "must be non-negative, got -1000"});
+}
+
+TEST(scene_errors, NonFiniteValues) {
+  check_error(pendulum + "com = [0, 0, nan]\n", {5, 14, "body[1].com[3]", "the value must be finite, got nan"});
+  check_error(pendulum + "origin = [\"1/0\", 0, 0]\n", {5, 11, "body[1].origin[1]", "\"1/0\" evaluates to inf"});
+  check_error("[parameters]\nl = -inf\n" + pendulum, {2, 5, "parameters.l", "the value must be finite, got -inf"});
+}
+
+TEST(scene_errors, Expressions) {
+  // The column points at the offending character inside the string.
+  check_error("[parameters]\nl = 1\n" + pendulum + "com = [0, 0, \"2*q\"]\n",
+              {7, 17, "body[1].com[3]", "in \"2*q\" at 3: unknown name 'q'"});
+  check_error("[parameters]\nl = 1\n" + pendulum + "com = [0, 0, \"-(l\"]\n",
+              {7, 18, "body[1].com[3]", "in \"-(l\" at 4: expected ')' to close '(' at 1"});
+  check_error("[parameters]\nlength = 1\nm = \"2*lenght\"\n" + pendulum,
+              {3, 8, "parameters.m", "unknown name 'lenght' (did you mean 'length'?)"});
+  check_error("[parameters]\na = \"b + 1\"\nb = \"2*c\"\nc = \"a/2\"\n" + pendulum,
+              {2, 5, "parameters.a", "parameters depend on each other in a cycle: a -> b -> c -> a"});
+  check_error("[parameters]\nsin = 1\n" + pendulum, {2, 1, "parameters.sin", "'sin' is a function name"});
+}
+
+TEST(scene_errors, Joints) {
+  check_error("[[body]]\nname = \"p\"\njoint = \"hnge\"\n",
+              {3, 9, "body[1].joint", "unknown joint type 'hnge'; expected hinge, slide, ball, free or fixed (did you mean 'hinge'?)"});
+  check_error("[[body]]\nname = \"p\"\njoint = \"ball\"\naxis = [0, 0, 1]\n",
+              {4, 8, "body[1].axis", "'axis' is not used by a ball joint"});
+  check_error("[[body]]\nname = \"p\"\njoint = \"fixed\"\ninitial = 0\n",
+              {4, 11, "body[1].initial", "'initial' is not used by a fixed joint"});
+  check_error("[[body]]\nname = \"p\"\njoint = \"ball\"\nrest = [0, 0]\n",
+              {4, 8, "body[1].rest", "expected an array of 3 numbers, got 2"});
+  check_error(pendulum + "com = [0, 1]\n", {5, 7, "body[1].com", "expected an array of 3 numbers, got 2"});
+  check_error(pendulum + "initial = [0.1]\n", {5, 11, "body[1].initial", "expected a number or an expression string, got an array"});
+}
+
+TEST(scene_errors, Chains) {
+  const std::string chain = "[[chain]]\nname = \"c\"\nmass = 1\n";  // lines 1-3
+  check_error(chain + "length = 1\nlinks = 2.5\n", {5, 9, "chain[1].links", "must be an integer, got 2.5"});
+  check_error(chain + "length = 1\nlinks = \"3 - 3\"\n", {5, 9, "chain[1].links", "must be at least 1, got 0"});
+  check_error(chain + "length = 1\nlinks = 3\naxis = [0, 1, 0]\ndirection = [0, -2, 0]\n",
+              {7, 13, "chain[1].direction", "parallel to its hinge axis"});
+  check_error(chain + "length = 1\nlinks = 3\nmass_model = \"rods\"\n", {6, 14, "chain[1].mass_model", "(did you mean 'rod'?)"});
+  check_error(chain + "length = 1\nlinks = 3\ninitial = [0.1, 0.2]\n", {6, 11, "chain[1].initial", "expected an array of 3 numbers, got 2"});
+  check_error(chain + "links = 3\nlength = 0\n", {5, 10, "chain[1].length", "must be positive, got 0"});
+}
+
+TEST(scene_errors, SpringsAndLoads) {
+  check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"wrld\"\nstiffness = 1\n",
+              {7, 5, "spring[1].b", "unknown body 'wrld' (did you mean 'world'?)"});
+  check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"p\"\nstiffness = 1\n",
+              {7, 5, "spring[1].b", "a spring must join two different bodies; both ends are 'p'"});
+  check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"world\"\nstiffness = 0\n",
+              {8, 13, "spring[1].stiffness", "must be positive, got 0"});
+  check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"world\"\n", {5, 1, "spring[1].stiffness", "missing required key 'stiffness'"});
+  check_error(pendulum + "[[load]]\nbody = \"p\"\nforce = [0, 0, -1]\nfollower = true\n",
+              {8, 12, "load[1].follower", "follower loads are not supported by this version of modal (dead loads only)"});
+  check_error(pendulum + "[[load]]\nbody = \"world\"\nforce = [0, 0, -1]\n", {6, 8, "load[1].body", "must name a body, not the world"});
+}
+
+TEST(scene_errors, Overrides) {
+  const std::string scene = "[parameters]\nm = 1\nl = 2\n" + pendulum;
+  check_error(scene, {0, 0, "mm", "'mm' is not a parameter of this scene (did you mean 'm'?); its parameters are: m, l"},
+              {{"mm", "2"}});
+  check_error(scene, {0, 0, "parameters.m", "in \"2*x\" at 3: unknown name 'x'"}, {{"m", "2*x"}});
+  check_error(scene, {0, 0, "parameters.m", "evaluates to inf"}, {{"m", "1/0"}});
+
+  try {
+    (void)modal::parse_override("m2.5");
+    ADD_FAILURE() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().file, "--set");
+    EXPECT_EQ(e.where().line, 0);
+    EXPECT_NE(e.reason().find("expected NAME=VALUE, got 'm2.5'"), std::string::npos) << e.what();
+  }
+  try {
+    (void)modal::parse_override(" =2");
+    ADD_FAILURE() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().file, "--set");
+    EXPECT_NE(e.reason().find("missing parameter name before '='"), std::string::npos) << e.what();
+  }
+}
+
+TEST(scene_errors, FilesAndEmptyScenes) {
+  try {
+    (void)modal::load_scene("/nonexistent/scene.toml");
+    ADD_FAILURE() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().file, "/nonexistent/scene.toml");
+    EXPECT_EQ(e.where().line, 0);
+    EXPECT_EQ(e.key(), "");
+    EXPECT_NE(e.reason().find("No such file or directory"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()), "/nonexistent/scene.toml: " + e.reason());
+  }
+  check_error("title = \"nothing\"\n", {1, 1, "", "the scene has no bodies"});
+  check_error("", {1, 1, "", "the scene has no bodies"});
+}
+
+TEST(scene_errors, MessageFormat) {
+  try {
+    (void)modal::parse_scene("[[body]]\nname = \"p\"\njoint = \"hinge\"\nmass = -1\n", "m.toml");
+    ADD_FAILURE() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(std::string(e.what()), "m.toml:4:8: body[1].mass: must be non-negative, got -1");
+  }
+}
+
+}  // namespace
