@@ -8,6 +8,7 @@
 #include "modal/core.hpp"
 
 #include "core/model.hpp"
+#include "systems.hpp"
 
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
@@ -19,26 +20,11 @@
 namespace {
 
 using namespace modal;
+using test::double_pendulum;
 
-Body hinge(const std::string& name, int parent, Vec3 axis, Vec3 origin, double mass, Vec3 com) {
-  Body b;
-  b.name = name;
-  b.parent = parent;
-  b.joint = JointType::hinge;
-  b.axis = axis.normalized();
-  b.origin = origin;
-  b.mass = mass;
-  b.com = com;
-  return b;
-}
-
-// R1: pivot → rod l1 → m1 → rod l2 → m2, hinges about y, point masses, g = (0,0,-g).
-System double_pendulum(double m1, double m2, double l1, double l2, double g) {
-  SystemDescription d;
-  d.gravity = Vec3(0, 0, -g);
-  d.bodies.push_back(hinge("upper", -1, Vec3::UnitY(), Vec3::Zero(), m1, Vec3(0, 0, -l1)));
-  d.bodies.push_back(hinge("lower", 0, Vec3::UnitY(), Vec3(0, 0, -l1), m2, Vec3(0, 0, -l2)));
-  return System(d);
+// hinge(name, parent, axis, origin, mass, com) in the order these tests write it.
+Body hinge(const std::string& name, int parent, const Vec3& axis, const Vec3& origin, double mass, const Vec3& com) {
+  return test::hinge(name, parent, origin, mass, com, axis);
 }
 
 // A 3-D tree with every joint type, inertias, springs between bodies and to the

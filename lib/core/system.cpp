@@ -9,9 +9,7 @@
 #include <string>
 
 namespace modal {
-namespace {
-
-int joint_coordinates(JointType t) {
+int joint_coordinate_count(JointType t) {
   switch (t) {
     case JointType::hinge:
     case JointType::slide: return 1;
@@ -21,6 +19,8 @@ int joint_coordinates(JointType t) {
   }
   return 0;
 }
+
+namespace {
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("System: " + what);
@@ -47,7 +47,7 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     require(std::isfinite(body.damping) && body.damping >= 0, who + "damping must be non-negative");
     if (body.joint == JointType::hinge || body.joint == JointType::slide)
       require(std::abs(body.axis.norm() - 1.0) < 1e-12, who + "axis must be a unit vector");
-    const int nq = joint_coordinates(body.joint);
+    const int nq = joint_coordinate_count(body.joint);
     if (body.rest.size() == 0) body.rest = VectorX::Zero(nq);
     if (body.initial.size() == 0) body.initial = VectorX::Zero(nq);
     require(body.rest.size() == nq && body.initial.size() == nq, who + "rest/initial size does not match the joint");

@@ -82,18 +82,6 @@ constexpr std::array<std::pair<std::string_view, JointType>, 5> joint_types{{
     {"fixed", JointType::fixed},
 }};
 
-// Number of generalized coordinates of a joint.
-int joint_size(JointType type) {
-  switch (type) {
-    case JointType::hinge:
-    case JointType::slide: return 1;
-    case JointType::ball: return 3;
-    case JointType::free: return 6;
-    case JointType::fixed: return 0;
-  }
-  return 0;
-}
-
 std::string index_key(std::string_view array, std::size_t index) {
   return std::string(array) + "[" + std::to_string(index + 1) + "]";
 }
@@ -179,7 +167,7 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   b.inertia = read_inertia(s);
   b.stiffness = s.number("stiffness", 0.0, Range::nonnegative);
   b.damping = s.number("damping", 0.0, Range::nonnegative);
-  const int n = joint_size(b.joint);
+  const int n = joint_coordinate_count(b.joint);
   b.rest = has_spring ? joint_values(s, "rest", n) : VectorX::Zero(n);
   b.initial = joint_values(s, "initial", n);
 

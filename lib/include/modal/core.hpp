@@ -56,6 +56,8 @@ class NumericalError : public std::runtime_error {
 };
 
 enum class JointType { hinge, slide, ball, free, fixed };
+// Number of generalized coordinates of a joint: hinge, slide 1; ball 3; free 6; fixed 0.
+int joint_coordinate_count(JointType type);
 
 // What a coordinate measures; decides wrapping and search ranges.
 enum class CoordinateKind {

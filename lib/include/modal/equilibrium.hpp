@@ -8,7 +8,10 @@
 // find_equilibria minimizes the residual ‖∇V − Q‖² with NLopt from many
 // deterministic starts, Newton-polishes every candidate with the exact Hessian,
 // drops those that do not reach the tolerance, and removes duplicates (angles
-// modulo 2π). Failures throw NumericalError with a message in words (for a
+// modulo 2π; a continuous family of equilibria — configurations that differ
+// only by a motion V cannot see, such as the spin of a point mass on a ball
+// joint — is reported once, by its member nearest the initial configuration).
+// Failures throw NumericalError with a message in words (for a
 // scene that has no equilibrium, which generalized force cannot be balanced).
 #pragma once
 

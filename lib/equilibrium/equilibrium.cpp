@@ -1,0 +1,283 @@
+// Equilibria: residual, Newton polish, local (Levenberg–Marquardt) search.
+//
+// Cost model: one residual evaluation is a tree pass for ∇V (O(n·depth)); one
+// Jacobian is the exact tree-structured Hessian (O(n·depth) plus O(n²) to
+// store); one Newton step is O(n³) (Cholesky for large well-conditioned
+// positive definite J, else a symmetric eigen-decomposition). Newton converges
+// quadratically at a regular equilibrium, so a polish costs a few Jacobians.
+#include "equilibrium/problem.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+namespace modal {
+namespace equilibrium_detail {
+namespace {
+
+// The one place where non-conservative generalized forces at rest enter the
+// equilibrium condition: r −= Q(q, 0) and J −= ∂Q/∂q(q, 0). In this version the
+// only non-conservative forces are dampers, Q = −D(q) q̇, which vanish at rest
+// with their q-derivative; a follower load would be added here (and would make
+// J non-symmetric: see Problem::symmetric_jacobian).
+void add_forces_at_rest(const System&, const VectorX&, VectorX&) {}
+void add_force_jacobian_at_rest(const System&, const VectorX&, MatrixX&) {}
+
+bool finite(const VectorX& v) { return v.allFinite(); }
+
+// Coordinates scaled to comparable units: angles in rad, lengths in units of
+// the scene's length scale.
+VectorX coordinate_scales(const System& s) {
+  VectorX d(s.size());
+  for (int i = 0; i < s.size(); ++i)
+    d[i] = s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
+  return d;
+}
+
+Equilibrium record(Problem& p, const VectorX& q, double rnorm, double rel, int iterations) {
+  Equilibrium e;
+  e.q = q;
+  e.potential = p.potential(q);
+  e.residual = rel;
+  e.residual_norm = rnorm;
+  e.iterations = iterations;
+  return e;
+}
+
+}  // namespace
+
+const VectorX& Problem::residual(const VectorX& q) {
+  ++residual_evaluations;
+  try {
+    r_ = potential_gradient(s_, w_, q);
+    add_forces_at_rest(s_, q, r_);
+  } catch (const NumericalError&) {
+    // A singular configuration of the model (a spring with coincident ends):
+    // reported as a non-finite residual, which every solver here rejects.
+    r_.setConstant(s_.size(), std::numeric_limits<double>::quiet_NaN());
+  }
+  return r_;
+}
+
+const MatrixX& Problem::jacobian(const VectorX& q) {
+  ++jacobian_evaluations;
+  try {
+    j_ = potential_hessian(s_, w_, q);
+    add_force_jacobian_at_rest(s_, q, j_);
+  } catch (const NumericalError&) {
+    j_.setConstant(s_.size(), s_.size(), std::numeric_limits<double>::quiet_NaN());
+  }
+  return j_;
+}
+
+double Problem::relative_residual(const VectorX& q, double residual_norm) {
+  const double scale = force_scale(s_, w_, q);
+  if (scale > 0 && std::isfinite(scale)) return residual_norm / scale;
+  if (residual_norm == 0) return 0;
+  const MatrixX& j = jacobian(q);
+  return residual_norm / (j.norm() + DBL_MIN);
+}
+
+VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric) {
+  const Eigen::Index n = j.rows();
+  if (n == 0) return VectorX(0);
+  if (!symmetric) {
+    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(j);
+    cod.setThreshold(1e3 * std::numeric_limits<double>::epsilon());
+    return -cod.solve(r);
+  }
+  if (n > 24) {  // fast path: the usual stable equilibrium of a large scene
+    const Eigen::LLT<MatrixX> llt(j);
+    if (llt.info() == Eigen::Success && llt.rcond() > 1e-10) return -llt.solve(r);
+  }
+  const Eigen::SelfAdjointEigenSolver<MatrixX> es(j);
+  if (es.info() != Eigen::Success) return VectorX::Zero(n);
+  const VectorX& lambda = es.eigenvalues();
+  // Zero modes (ignorable coordinates) come out as rounding-size eigenvalues:
+  // dropped below 1000 ε of the largest, giving the minimum-norm step.
+  const double cutoff = 1e3 * std::numeric_limits<double>::epsilon() * lambda.cwiseAbs().maxCoeff();
+  VectorX c = es.eigenvectors().transpose() * r;
+  for (Eigen::Index i = 0; i < n; ++i) c[i] = std::abs(lambda[i]) > cutoff ? c[i] / lambda[i] : 0.0;
+  return -(es.eigenvectors() * c);
+}
+
+Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options) {
+  const System& s = p.system();
+  Polished out;
+  VectorX q = canonical_coordinates(s, q0);
+  double best_rel = std::numeric_limits<double>::infinity();
+  for (int it = 0;; ++it) {
+    q = canonical_coordinates(s, q);  // the same configuration; keeps rotation vectors away from |φ| = 2π
+    const VectorX r = p.residual(q);
+    if (!finite(r)) return out;
+    const double rnorm = r.norm();
+    const double rel = p.relative_residual(q, rnorm);
+    if (rel < best_rel) {
+      best_rel = rel;
+      out.best = record(p, q, rnorm, rel, it);
+    }
+    if (rel <= options.tolerance) {
+      out.converged = true;
+      out.best = record(p, q, rnorm, rel, it);
+      return out;
+    }
+    if (it >= options.max_iterations) return out;
+    const MatrixX& j = p.jacobian(q);
+    if (!j.allFinite()) return out;
+    const VectorX d = newton_step(j, r, p.symmetric_jacobian());
+    // Backtracking (Armijo) on f = ½‖r‖², whose gradient is Jᵀr.
+    const double f0 = 0.5 * rnorm * rnorm;
+    const double slope = (j.transpose() * r).dot(d);
+    if (!(slope < 0) || !finite(d)) return out;  // no descent left: stalled
+    double t = 1;
+    bool accepted = false;
+    for (int k = 0; k < 40; ++k, t *= 0.5) {
+      const VectorX qt = q + t * d;
+      const VectorX& rt = p.residual(qt);
+      if (!finite(rt)) continue;
+      if (0.5 * rt.squaredNorm() <= f0 + 1e-4 * t * slope) {
+        q = qt;
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) return out;  // stalled: the residual cannot be reduced along the Newton direction
+  }
+}
+
+namespace {
+
+// Levenberg–Marquardt on r(q) = 0 from `start`, in scaled coordinates
+// (lengths / length scale), with each step also limited to 0.5 (rad or length
+// scales) so the iteration stays near the start and converges to the nearby
+// equilibrium whatever its stability (it solves r = 0; it does not minimize V).
+// Returns the point reached; the caller polishes it.
+VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options) {
+  const System& s = p.system();
+  const VectorX scale = coordinate_scales(s);
+  VectorX q = canonical_coordinates(s, start);
+  double mu = -1;
+  for (int it = 0; it < 2 * options.max_iterations; ++it) {
+    const VectorX r = p.residual(q);
+    if (!finite(r)) break;
+    const double rnorm = r.norm();
+    if (p.relative_residual(q, rnorm) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
+    const MatrixX js = scale.asDiagonal() * p.jacobian(q) * scale.asDiagonal();  // ∂(r)/∂(q/scale)
+    if (!js.allFinite()) break;
+    const VectorX rs = r;                                                          // residual in force units
+    const MatrixX a = js.transpose() * js;
+    const VectorX g = js.transpose() * rs;
+    if (mu < 0) mu = 1e-8 * std::max(a.diagonal().maxCoeff(), DBL_MIN);
+    bool accepted = false;
+    for (int k = 0; k < 30; ++k) {
+      MatrixX am = a;
+      am.diagonal().array() += mu;
+      const Eigen::LLT<MatrixX> llt(am);
+      VectorX dx = llt.info() == Eigen::Success ? VectorX(-llt.solve(g)) : VectorX::Zero(s.size());
+      const double len = dx.norm();
+      if (len > 0.5) dx *= 0.5 / len;
+      const VectorX qt = q + scale.cwiseProduct(dx);
+      const VectorX& rt = p.residual(qt);
+      if (finite(rt) && rt.norm() < rnorm) {
+        q = canonical_coordinates(s, qt);
+        mu = std::max(mu / 4, 1e-300);
+        accepted = true;
+        break;
+      }
+      mu *= 4;
+    }
+    if (!accepted) break;
+  }
+  return q;
+}
+
+const char* force_unit(CoordinateKind k) { return k == CoordinateKind::length ? "N" : "N·m"; }
+
+}  // namespace
+
+std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int starts) {
+  const System& s = p.system();
+  std::ostringstream m;
+  m << std::setprecision(3);
+  m << "no equilibrium found: the residual ‖∇V − Q‖ could not be reduced below " << best.residual_norm
+    << " (relative " << best.residual << ") from " << starts << " start" << (starts == 1 ? "" : "s");
+  if (best.q.size() == s.size() && s.size() > 0) {
+    const VectorX r = p.residual(best.q);
+    std::vector<int> order(static_cast<std::size_t>(s.size()));
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(r[a]) > std::abs(r[b]); });
+    const double largest = std::abs(r[order[0]]);
+    m << "; the unbalanced generalized force is largest on coordinate ";
+    int named = 0;
+    for (int i : order) {
+      if (named == 3 || std::abs(r[i]) < 0.1 * largest || (named > 0 && r[i] == 0)) break;
+      const Coordinate& c = s.coordinates()[static_cast<std::size_t>(i)];
+      m << (named == 0 ? "" : ", then ") << c.name << " (" << r[i] << " " << force_unit(c.kind) << ")";
+      ++named;
+    }
+  }
+  m << " — nothing in the scene can balance it (e.g. a body that can fall freely under gravity, or a load no "
+       "spring or joint resists)";
+  return m.str();
+}
+
+}  // namespace equilibrium_detail
+
+using namespace equilibrium_detail;
+
+VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q) {
+  VectorX r = potential_gradient(s, w, q);
+  add_forces_at_rest(s, q, r);
+  return r;
+}
+
+std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q, const EquilibriumOptions& options) {
+  if (q.size() != s.size()) throw std::invalid_argument("polish_equilibrium: q has the wrong size");
+  Problem p(s);
+  Polished r = polish(p, q, options);
+  if (!r.converged) return std::nullopt;
+  return r.best;
+}
+
+Equilibrium find_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
+  if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
+  Problem p(s);
+  const VectorX local = levenberg_marquardt(p, start, options);
+  Polished pol = polish(p, local, options);
+  if (pol.converged) return pol.best;
+  SearchResult all = search(p, options);
+  if (all.found.empty()) {
+    Equilibrium best = pol.best;
+    if (all.have_failure && all.best_failure.residual < best.residual) best = all.best_failure;
+    throw NumericalError(no_equilibrium_message(p, best, all.starts + 1));
+  }
+  deduplicate_and_sort(s, all.found);
+  std::size_t nearest = 0;
+  double dmin = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < all.found.size(); ++i) {
+    const double d = configuration_distance(s, all.found[i].q, start);
+    if (d < dmin) {
+      dmin = d;
+      nearest = i;
+    }
+  }
+  return all.found[nearest];
+}
+
+std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptions& options) {
+  Problem p(s);
+  SearchResult all = search(p, options);
+  if (all.found.empty()) throw NumericalError(no_equilibrium_message(p, all.best_failure, all.starts));
+  deduplicate_and_sort(s, all.found);
+  return all.found;
+}
+
+}  // namespace modal

@@ -1,0 +1,82 @@
+// Private to lib/equilibrium: the residual r(q) = ∇V(q) − Q(q, 0), its
+// Jacobian J = ∂r/∂q, the relative residual, and the Newton step — the pieces
+// shared by the local solvers (equilibrium.cpp) and the multi-start search
+// (search.cpp).
+#pragma once
+
+#include "modal/equilibrium.hpp"
+
+#include <string>
+
+namespace modal::equilibrium_detail {
+
+// One System with its scratch memory. Every evaluation of the residual and of
+// its Jacobian goes through here, so a non-conservative term Q(q, 0) (a
+// follower load, say) is added in exactly one place: add_forces_at_rest().
+class Problem {
+ public:
+  explicit Problem(const System& s) : s_(s), w_(s) {}
+
+  const System& system() const { return s_; }
+  int size() const { return s_.size(); }
+
+  // r(q) = ∇V(q) − Q(q, 0). The reference lives until the next call.
+  const VectorX& residual(const VectorX& q);
+  // J(q) = ∂r/∂q = ∇∇V − ∂Q/∂q at rest. The reference lives until the next call.
+  const MatrixX& jacobian(const VectorX& q);
+  // True while J is symmetric (no circulatory forces).
+  bool symmetric_jacobian() const { return true; }
+
+  double potential(const VectorX& q) { return modal::potential(s_, w_, q); }
+
+  // ‖r‖ made relative: ‖r‖ / force_scale(q). force_scale is a sum of the
+  // magnitudes of all force-producing elements, so it is 0 only when nothing
+  // produces a force; then V is constant, r ≡ 0, and we fall back to the
+  // absolute measure ‖r‖ / (‖J‖_F · 1 + DBL_MIN) (the force a unit displacement
+  // would produce), which is 0 for r = 0.
+  double relative_residual(const VectorX& q, double residual_norm);
+
+  int residual_evaluations = 0;
+  int jacobian_evaluations = 0;
+
+ private:
+  const System& s_;
+  Workspace w_;
+  VectorX r_;
+  MatrixX j_;
+};
+
+// Minimum-norm least-squares solution d of J d = −r (J may be singular: zero
+// modes of ignorable coordinates). Large, well-conditioned positive definite J:
+// Cholesky. Otherwise a symmetric eigen-decomposition with eigenvalues below
+// a relative cutoff discarded (or a complete orthogonal decomposition when J
+// is not symmetric).
+VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric);
+
+// Result of a Newton polish: success, or the best point reached (for messages).
+struct Polished {
+  bool converged = false;
+  Equilibrium best;  // canonical q with the smallest residual seen
+};
+Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options);
+
+// Multi-start search: every distinct polished equilibrium (unsorted), and the
+// best non-equilibrium point if none was found.
+struct SearchResult {
+  std::vector<Equilibrium> found;
+  Equilibrium best_failure;  // smallest relative residual among failed starts
+  bool have_failure = false;
+  int starts = 0;
+};
+SearchResult search(Problem& p, const EquilibriumOptions& options);
+
+// Keeps the candidate with the smaller residual among those closer than
+// configuration_distance 1e-6 (angles modulo 2π), then sorts by potential and
+// coordinates.
+void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list);
+
+// "no equilibrium found: …" naming the coordinates that carry the unbalanced
+// generalized force at the best point reached.
+std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int starts);
+
+}  // namespace modal::equilibrium_detail

@@ -1,0 +1,251 @@
+// Multi-start search for all equilibria.
+//
+// Deterministic starts: the initial configuration; the corners {0, π}^h of the
+// h hinge angles when 2^h ≤ 256 (other coordinates at their initial values);
+// then `starts` points of a Halton sequence (bases: the first n primes) over
+// the box angles ∈ [−π, π), rotation-vector components ∈ [−π, π) (vectors
+// longer than π scaled back to π), lengths ∈ initial ± 2·length_scale.
+// From each start f(q) = ½‖r(q)‖² is minimized with NLopt's LD_LBFGS (exact
+// gradient Jᵀr; stops at a relative residual of 1e-8 or after 50 + 5 n
+// evaluations, at most 200), then the point reached is Newton-polished. Only
+// polished points are kept.
+//
+// Cost: (1 + corners + starts) × (≤ 50 + 5 n evaluations of r and J, each
+// O(n·depth + n²)) + the polishes (a few O(n³) steps each).
+#include "equilibrium/problem.hpp"
+
+#include <nlopt.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <numbers>
+
+namespace modal::equilibrium_detail {
+namespace {
+
+std::vector<int> first_primes(int count) {
+  std::vector<int> primes;
+  for (int c = 2; static_cast<int>(primes.size()) < count; ++c) {
+    bool prime = true;
+    for (int p : primes) {
+      if (p * p > c) break;
+      if (c % p == 0) {
+        prime = false;
+        break;
+      }
+    }
+    if (prime) primes.push_back(c);
+  }
+  return primes;
+}
+
+// Van der Corput radical inverse of i in the given base, in [0, 1).
+double radical_inverse(long long i, int base) {
+  double result = 0, f = 1.0 / base;
+  while (i > 0) {
+    result += f * static_cast<double>(i % base);
+    i /= base;
+    f /= base;
+  }
+  return result;
+}
+
+bool starts_rotation_vector(const System& s, int i) {
+  const auto& c = s.coordinates();
+  const auto k = static_cast<std::size_t>(i);
+  return c[k].kind == CoordinateKind::rotation &&
+         (i == 0 || c[k - 1].kind != CoordinateKind::rotation || c[k - 1].body != c[k].body);
+}
+
+std::vector<VectorX> starting_points(const System& s, int halton_count) {
+  const int n = s.size();
+  const VectorX q0 = s.initial_configuration();
+  std::vector<VectorX> starts{q0};
+  std::vector<int> hinges;
+  for (int i = 0; i < n; ++i)
+    if (s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::angle) hinges.push_back(i);
+  const int h = static_cast<int>(hinges.size());
+  if (h > 0 && h <= 8) {
+    for (int mask = 0; mask < (1 << h); ++mask) {
+      VectorX q = q0;
+      for (int k = 0; k < h; ++k) q[hinges[static_cast<std::size_t>(k)]] = (mask >> k) & 1 ? std::numbers::pi : 0.0;
+      starts.push_back(q);
+    }
+  }
+  const std::vector<int> primes = first_primes(n);
+  for (int j = 1; j <= halton_count; ++j) {
+    VectorX q(n);
+    for (int i = 0; i < n; ++i) {
+      const double u = radical_inverse(j, primes[static_cast<std::size_t>(i)]);
+      const Coordinate& c = s.coordinates()[static_cast<std::size_t>(i)];
+      q[i] = c.kind == CoordinateKind::length ? c.initial + (2 * u - 1) * 2 * s.length_scale()
+                                              : (2 * u - 1) * std::numbers::pi;
+    }
+    for (int i = 0; i < n; ++i) {
+      if (!starts_rotation_vector(s, i)) continue;
+      const double len = q.segment<3>(i).norm();
+      if (len > std::numbers::pi) q.segment<3>(i) *= std::numbers::pi / len;
+    }
+    starts.push_back(q);
+  }
+  return starts;
+}
+
+struct Objective {
+  Problem* p = nullptr;
+  double best_f = std::numeric_limits<double>::infinity();
+  VectorX best_x;
+  VectorX q;  // scratch
+};
+
+// f = ½‖r‖², ∇f = Jᵀr. Remembers the best point seen, so that whatever way
+// NLopt ends (including by an exception) the search carries on from there.
+double objective(unsigned n, const double* x, double* grad, void* data) {
+  auto* o = static_cast<Objective*>(data);
+  o->q = Eigen::Map<const VectorX>(x, static_cast<Eigen::Index>(n));
+  const VectorX r = o->p->residual(o->q);
+  if (!r.allFinite()) {
+    if (grad != nullptr) Eigen::Map<VectorX>(grad, static_cast<Eigen::Index>(n)).setZero();
+    return 1e300;
+  }
+  const double f = 0.5 * r.squaredNorm();
+  if (grad != nullptr) Eigen::Map<VectorX>(grad, static_cast<Eigen::Index>(n)) = o->p->jacobian(o->q).transpose() * r;
+  if (f < o->best_f) {
+    o->best_f = f;
+    o->best_x = o->q;
+  }
+  return f;
+}
+
+VectorX minimize_residual(Problem& p, const VectorX& start) {
+  const int n = p.size();
+  Objective o;
+  o.p = &p;
+  o.best_x = start;
+  nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(n));
+  opt.set_min_objective(objective, &o);
+  const VectorX r0 = p.residual(start);
+  // Stop once the relative residual is 1e-8: Newton's quadratic convergence
+  // does the rest far more cheaply than L-BFGS on the squared residual.
+  const double rel0 = p.relative_residual(start, r0.norm());
+  const double target = rel0 > 0 ? 1e-8 * r0.norm() / rel0 : 0.0;  // 1e-8 × the force scale
+  opt.set_stopval(0.5 * target * target);
+  opt.set_ftol_rel(1e-12);
+  opt.set_xtol_rel(1e-10);
+  opt.set_maxeval(std::min(200, 50 + 5 * n));
+  std::vector<double> x(start.data(), start.data() + n);
+  double f = 0;
+  try {
+    opt.optimize(x, f);
+  } catch (const std::exception&) {
+    // roundoff_limited, forced_stop, failure: carry on from the best point reached.
+  }
+  return o.best_x;
+}
+
+}  // namespace
+
+namespace {
+
+// World positions of every point the potential depends on: centres of mass of
+// bodies with mass, spring ends, load points. Two configurations that agree on
+// all of them have the same V everywhere nearby up to a motion V cannot see
+// (spin of a point mass about its rod, rotation of a balanced wheel): they are
+// one equilibrium of a continuous family, reported once.
+VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
+  const std::vector<Pose> poses = body_poses(s, w, q);
+  std::vector<Vec3> pts;
+  auto at = [&](const Attachment& a) {
+    if (a.body < 0) return;  // fixed in the world: the same for every configuration
+    const Pose& p = poses[static_cast<std::size_t>(a.body)];
+    pts.push_back(p.position + p.rotation * a.point);
+  };
+  for (std::size_t b = 0; b < s.bodies().size(); ++b)
+    if (s.bodies()[b].mass != 0.0) at({static_cast<int>(b), s.bodies()[b].com});
+  for (const Spring& sp : s.springs()) {
+    at(sp.a);
+    at(sp.b);
+  }
+  for (const DeadLoad& l : s.loads()) at(l.at);
+  // A joint spring sees the joint value itself: those coordinates join the
+  // signature (angles as L·(cos, sin), rotation components and lengths as
+  // canonical values, all in lengths comparable with L).
+  const VectorX c = canonical_coordinates(s, q);
+  const double L = s.length_scale();
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+    if (s.bodies()[b].stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) {
+      const CoordinateKind kind = s.coordinates()[static_cast<std::size_t>(i)].kind;
+      if (kind == CoordinateKind::angle)
+        pts.emplace_back(L * std::cos(c[i]), L * std::sin(c[i]), 0.0);
+      else
+        pts.emplace_back(kind == CoordinateKind::length ? c[i] : L * c[i], 0.0, 0.0);
+    }
+  }
+  VectorX v(3 * static_cast<Eigen::Index>(pts.size()));
+  for (std::size_t i = 0; i < pts.size(); ++i) v.segment<3>(3 * static_cast<Eigen::Index>(i)) = pts[i];
+  return v;
+}
+
+}  // namespace
+
+void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
+  Workspace w(s);
+  const VectorX q0 = s.initial_configuration();
+  std::vector<Equilibrium> kept;
+  std::vector<VectorX> kept_points;
+  for (Equilibrium& e : list) {
+    const VectorX points = potential_points(s, w, e.q);
+    bool duplicate = false;
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+      Equilibrium& k = kept[i];
+      if (configuration_distance(s, e.q, k.q) < 1e-6) {  // the same point (angles modulo 2π)
+        if (e.residual < k.residual) k = e;
+        duplicate = true;
+      } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale()) {
+        // Another member of the same continuous family: keep the representative
+        // nearest the initial configuration.
+        if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) k = e;
+        duplicate = true;
+      }
+      if (duplicate) break;
+    }
+    if (!duplicate) {
+      kept.push_back(e);
+      kept_points.push_back(points);
+    }
+  }
+  std::stable_sort(kept.begin(), kept.end(), [](const Equilibrium& a, const Equilibrium& b) {
+    if (a.potential != b.potential) return a.potential < b.potential;
+    return std::lexicographical_compare(a.q.data(), a.q.data() + a.q.size(), b.q.data(), b.q.data() + b.q.size());
+  });
+  list = std::move(kept);
+}
+
+SearchResult search(Problem& p, const EquilibriumOptions& options) {
+  const System& s = p.system();
+  SearchResult out;
+  const std::vector<VectorX> starts = starting_points(s, std::max(options.starts, 0));
+  out.starts = static_cast<int>(starts.size());
+  if (s.size() == 0) {  // nothing can move: the one configuration is the equilibrium
+    Polished pol = polish(p, VectorX(0), options);
+    out.found.push_back(pol.best);
+    return out;
+  }
+  for (const VectorX& start : starts) {
+    const VectorX reached = minimize_residual(p, start);
+    Polished pol = polish(p, reached, options);
+    if (pol.converged) {
+      out.found.push_back(pol.best);
+    } else if (pol.best.q.size() == s.size() && (!out.have_failure || pol.best.residual < out.best_failure.residual)) {
+      out.best_failure = pol.best;
+      out.have_failure = true;
+    }
+  }
+  return out;
+}
+
+}  // namespace modal::equilibrium_detail

@@ -1,0 +1,309 @@
+// Equilibria against independent references:
+//  - R1 (REFERENCES.md): the four equilibria of the double pendulum, their
+//    potentials (derived below) and Morse indices 0, 1, 1, 2;
+//  - the nearest equilibrium whatever its stability (inverted pendulum);
+//  - a pendulum with an offset joint spring against a bisection root;
+//  - a spring chain (R2 layout) under dead loads against K⁻¹f;
+//  - a free body under gravity: no equilibrium, a message naming the vertical;
+//  - a ball-joint spherical pendulum (singular Hessian: spin about the rod);
+//  - determinism.
+#include "modal/equilibrium.hpp"
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+
+#include "systems.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace {
+
+using namespace modal;
+constexpr double pi = std::numbers::pi;
+
+// The polish tolerance: ‖∇V − Q‖ ≤ 1e-12 · force_scale (EquilibriumOptions default).
+constexpr double kTol = 1e-12;
+
+using test::double_pendulum;
+using test::hinge;
+
+System pendulum(double m, double l, double g, double k = 0, double rest = 0) {
+  SystemDescription d;
+  d.gravity = Vec3(0, 0, -g);
+  Body b = hinge("arm", -1, Vec3::Zero(), m, Vec3(0, 0, -l));
+  b.stiffness = k;
+  b.rest = VectorX::Constant(1, rest);
+  d.bodies.push_back(b);
+  return System(d);
+}
+
+// Number of negative eigenvalues of the (symmetric) stiffness ∇∇V at q. Zero
+// modes (spin of a point mass) come out at rounding size, ~1e-16 of the largest
+// eigenvalue, with either sign: only eigenvalues below −1e-9 × the largest count.
+int morse_index(const System& s, const VectorX& q) {
+  Workspace w(s);
+  const Eigen::SelfAdjointEigenSolver<MatrixX> es(potential_hessian(s, w, q));
+  const double cut = 1e-9 * es.eigenvalues().cwiseAbs().maxCoeff();
+  int count = 0;
+  for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) count += es.eigenvalues()[i] < -cut ? 1 : 0;
+  return count;
+}
+
+VectorX vec(std::initializer_list<double> v) {
+  VectorX r(static_cast<Eigen::Index>(v.size()));
+  Eigen::Index i = 0;
+  for (double x : v) r[i++] = x;
+  return r;
+}
+
+TEST(Equilibrium, ResidualIsTheGradientWhenOnlyDampersAct) {
+  const System s = double_pendulum(1, 2, 1, 1.5, 9.81);
+  Workspace w(s);
+  const VectorX q = vec({0.3, -1.2});
+  const VectorX r = equilibrium_residual(s, w, q);
+  const VectorX g = potential_gradient(s, w, q);
+  EXPECT_EQ(r, g);
+}
+
+// R1: four equilibria, each rod down (0) or up (π), in relative angles.
+// With z1 = −l1 cos θ1, z2 = z1 − l2 cos(θ1 + θ2) and V = g(m1 z1 + m2 z2):
+//   (0, 0): −g(m1 l1 + m2(l1 + l2))        Morse 0
+//   (0, π): −g m1 l1 + g m2(l2 − l1)       Morse 1 (lower rod up)
+//   (π, π):  g m1 l1 + g m2(l1 − l2)       Morse 1 (upper rod up, lower down)
+//   (π, 0):  g(m1 l1 + m2(l1 + l2))        Morse 2
+TEST(Equilibrium, DoublePendulumHasFourEquilibriaWithMorseIndices0112) {
+  const double m1 = 2, m2 = 1, l1 = 1, l2 = 1.5, g = 9.81;
+  const System s = double_pendulum(m1, m2, l1, l2, g);
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), 4u);
+  const VectorX expected_q[4] = {vec({0, 0}), vec({0, pi}), vec({pi, pi}), vec({pi, 0})};
+  const double expected_v[4] = {-g * (m1 * l1 + m2 * (l1 + l2)), -g * m1 * l1 + g * m2 * (l2 - l1),
+                                g * m1 * l1 + g * m2 * (l1 - l2), g * (m1 * l1 + m2 * (l1 + l2))};
+  const int expected_morse[4] = {0, 1, 1, 2};
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE(i);
+    const Equilibrium& e = all[static_cast<std::size_t>(i)];
+    // Newton converges quadratically: the angles are exact to rounding
+    // (relative residual ≤ 1e-12 and stiffness ~ force scale bound the error by ~1e-12).
+    EXPECT_LT(configuration_distance(s, e.q, expected_q[i]), 1e-10);
+    EXPECT_NEAR(e.potential, expected_v[i], 1e-12 * std::abs(expected_v[i]));
+    EXPECT_EQ(morse_index(s, e.q), expected_morse[i]);
+    EXPECT_LE(e.residual, kTol);
+    EXPECT_TRUE((e.q.array() > -pi).all() && (e.q.array() <= pi).all());  // canonical chart
+  }
+}
+
+TEST(Equilibrium, NearestEquilibriumWhateverItsStability) {
+  const System s = pendulum(1.5, 0.8, 9.81);
+  const Equilibrium top = find_equilibrium(s, vec({pi - 0.2}));
+  EXPECT_LT(configuration_distance(s, top.q, vec({pi})), 1e-10);
+  EXPECT_LE(top.residual, kTol);
+  const Equilibrium bottom = find_equilibrium(s, vec({0.3}));
+  EXPECT_LT(configuration_distance(s, bottom.q, vec({0})), 1e-10);
+  // Double pendulum near the fully inverted configuration: found there (Morse 2).
+  const System dp = double_pendulum(1, 1, 1, 1, 9.81);
+  const Equilibrium up = find_equilibrium(dp, vec({pi - 0.2, 0.1}));
+  EXPECT_LT(configuration_distance(dp, up.q, vec({pi, 0})), 1e-10);
+  EXPECT_EQ(morse_index(dp, up.q), 2);
+}
+
+// k(θ − θr) + m g l sin θ = 0, the only root (f' = k + mgl cos θ changes sign
+// only where f > 0 for these values), bracketed in [0, θr].
+TEST(Equilibrium, JointSpringWithOffsetRestAngleMatchesBisection) {
+  const double m = 1.2, l = 0.9, g = 9.81, k = 6, rest = 1.0;
+  const System s = pendulum(m, l, g, k, rest);
+  auto f = [&](double t) { return k * (t - rest) + m * g * l * std::sin(t); };
+  double a = 0, b = rest;
+  ASSERT_LT(f(a), 0);
+  ASSERT_GT(f(b), 0);
+  for (int i = 0; i < 200 && b - a > 1e-16; ++i) {
+    const double c = 0.5 * (a + b);
+    (f(c) < 0 ? a : b) = c;
+  }
+  const double root = 0.5 * (a + b);
+  const Equilibrium e = find_equilibrium(s, s.initial_configuration());
+  // |θ − root| ≤ |f(θ)| / min f' (+ rounding of the bisection): the residual
+  // bound turned into an angle bound, f' = k + mgl cos θ ≥ k − mgl > 0 near the root.
+  const double bound = e.residual_norm / (k + m * g * l * std::cos(root)) + 1e-15;
+  EXPECT_NEAR(e.q[0], root, bound + 4e-16);
+  EXPECT_LE(e.residual, kTol);
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_NEAR(all[0].q[0], root, all[0].residual_norm / (k + m * g * l * std::cos(root)) + 1e-15);
+}
+
+// R2 layout: three sliders on the x axis between walls at 0 and 4a, four
+// springs of rest length a (q = 0 is unloaded), dead loads f along x.
+// Near q = 0 every spring keeps its orientation, V is exactly quadratic with the
+// tridiagonal stiffness K = [[k0+k1, −k1, 0], [−k1, k1+k2, −k2], [0, −k2, k2+k3]]
+// and the equilibrium is q = K⁻¹f.
+//
+// On a line, ½k(|d| − a)² also has a minimum at d = −a: a spring whose ends have
+// passed through each other. With orientations σ ∈ {±1}⁴ fixed, spring i acts
+// as a linear spring of rest length σᵢa, so every equilibrium solves
+// K x = f + (kᵢσᵢ − kᵢ₊₁σᵢ₊₁)a + [last] 4a k3 (x = positions), and is genuine
+// when sign(dᵢ) = σᵢ for all springs: the reference set, found by
+// enumerating the 16 orientations.
+TEST(Equilibrium, SpringChainUnderDeadLoadsIsKInverseF) {
+  const double a = 0.5, m = 0.3;
+  const double k[4] = {100, 50, 80, 120};
+  const Vec3 f(3.0, -7.0, 2.5);
+  SystemDescription d;  // default gravity: perpendicular to the slides
+  for (int i = 0; i < 3; ++i) {
+    Body b;
+    b.name = "m" + std::to_string(i + 1);
+    b.parent = -1;
+    b.joint = JointType::slide;
+    b.axis = Vec3::UnitX();
+    b.origin = Vec3((i + 1) * a, 0, 0);
+    b.mass = m;
+    d.bodies.push_back(b);
+    d.loads.push_back({{i, Vec3::Zero()}, Vec3(f[i], 0, 0)});
+  }
+  auto spring = [&](Attachment p, Attachment q, double stiffness) {
+    Spring sp;
+    sp.a = p;
+    sp.b = q;
+    sp.stiffness = stiffness;
+    sp.rest_length = a;
+    d.springs.push_back(sp);
+  };
+  spring({-1, Vec3::Zero()}, {0, Vec3::Zero()}, k[0]);
+  spring({0, Vec3::Zero()}, {1, Vec3::Zero()}, k[1]);
+  spring({1, Vec3::Zero()}, {2, Vec3::Zero()}, k[2]);
+  spring({2, Vec3::Zero()}, {-1, Vec3(4 * a, 0, 0)}, k[3]);
+  const System s(d);
+  Eigen::Matrix3d K;
+  K << k[0] + k[1], -k[1], 0, -k[1], k[1] + k[2], -k[2], 0, -k[2], k[2] + k[3];
+  const Eigen::Vector3d u = K.lu().solve(f);
+  // ‖q − q_ref‖ ≤ ‖K⁻¹‖₂ ‖K q − b‖ = ‖r‖ / λmin(K), plus rounding of the reference solve.
+  const double lmin = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(K).eigenvalues()[0];
+  auto bound = [&](const Equilibrium& e, const Eigen::Vector3d& ref) {
+    return e.residual_norm / lmin + 1e-14 * (1 + ref.norm());
+  };
+
+  const Equilibrium near = find_equilibrium(s, s.initial_configuration());
+  EXPECT_LE(near.residual, kTol);
+  EXPECT_LE((near.q - u).norm(), bound(near, u));
+
+  std::vector<Eigen::Vector3d> reference;
+  for (int mask = 0; mask < 16; ++mask) {
+    double sigma[4];
+    for (int i = 0; i < 4; ++i) sigma[i] = (mask >> i) & 1 ? -1.0 : 1.0;
+    Eigen::Vector3d b;
+    for (int j = 0; j < 3; ++j) b[j] = f[j] + (k[j] * sigma[j] - k[j + 1] * sigma[j + 1]) * a;
+    b[2] += 4 * a * k[3];
+    const Eigen::Vector3d x = K.lu().solve(b);
+    const double dist[4] = {x[0], x[1] - x[0], x[2] - x[1], 4 * a - x[2]};
+    bool consistent = true;
+    for (int i = 0; i < 4; ++i) consistent = consistent && dist[i] * sigma[i] > 0;
+    if (consistent) reference.push_back(x - Eigen::Vector3d(a, 2 * a, 3 * a));
+  }
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), reference.size());
+  EXPECT_LE((all[0].q - u).norm(), bound(all[0], u));  // the lowest potential: no spring turned over
+  for (const Equilibrium& e : all) {
+    EXPECT_LE(e.residual, kTol);
+    double dmin = 1e300;
+    for (const auto& ref : reference) dmin = std::min(dmin, (e.q - ref).norm() - bound(e, ref));
+    EXPECT_LE(dmin, 0.0) << "not a reference equilibrium: " << e.q.transpose();
+  }
+}
+
+TEST(Equilibrium, FreeBodyUnderGravityHasNoEquilibrium) {
+  SystemDescription d;
+  Body b;
+  b.name = "brick";
+  b.parent = -1;
+  b.joint = JointType::free;
+  b.mass = 2.0;
+  b.com = Vec3(0.1, 0.05, 0);
+  b.inertia = Vec3(0.1, 0.2, 0.3).asDiagonal();
+  d.bodies.push_back(b);
+  const System s(d);
+  EXPECT_FALSE(polish_equilibrium(s, s.initial_configuration()).has_value());
+  for (int variant = 0; variant < 2; ++variant) {
+    SCOPED_TRACE(variant);
+    try {
+      if (variant == 0)
+        (void)find_equilibria(s, {.starts = 16});
+      else
+        (void)find_equilibrium(s, s.initial_configuration(), {.starts = 16});
+      FAIL() << "expected NumericalError";
+    } catch (const NumericalError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("no equilibrium"), std::string::npos) << msg;
+      // The weight m g acts on the vertical translation and nothing balances it.
+      EXPECT_NE(msg.find("largest on coordinate brick.z"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("fall freely"), std::string::npos) << msg;
+    }
+  }
+}
+
+// Ball joint with a point mass on a rod: the rotation about the rod costs no
+// energy (a zero eigenvalue of ∇∇V, the Newton step is the minimum-norm one),
+// and every rotation about the vertical is an equilibrium.
+TEST(Equilibrium, SphericalPendulumPolishesDespiteSingularHessian) {
+  const double l = 0.7;
+  SystemDescription d;
+  Body b;
+  b.name = "bob";
+  b.parent = -1;
+  b.joint = JointType::ball;
+  b.mass = 0.5;
+  b.com = Vec3(0, 0, -l);
+  b.initial = Vec3(0.3, -0.2, 0.4);
+  d.bodies.push_back(b);
+  const System s(d);
+  const std::optional<Equilibrium> p = polish_equilibrium(s, s.initial_configuration());
+  ASSERT_TRUE(p.has_value());
+  EXPECT_LE(p->residual, kTol);
+  Workspace w(s);
+  auto bob_position = [&](const VectorX& q) {
+    const Pose pose = body_poses(s, w, q)[0];
+    return Vec3(pose.position + pose.rotation * Vec3(0, 0, -l));
+  };
+  // Hanging: the bob straight below the pivot (to the accuracy the residual
+  // allows: |x| ≈ ‖r‖ / (m g) ≤ 1e-12 l relative).
+  EXPECT_LT((bob_position(p->q) - Vec3(0, 0, -l)).norm(), 1e-10 * l);
+  const Equilibrium e = find_equilibrium(s, s.initial_configuration());
+  EXPECT_LT((bob_position(e.q) - Vec3(0, 0, -l)).norm(), 1e-10 * l);
+  EXPECT_EQ(morse_index(s, e.q), 0);
+  // Two families: hanging (the representative nearest the start) and inverted
+  // (Morse 2: both tilts unstable, the spin neutral), each reported once.
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_LT((bob_position(all[0].q) - Vec3(0, 0, -l)).norm(), 1e-10 * l);
+  EXPECT_LT((bob_position(all[1].q) - Vec3(0, 0, l)).norm(), 1e-10 * l);
+  EXPECT_EQ(morse_index(s, all[0].q), 0);
+  EXPECT_EQ(morse_index(s, all[1].q), 2);
+  for (const Equilibrium& x : all) EXPECT_LE(x.residual, kTol);
+}
+
+TEST(Equilibrium, SearchIsDeterministic) {
+  const System s = double_pendulum(1, 2, 1, 1.5, 9.81);
+  const std::vector<Equilibrium> a = find_equilibria(s), b = find_equilibria(s);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].q, b[i].q);  // bitwise: same starts, same arithmetic
+    EXPECT_EQ(a[i].potential, b[i].potential);
+    EXPECT_EQ(a[i].iterations, b[i].iterations);
+  }
+}
+
+TEST(Equilibrium, SystemWithoutCoordinatesIsItsOwnEquilibrium) {
+  SystemDescription d;
+  Body b;
+  b.name = "post";
+  b.joint = JointType::fixed;
+  b.mass = 1;
+  d.bodies.push_back(b);
+  const System s(d);
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_EQ(all[0].q.size(), 0);
+}
+
+}  // namespace
