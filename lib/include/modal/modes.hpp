@@ -48,8 +48,10 @@ struct Mode {
 struct ModalResult {
   std::vector<Mode> modes;  // symmetric: ascending λ; first-order: ascending ω, then σ
   Stability stability = Stability::stable;
-  int morse_index = 0;      // number of divergent modes (negative λ, real s > 0)
-  int zero_modes = 0;
+  int morse_index = 0;      // number of divergent modes (negative λ, real s > 0); first-order:
+                            // eigenvalues of the 2n system (a pair real within error counts 2)
+  int zero_modes = 0;       // number of zero modes; first-order: zero eigenvalues of the 2n
+                            // system (an undamped rigid-body motion contributes two)
   std::string solver;       // which solver ran, e.g. "dense symmetric (Eigen, Cholesky)"
   std::vector<std::string> notes;  // diagnostics a user should read
 };
@@ -65,6 +67,20 @@ struct ModalOptions {
   int modes = -1;  // how many of the lowest modes to return (-1: all)
 };
 
+// Eigen-solution of the linear model (sizes from model.M, n×n; model.q and
+// model.coordinates may be empty, the latter then named q1 … qn; empty D or G
+// mean zero). Symmetric problems use the dense symmetric-definite solver,
+// everything else the dense 2n first-order solver; `solver` says which.
+// Throws SingularMassMatrix (M not positive definite), NumericalError
+// (non-finite entries, no convergence), std::invalid_argument (sizes, M not
+// symmetric).
 ModalResult solve_modes(const LinearModel& model, const ModalOptions& options = {});
+
+// Stability class (DESIGN.md §1) of a complete set of modes, from their kinds:
+// divergence if any mode is divergent, else flutter if any flutters, else
+// marginal if any is a zero mode, else asymptotically stable if all are
+// damped, else stable (no modes: stable). solve_modes() classifies all modes
+// before keeping the `modes` lowest.
+Stability classify(const std::vector<Mode>& modes);
 
 }  // namespace modal

@@ -1,0 +1,88 @@
+// Cost of the core's exact derivatives on hanging chains of N links (scene
+// generator `[[chain]]`), against nested forward-mode AD through the same
+// templated model (the straightforward way to get a Hessian by AD).
+//
+//   build/bench/bench_core --benchmark_out=results/bench_core.json --benchmark_out_format=json
+#include "modal/core.hpp"
+#include "modal/scene.hpp"
+
+#include "core/model.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <string>
+
+namespace {
+
+modal::System chain(int links) {
+  const std::string text = "title = \"bench chain\"\n[[chain]]\nname = \"c\"\nlinks = " + std::to_string(links) +
+                           "\nlength = 1.0\nmass = 1.0\nstiffness = 0.5\n";
+  return modal::build_system(modal::parse_scene(text, "bench.toml"));
+}
+
+Eigen::VectorXd state(const modal::System& s) {
+  Eigen::VectorXd q(s.size());
+  for (int i = 0; i < s.size(); ++i) q[i] = 0.3 * std::sin(0.7 * i);
+  return q;
+}
+
+void Gradient(benchmark::State& st) {
+  const modal::System s = chain(static_cast<int>(st.range(0)));
+  modal::Workspace w(s);
+  const Eigen::VectorXd q = state(s);
+  for (auto _ : st) benchmark::DoNotOptimize(modal::potential_gradient(s, w, q).data());
+  st.SetComplexityN(st.range(0));
+}
+
+void Hessian(benchmark::State& st) {
+  const modal::System s = chain(static_cast<int>(st.range(0)));
+  modal::Workspace w(s);
+  const Eigen::VectorXd q = state(s);
+  for (auto _ : st) benchmark::DoNotOptimize(modal::potential_hessian(s, w, q).data());
+  st.SetComplexityN(st.range(0));
+}
+
+void MassMatrix(benchmark::State& st) {
+  const modal::System s = chain(static_cast<int>(st.range(0)));
+  modal::Workspace w(s);
+  const Eigen::VectorXd q = state(s);
+  for (auto _ : st) benchmark::DoNotOptimize(modal::mass_matrix(s, w, q).data());
+  st.SetComplexityN(st.range(0));
+}
+
+// Nested forward AD, one Hessian column per pass with B inner directions at a
+// time: what a Hessian by plain AD through the tree costs.
+void HessianNestedAD(benchmark::State& st) {
+  const modal::System s = chain(static_cast<int>(st.range(0)));
+  const Eigen::VectorXd q = state(s);
+  const int n = s.size();
+  constexpr int B = 8;
+  using D = modal::Dual<modal::Dual<double, B>, 1>;
+  Eigen::MatrixXd H(n, n);
+  modal::model::TreeState<D> ts;
+  modal::model::VX<D> qd(n);
+  for (auto _ : st) {
+    for (int j = 0; j < n; ++j)
+      for (int i0 = 0; i0 < n; i0 += B) {
+        for (int k = 0; k < n; ++k) {
+          qd[k] = D(modal::Dual<double, B>(q[k]));
+          if (k >= i0 && k < i0 + B) qd[k].v.d[static_cast<std::size_t>(k - i0)] = 1.0;
+          if (k == j) qd[k].d[0].v = 1.0;
+        }
+        modal::model::forward_kinematics(s, qd.data(), ts);
+        const D v = modal::model::potential(s, ts, qd.data());
+        for (int i = i0; i < std::min(n, i0 + B); ++i) H(i, j) = v.d[0].d[static_cast<std::size_t>(i - i0)];
+      }
+    benchmark::DoNotOptimize(H.data());
+  }
+  st.SetComplexityN(st.range(0));
+}
+
+BENCHMARK(Gradient)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
+BENCHMARK(Hessian)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
+BENCHMARK(MassMatrix)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
+BENCHMARK(HessianNestedAD)->RangeMultiplier(10)->Range(10, 100)->Complexity()->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,114 @@
+// modal/report.hpp — the report stage: human tables, CSV files and JSON for the
+// results of the pipeline (DESIGN.md §4).
+//
+//   modal::Report r = modal::make_report(sys, "models/double_pendulum.toml", scene.parameters);
+//   r.equilibria.push_back({equilibrium, modal::solve_modes(modal::linearize(sys, equilibrium.q))});
+//   modal::print_analysis(std::cout, r);                  // title, equilibrium, stability, modes, notes
+//   modal::write_csv_files("out/dp", r);                  // out/dp_modes.csv, _shapes.csv, _equilibria.csv
+//   std::ofstream("out/dp.json") << modal::analysis_json(r);
+//
+// All functions are free functions on plain values; none of them computes
+// anything but presentation. CSV numbers are written with 17 significant digits
+// (%.17g, exact round trip of a double); fields that have no value (NaN, ±∞:
+// omega2 of a complex mode, the period of a zero-frequency mode, …) are empty.
+// Text fields are quoted per RFC 4180 when they contain a comma, a double quote
+// or a line break. JSON writes non-finite numbers as null.
+#pragma once
+
+#include "modal/equilibrium.hpp"
+#include "modal/modes.hpp"
+
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace modal {
+
+// A file could not be written (the message names it). Command-line exit status 2.
+class ReportError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One equilibrium and the modal solution of the linear model about it.
+struct AnalyzedEquilibrium {
+  Equilibrium equilibrium;
+  ModalResult result;
+};
+
+// Everything a report shows. `coordinates` and `kinds` are parallel (n each);
+// when `coordinates` is empty, coordinates are named q1 … qn, and when `kinds`
+// is empty no values are shown in degrees.
+struct Report {
+  std::string scene_file;
+  std::string title;
+  std::vector<std::pair<std::string, double>> parameters;  // final values, file order
+  std::vector<std::string> coordinates;
+  std::vector<CoordinateKind> kinds;
+  std::vector<AnalyzedEquilibrium> equilibria;  // analyze: one; equilibria: all found
+};
+
+// A Report with the scene's names filled in and no equilibria yet.
+Report make_report(const System& system, std::string scene_file,
+                   std::vector<std::pair<std::string, double>> parameters);
+
+// --- small pieces, exposed for tests and other writers -----------------------
+
+// The stability class of one mode in the vocabulary of DESIGN.md §1:
+// oscillatory → "stable", damped → "asymptotically stable", zero → "marginal",
+// divergent → "divergence", flutter → "flutter".
+const char* mode_stability(ModeKind kind);
+// "%.17g", or "" for NaN and ±∞.
+std::string csv_number(double value);
+// The field as is, or in double quotes (inner quotes doubled) when it contains
+// a comma, a double quote, CR or LF.
+std::string csv_field(std::string_view text);
+// The stability of an analysed equilibrium in words, e.g. "divergence (Morse
+// index 1: statically unstable)" or "marginal (2 zero-frequency modes)".
+std::string describe_stability(const ModalResult& result);
+
+// --- CSV (DESIGN.md §4) -----------------------------------------------------
+// Header "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,
+// damping_ratio,stability,error_estimate"; one row per mode per equilibrium,
+// equilibrium and mode numbered from 1.
+void write_modes_csv(std::ostream& out, const Report& report);
+// Header "equilibrium,mode,coordinate,value"; value = real part of the shape.
+void write_shapes_csv(std::ostream& out, const Report& report);
+// Header "equilibrium,stability,morse_index,potential,residual,<coordinate names>…".
+void write_equilibria_csv(std::ostream& out, const Report& report);
+// Writes PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv; returns
+// their paths. Throws ReportError when a file cannot be written.
+std::vector<std::string> write_csv_files(const std::string& prefix, const Report& report);
+// Writes one file with `writer`; throws ReportError when it cannot be written.
+void write_file(const std::string& path, void (*writer)(std::ostream&, const Report&),
+                const Report& report);
+
+// --- JSON ---------------------------------------------------------------------
+// `modal analyze`: {scene, title, parameters{name: value}, coordinates[names],
+// equilibrium{coordinates{name: value}, potential, residual, residual_norm,
+// iterations}, stability, morse_index, zero_modes, modes[{mode, omega2,
+// growth_rate, omega, frequency_hz, period, damping_ratio, error_estimate, kind,
+// stability, shape[real], shape_imag[only when complex]}], solver, notes}
+// for the first equilibrium of the report (indented text).
+std::string analysis_json(const Report& report);
+// `modal equilibria`: {scene, title, parameters, coordinates, equilibria[{index,
+// equilibrium, stability, morse_index, zero_modes, modes, solver, notes}]}.
+std::string equilibria_json(const Report& report);
+void write_text_file(const std::string& path, const std::string& text);  // throws ReportError
+
+// --- human-readable text --------------------------------------------------------
+// Title, the equilibrium (coordinates, angles also in degrees, V, residual),
+// stability in words, the mode table, mode shapes (small systems) and notes.
+void print_analysis(std::ostream& out, const Report& report);
+// One row per equilibrium: index, stability, Morse index, V, residual, coordinates.
+void print_equilibria(std::ostream& out, const Report& report);
+// `modal check`: title, parameters, bodies (name, joint, parent, mass),
+// coordinates (name, kind, initial), springs, loads, total mass, gravity.
+void print_summary(std::ostream& out, const std::string& scene_file,
+                   const std::vector<std::pair<std::string, double>>& parameters,
+                   const System& system);
+
+}  // namespace modal

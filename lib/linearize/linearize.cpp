@@ -1,0 +1,100 @@
+// lib/linearize/linearize.cpp — the linear model M δq̈ + (D + G) δq̇ + K δq = 0
+// about an equilibrium q̄ of a System (DESIGN.md §1).
+//
+// With the core's present scope (fixed frame, dead loads, dampers, no
+// constraints) the terms are
+//   M = M(q̄), K = ∇∇V(q̄), D = damping_matrix(q̄) (dampers: Q = −D q̇),
+//   G = 0 (no moving frame), and K is symmetric (no follower loads).
+// Dampers exert no force at rest, Q(q̄, 0) = 0, so q̄ is an equilibrium when
+// ∇V(q̄) = 0; its relative residual is ‖∇V(q̄)‖₂ / force_scale(q̄).
+#include "modal/linearize.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace modal {
+namespace {
+
+std::string format_number(double v, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+  return buffer;
+}
+
+// Unit of the generalized force conjugate to a coordinate.
+const char* force_unit(CoordinateKind kind) { return kind == CoordinateKind::length ? "N" : "N·m"; }
+
+// Throws NumericalError naming `what` when A has a non-finite entry.
+void require_finite(const MatrixX& A, const char* what, const std::vector<std::string>& names) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i)
+      if (!std::isfinite(A(i, j))) {
+        std::ostringstream out;
+        out << "linearize: the " << what << " has a non-finite entry (" << A(i, j) << ") at ("
+            << names[static_cast<std::size_t>(i)] << ", " << names[static_cast<std::size_t>(j)]
+            << "): the model is not twice differentiable or overflows at this configuration";
+        throw NumericalError(out.str());
+      }
+}
+
+MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
+
+}  // namespace
+
+LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions& options) {
+  const int n = s.size();
+  if (q.size() != n)
+    throw std::invalid_argument("linearize: the configuration has " + std::to_string(q.size()) +
+                                " coordinates, the system " + std::to_string(n));
+  if (!q.allFinite()) throw std::invalid_argument("linearize: the configuration has non-finite coordinates");
+
+  LinearModel model;
+  model.q = q;
+  model.coordinates = s.coordinate_names();
+  Workspace ws(s);
+
+  // Equilibrium check: ‖∇V‖ relative to the scale of the forces acting.
+  const VectorX gradient = potential_gradient(s, ws, q);
+  if (!gradient.allFinite())
+    throw NumericalError("linearize: the potential gradient ∇V is not finite at this configuration");
+  const double scale = force_scale(s, ws, q);
+  const double norm = gradient.norm();
+  model.residual = norm == 0 ? 0.0 : (scale > 0 ? norm / scale : std::numeric_limits<double>::infinity());
+  if (!(model.residual <= options.tolerance)) {
+    Eigen::Index worst = 0;
+    gradient.cwiseAbs().maxCoeff(&worst);
+    const auto& coordinate = s.coordinates()[static_cast<std::size_t>(worst)];
+    std::ostringstream out;
+    out << "this configuration is not an equilibrium: the relative residual ‖∇V‖/(force scale) is "
+        << format_number(model.residual, 3) << ", above the tolerance " << format_number(options.tolerance, 3)
+        << "; the largest unbalanced generalized force is " << format_number(-gradient(worst), 4) << " "
+        << force_unit(coordinate.kind) << " acting on the coordinate '" << coordinate.name
+        << "'. Find an equilibrium first (`modal equilibria`, or modal::find_equilibria) and linearize there";
+    throw NotAnEquilibrium(out.str());
+  }
+
+  const MatrixX K = potential_hessian(s, ws, q);
+  require_finite(K, "stiffness matrix K = ∇∇V", model.coordinates);
+  model.K = symmetric_part(K);
+  const MatrixX M = mass_matrix(s, ws, q);
+  require_finite(M, "mass matrix M", model.coordinates);
+  model.M = symmetric_part(M);
+
+  model.has_damping = s.has_damping();
+  if (model.has_damping) {
+    const MatrixX D = damping_matrix(s, ws, q);
+    require_finite(D, "damping matrix D", model.coordinates);
+    model.D = symmetric_part(D);
+  } else {
+    model.D = MatrixX::Zero(n, n);
+  }
+  model.G = MatrixX::Zero(n, n);  // no moving frames yet
+  model.has_gyroscopic = false;
+  model.circulatory = false;      // no follower loads yet
+  return model;
+}
+
+}  // namespace modal

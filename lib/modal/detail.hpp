@@ -1,0 +1,59 @@
+// lib/modal/detail.hpp — internals of the modal stage shared by its sources
+// (not installed, not part of the public API).
+//
+// solve_modes() (modes.cpp) validates the LinearModel, factors the mass matrix
+// once (mass.cpp) and hands the factor to one of two dense solvers:
+//   symmetric.cpp    K φ = λ M φ           (no damping, gyroscopic or circulatory terms)
+//   first_order.cpp  2n first-order system (everything else)
+// Both fill Modes through the helpers below, so that the meaning of every Mode
+// field and the clustering diagnostics are written once.
+#pragma once
+
+#include "modal/modes.hpp"
+
+#include <Eigen/Cholesky>
+
+#include <complex>
+#include <string>
+#include <vector>
+
+namespace modal::detail {
+
+using Cholesky = Eigen::LLT<MatrixX>;
+
+// Cholesky factor M = L Lᵀ of the symmetric mass matrix M (n×n). Throws
+// SingularMassMatrix when M is singular or indefinite within the relative
+// tolerance n·ε·‖M‖_F; the message names the coordinate combinations that carry
+// no inertia. `names` has n entries.
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names);
+
+// K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
+// Fills modes (ascending λ), morse_index, zero_modes, solver, notes.
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass);
+
+// M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
+// first-order system. Fills modes (ascending ω, then σ), morse_index,
+// zero_modes, solver, notes.
+ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C,
+                              const Cholesky& mass);
+
+// A Mode with the eigenvalue fields filled from s = σ + iω (1/s) and its kind:
+// growth_rate, omega, frequency_hz, period, damping_ratio (NaN for zero modes).
+// omega2 is left NaN, shape empty; error_estimate is set to `error`.
+Mode make_mode(std::complex<double> s, double error, ModeKind kind);
+
+// Notes about clusters of (nearly) repeated eigenvalues among consecutive
+// entries of `modes` (already sorted). The eigenvalue compared is λ = omega2
+// when `symmetric`, s otherwise; two neighbours belong to one cluster when they
+// differ by less than the sum of their error estimates or by less than 1e-8 of
+// the largest |eigenvalue|.
+void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes);
+
+// Index of the largest-|component| entry of v; among entries equal to the
+// largest within a relative 1e-12 (ties broken by rounding), the first.
+Eigen::Index dominant_index(const Eigen::VectorXcd& v);
+
+// printf-style "%.{digits}g" of v.
+std::string format_number(double v, int digits = 4);
+
+}  // namespace modal::detail

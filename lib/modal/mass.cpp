@@ -1,0 +1,120 @@
+// lib/modal/mass.cpp — Cholesky factor of the mass matrix, and the diagnosis of
+// a mass matrix that has none.
+//
+// A mass matrix that is singular at a configuration means a coordinate
+// combination moves nothing with inertia: a coordinate singularity (a rotation
+// vector at a gimbal-lock point, two hinge axes aligned) or a body without mass
+// or inertia. The user can act only if told which coordinates, so the
+// diagnosis eigen-decomposes M and describes each (near-)null eigenvector in
+// coordinate names.
+#include "detail.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace modal::detail {
+namespace {
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+// Upper bound on the smallest eigenvalue of the SPD matrix factored in `llt`
+// (n×n): 1/ρ where ρ = xᵀM⁻¹x is the Rayleigh quotient of M⁻¹ after a few
+// steps of inverse iteration. Always ρ ≤ 1/λ_min, hence 1/ρ ≥ λ_min; the gap
+// that matters here (λ_min near rounding level, the others not) makes a few
+// steps enough for 1/ρ to reach λ_min within a small factor.
+double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n) {
+  VectorX x(n);
+  // A start with components along every direction of interest: no simple
+  // pattern (all ones, alternating signs) that a null vector such as
+  // (1, −1)/√2 could be orthogonal to.
+  for (Eigen::Index i = 0; i < n; ++i) x(i) = 1.0 + 0.5 * std::cos(2.399963 * static_cast<double>(i + 1));
+  x.normalize();
+  double rho = 0;
+  for (int it = 0; it < 8; ++it) {
+    VectorX y = llt.solve(x);
+    rho = x.dot(y);
+    const double norm = y.norm();
+    if (!(norm > 0) || !std::isfinite(norm)) return 0;  // M⁻¹ blew up: singular
+    x = y / norm;
+  }
+  return rho > 0 ? 1.0 / rho : 0.0;
+}
+
+// "0.71·upper.rx − 0.71·upper.rz" for a unit vector v (components below a tenth
+// of the largest are left out), or "the coordinate upper.rx" when one
+// coordinate carries almost all of it.
+std::string describe_combination(VectorX v, const std::vector<std::string>& names) {
+  Eigen::Index top = 0;
+  v.cwiseAbs().maxCoeff(&top);
+  if (v(top) < 0) v = -v;
+  const double largest = v(top);
+  if (largest > 0.995) return "the coordinate " + names[static_cast<std::size_t>(top)];
+
+  std::vector<Eigen::Index> terms;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (std::abs(v(i)) >= 0.1 * largest) terms.push_back(i);
+  std::stable_sort(terms.begin(), terms.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return std::abs(v(a)) > std::abs(v(b)); });
+  std::ostringstream out;
+  out << "the combination ";
+  bool first = true;
+  for (Eigen::Index i : terms) {
+    const double c = v(i);
+    if (!first) out << (c < 0 ? " − " : " + ");
+    else if (c < 0) out << "−";
+    out << format_number(std::abs(c), 2) << "·" << names[static_cast<std::size_t>(i)];
+    first = false;
+  }
+  return out.str();
+}
+
+// Throws SingularMassMatrix describing every eigenvector of M whose eigenvalue
+// is at most `tolerance` (at least the smallest one).
+[[noreturn]] void diagnose_singular_mass(const MatrixX& M, const std::vector<std::string>& names,
+                                         double tolerance) {
+  Eigen::SelfAdjointEigenSolver<MatrixX> eig(M);
+  if (eig.info() != Eigen::Success)
+    throw SingularMassMatrix("the mass matrix has no Cholesky factor and its eigen-decomposition failed: "
+                             "it contains non-finite or enormous entries");
+  const VectorX& values = eig.eigenvalues();  // ascending
+  const double largest = values.cwiseAbs().maxCoeff();
+
+  std::ostringstream out;
+  const bool indefinite = values(0) < -tolerance;
+  out << "the mass matrix is " << (indefinite ? "not positive definite" : "singular")
+      << " at this configuration: ";
+  int listed = 0;
+  for (Eigen::Index j = 0; j < values.size() && (j == 0 || values(j) <= tolerance); ++j, ++listed) {
+    if (j > 0) out << "; ";
+    out << describe_combination(eig.eigenvectors().col(j), names)
+        << (values(j) < -tolerance ? " has negative inertia" : " has no inertia") << " (eigenvalue "
+        << format_number(values(j), 2) << " of largest " << format_number(largest, 3) << ")";
+  }
+  if (listed > 1)
+    out << " (a " << listed << "-dimensional null space: any basis of it describes it equally well)";
+  out << (indefinite ? "; negative mass or inertia in the model, which is inconsistent"
+                     : "; a coordinate singularity (e.g. a rotation vector at a gimbal-lock point, "
+                       "aligned hinge axes) or a body without mass or inertia");
+  throw SingularMassMatrix(out.str());
+}
+
+}  // namespace
+
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names) {
+  const Eigen::Index n = M.rows();
+  // Relative tolerance for "singular": an eigenvalue below n·ε·‖M‖ is at the
+  // level of the rounding committed in assembling M (sums of n terms), so it is
+  // indistinguishable from zero. ‖M‖_F ≥ ‖M‖₂ keeps the test on the safe side.
+  const double tolerance = static_cast<double>(n) * eps * M.norm();
+  Cholesky llt(M);
+  if (llt.info() != Eigen::Success || !(M.norm() > 0) ||
+      smallest_eigenvalue_bound(llt, n) <= tolerance)
+    diagnose_singular_mass(M, names, tolerance);
+  return llt;
+}
+
+}  // namespace modal::detail

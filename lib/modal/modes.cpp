@@ -1,0 +1,207 @@
+// lib/modal/modes.cpp — solve_modes(): validation, dispatch to the symmetric or
+// first-order solver, stability classification; the Mode helpers both solvers
+// share.
+#include "detail.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+namespace modal {
+namespace {
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+
+// Throws NumericalError when a matrix of the model has a non-finite entry,
+// naming the matrix and the first such entry.
+void require_finite(const MatrixX& A, const char* what) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i)
+      if (!std::isfinite(A(i, j))) {
+        std::ostringstream out;
+        out << "the " << what << " of the linear model has a non-finite entry (" << A(i, j) << " at row "
+            << i + 1 << ", column " << j + 1 << "): the model cannot be solved";
+        throw NumericalError(out.str());
+      }
+}
+
+// ‖A − Aᵀ‖_F ≤ tol·‖A‖_F with tol = 100·n·ε: symmetric up to the rounding of
+// an assembly by sums of n terms (with a margin).
+bool symmetric_within_rounding(const MatrixX& A) {
+  const double tol = 100.0 * static_cast<double>(A.rows()) * eps;
+  return (A - A.transpose()).norm() <= tol * A.norm();
+}
+
+MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
+
+// The model's coordinate names, or q1 … qn when it has none.
+std::vector<std::string> coordinate_labels(const LinearModel& model, Eigen::Index n) {
+  if (static_cast<Eigen::Index>(model.coordinates.size()) == n) return model.coordinates;
+  std::vector<std::string> names;
+  for (Eigen::Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
+  return names;
+}
+
+// D + G, or the n×n zero matrix when the model has neither. Empty (0×0)
+// matrices stand for zero; any other size than n×n is misuse.
+MatrixX velocity_matrix(const LinearModel& model, Eigen::Index n) {
+  MatrixX C = MatrixX::Zero(n, n);
+  auto add = [&](const MatrixX& A, const char* what) {
+    if (A.size() == 0) return;
+    if (A.rows() != n || A.cols() != n)
+      throw std::invalid_argument(std::string("solve_modes: the ") + what + " matrix is " +
+                                  std::to_string(A.rows()) + "×" + std::to_string(A.cols()) +
+                                  ", expected " + std::to_string(n) + "×" + std::to_string(n));
+    require_finite(A, what);
+    C += A;
+  };
+  add(model.D, "damping");
+  add(model.G, "gyroscopic");
+  return C;
+}
+
+}  // namespace
+
+const char* to_string(Stability s) {
+  switch (s) {
+    case Stability::asymptotically_stable: return "asymptotically stable";
+    case Stability::stable: return "stable";
+    case Stability::marginal: return "marginal";
+    case Stability::divergence: return "divergence";
+    case Stability::flutter: return "flutter";
+  }
+  return "unknown";
+}
+
+const char* to_string(ModeKind k) {
+  switch (k) {
+    case ModeKind::oscillatory: return "oscillatory";
+    case ModeKind::damped: return "damped";
+    case ModeKind::zero: return "zero";
+    case ModeKind::divergent: return "divergent";
+    case ModeKind::flutter: return "flutter";
+  }
+  return "unknown";
+}
+
+Stability classify(const std::vector<Mode>& modes) {
+  auto any = [&](ModeKind k) {
+    return std::any_of(modes.begin(), modes.end(), [k](const Mode& m) { return m.kind == k; });
+  };
+  if (any(ModeKind::divergent)) return Stability::divergence;
+  if (any(ModeKind::flutter)) return Stability::flutter;
+  if (any(ModeKind::zero)) return Stability::marginal;
+  if (!modes.empty() &&
+      std::all_of(modes.begin(), modes.end(), [](const Mode& m) { return m.kind == ModeKind::damped; }))
+    return Stability::asymptotically_stable;
+  return Stability::stable;
+}
+
+ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
+  const Eigen::Index n = model.M.rows();
+  if (model.M.cols() != n || model.K.rows() != n || model.K.cols() != n)
+    throw std::invalid_argument("solve_modes: M and K must be square and of the same size (M is " +
+                                std::to_string(model.M.rows()) + "×" + std::to_string(model.M.cols()) +
+                                ", K " + std::to_string(model.K.rows()) + "×" +
+                                std::to_string(model.K.cols()) + ")");
+  if (n == 0) {
+    ModalResult empty;
+    empty.solver = "none (no coordinates)";
+    return empty;
+  }
+  require_finite(model.M, "mass matrix M");
+  require_finite(model.K, "stiffness matrix K");
+  if (!symmetric_within_rounding(model.M))
+    throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
+  const MatrixX C = velocity_matrix(model, n);
+  const std::vector<std::string> names = coordinate_labels(model, n);
+
+  const MatrixX M = symmetric_part(model.M);
+  const detail::Cholesky mass = detail::factor_mass(M, names);
+
+  ModalResult result;
+  std::string asymmetric_note;
+  bool symmetric = model.symmetric() && C.isZero(0.0);
+  if (symmetric && !symmetric_within_rounding(model.K)) {
+    symmetric = false;
+    asymmetric_note =
+        "K is not symmetric although the model declares no circulatory forces; "
+        "solved as a general (first-order) problem";
+  }
+  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass)
+                     : detail::solve_first_order(M, model.K, C, mass);
+  if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
+
+  // Classify with every mode, then keep the lowest ones asked for.
+  result.stability = classify(result.modes);
+  if (options.modes >= 0 && static_cast<std::size_t>(options.modes) < result.modes.size())
+    result.modes.resize(static_cast<std::size_t>(options.modes));
+  return result;
+}
+
+namespace detail {
+
+Mode make_mode(std::complex<double> s, double error, ModeKind kind) {
+  Mode m;
+  m.omega2 = nan;
+  m.s = s;
+  m.growth_rate = s.real();
+  m.omega = s.imag();
+  m.frequency_hz = m.omega / (2 * std::numbers::pi);
+  m.period = m.omega > 0 ? 2 * std::numbers::pi / m.omega : std::numeric_limits<double>::infinity();
+  m.damping_ratio = (kind == ModeKind::zero || std::abs(s) == 0) ? nan : -s.real() / std::abs(s);
+  m.error_estimate = error;
+  m.kind = kind;
+  return m;
+}
+
+void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes) {
+  auto value = [&](const Mode& m) { return symmetric ? std::complex<double>(m.omega2, 0) : m.s; };
+  double scale = 0;
+  for (const Mode& m : modes) scale = std::max(scale, std::abs(value(m)));
+  auto close = [&](const Mode& a, const Mode& b) {
+    const double gap = std::abs(value(a) - value(b));
+    return gap <= a.error_estimate + b.error_estimate || gap <= 1e-8 * scale;
+  };
+  for (std::size_t first = 0; first < modes.size();) {
+    std::size_t last = first;
+    while (last + 1 < modes.size() && close(modes[last], modes[last + 1])) ++last;
+    if (last > first) {
+      std::ostringstream out;
+      out << "modes " << first + 1 << "–" << last + 1 << " share the eigenvalue ";
+      if (symmetric)
+        out << "λ ≈ " << format_number(modes[first].omega2, 10)
+            << ": their shapes are one M-orthonormal basis of the eigenspace, not unique "
+               "(any M-orthonormal combination of them is equally valid)";
+      else
+        out << "s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
+            << format_number(std::abs(modes[first].s.imag()), 8)
+            << "i: their shapes span the invariant subspace and are not unique; if the eigenvalue is "
+               "defective (coalescing modes, as at critical damping or at the onset of flutter) it is "
+               "accurate only to about the square root of the rounding level";
+      notes.push_back(out.str());
+    }
+    first = last + 1;
+  }
+}
+
+Eigen::Index dominant_index(const Eigen::VectorXcd& v) {
+  const double largest = v.cwiseAbs().maxCoeff();
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (std::abs(v(i)) >= largest * (1 - 1e-12)) return i;
+  return 0;
+}
+
+std::string format_number(double v, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+  return buffer;
+}
+
+}  // namespace detail
+}  // namespace modal

@@ -1,0 +1,141 @@
+// CSV writers of the report stage (DESIGN.md §4).
+#include "modal/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <ostream>
+
+namespace modal {
+
+namespace {
+
+std::string coordinate_name(const Report& report, std::size_t i) {
+  if (i < report.coordinates.size()) return report.coordinates[i];
+  return "q" + std::to_string(i + 1);
+}
+
+}  // namespace
+
+Report make_report(const System& system, std::string scene_file,
+                   std::vector<std::pair<std::string, double>> parameters) {
+  Report r;
+  r.scene_file = std::move(scene_file);
+  r.title = system.title();
+  r.parameters = std::move(parameters);
+  for (const Coordinate& c : system.coordinates()) {
+    r.coordinates.push_back(c.name);
+    r.kinds.push_back(c.kind);
+  }
+  return r;
+}
+
+const char* mode_stability(ModeKind kind) {
+  switch (kind) {
+    case ModeKind::oscillatory: return "stable";
+    case ModeKind::damped: return "asymptotically stable";
+    case ModeKind::zero: return "marginal";
+    case ModeKind::divergent: return "divergence";
+    case ModeKind::flutter: return "flutter";
+  }
+  return "unknown";
+}
+
+std::string csv_number(double value) {
+  if (!std::isfinite(value)) return {};
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+std::string csv_field(std::string_view text) {
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  quoted += '"';
+  return quoted;
+}
+
+void write_modes_csv(std::ostream& out, const Report& report) {
+  out << "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,damping_ratio,"
+         "stability,error_estimate\n";
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    const auto& modes = report.equilibria[e].result.modes;
+    for (std::size_t k = 0; k < modes.size(); ++k) {
+      const Mode& m = modes[k];
+      out << (e + 1) << ',' << (k + 1) << ',' << csv_number(m.omega2) << ','
+          << csv_number(m.growth_rate) << ',' << csv_number(m.omega) << ','
+          << csv_number(m.frequency_hz) << ',' << csv_number(m.period) << ','
+          << csv_number(m.damping_ratio) << ',' << csv_field(mode_stability(m.kind)) << ','
+          << csv_number(m.error_estimate) << '\n';
+    }
+  }
+}
+
+void write_shapes_csv(std::ostream& out, const Report& report) {
+  out << "equilibrium,mode,coordinate,value\n";
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    const auto& modes = report.equilibria[e].result.modes;
+    for (std::size_t k = 0; k < modes.size(); ++k) {
+      const Eigen::VectorXcd& shape = modes[k].shape;
+      for (Eigen::Index i = 0; i < shape.size(); ++i) {
+        out << (e + 1) << ',' << (k + 1) << ','
+            << csv_field(coordinate_name(report, static_cast<std::size_t>(i))) << ','
+            << csv_number(shape[i].real()) << '\n';
+      }
+    }
+  }
+}
+
+void write_equilibria_csv(std::ostream& out, const Report& report) {
+  std::size_t n = report.coordinates.size();
+  for (const auto& a : report.equilibria)
+    n = std::max(n, static_cast<std::size_t>(a.equilibrium.q.size()));
+  out << "equilibrium,stability,morse_index,potential,residual";
+  for (std::size_t i = 0; i < n; ++i) out << ',' << csv_field(coordinate_name(report, i));
+  out << '\n';
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    const AnalyzedEquilibrium& a = report.equilibria[e];
+    out << (e + 1) << ',' << csv_field(to_string(a.result.stability)) << ','
+        << a.result.morse_index << ',' << csv_number(a.equilibrium.potential) << ','
+        << csv_number(a.equilibrium.residual);
+    for (std::size_t i = 0; i < n; ++i) {
+      out << ',';
+      if (i < static_cast<std::size_t>(a.equilibrium.q.size()))
+        out << csv_number(a.equilibrium.q[static_cast<Eigen::Index>(i)]);
+    }
+    out << '\n';
+  }
+}
+
+void write_file(const std::string& path, void (*writer)(std::ostream&, const Report&),
+                const Report& report) {
+  std::ofstream file(path, std::ios::binary);
+  if (!file) throw ReportError(path + ": cannot open the file for writing");
+  writer(file, report);
+  file.flush();
+  if (!file) throw ReportError(path + ": writing failed");
+}
+
+void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary);
+  if (!file) throw ReportError(path + ": cannot open the file for writing");
+  file << text;
+  file.flush();
+  if (!file) throw ReportError(path + ": writing failed");
+}
+
+std::vector<std::string> write_csv_files(const std::string& prefix, const Report& report) {
+  std::vector<std::string> paths = {prefix + "_modes.csv", prefix + "_shapes.csv",
+                                    prefix + "_equilibria.csv"};
+  write_file(paths[0], write_modes_csv, report);
+  write_file(paths[1], write_shapes_csv, report);
+  write_file(paths[2], write_equilibria_csv, report);
+  return paths;
+}
+
+}  // namespace modal

@@ -1,0 +1,103 @@
+// JSON output of the report stage.
+#include "modal/report.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace modal {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+std::string coordinate_name(const Report& report, std::size_t i) {
+  if (i < report.coordinates.size()) return report.coordinates[i];
+  return "q" + std::to_string(i + 1);
+}
+
+Json header(const Report& report) {
+  Json j;
+  j["scene"] = report.scene_file;
+  j["title"] = report.title;
+  Json parameters = Json::object();
+  for (const auto& [name, value] : report.parameters) parameters[name] = value;
+  j["parameters"] = parameters;
+  j["coordinates"] = report.coordinates;
+  return j;
+}
+
+Json equilibrium_json(const Report& report, const Equilibrium& e) {
+  Json j;
+  Json q = Json::object();
+  for (Eigen::Index i = 0; i < e.q.size(); ++i)
+    q[coordinate_name(report, static_cast<std::size_t>(i))] = e.q[i];
+  j["coordinates"] = q;
+  j["potential"] = e.potential;
+  j["residual"] = e.residual;
+  j["residual_norm"] = e.residual_norm;
+  j["iterations"] = e.iterations;
+  return j;
+}
+
+Json mode_json(std::size_t index, const Mode& m) {
+  Json j;
+  j["mode"] = index + 1;
+  j["omega2"] = m.omega2;  // NaN (complex mode) is written as null
+  j["growth_rate"] = m.growth_rate;
+  j["omega"] = m.omega;
+  j["frequency_hz"] = m.frequency_hz;
+  j["period"] = m.period;  // ∞ (zero frequency) is written as null
+  j["damping_ratio"] = m.damping_ratio;
+  j["error_estimate"] = m.error_estimate;
+  j["kind"] = to_string(m.kind);
+  j["stability"] = mode_stability(m.kind);
+  std::vector<double> re, im;
+  bool complex = false;
+  for (Eigen::Index i = 0; i < m.shape.size(); ++i) {
+    re.push_back(m.shape[i].real());
+    im.push_back(m.shape[i].imag());
+    if (m.shape[i].imag() != 0) complex = true;
+  }
+  j["shape"] = re;
+  if (complex) j["shape_imag"] = im;
+  return j;
+}
+
+void add_result(Json& j, const ModalResult& r) {
+  j["stability"] = to_string(r.stability);
+  j["stability_description"] = describe_stability(r);
+  j["morse_index"] = r.morse_index;
+  j["zero_modes"] = r.zero_modes;
+  Json modes = Json::array();
+  for (std::size_t k = 0; k < r.modes.size(); ++k) modes.push_back(mode_json(k, r.modes[k]));
+  j["modes"] = modes;
+  j["solver"] = r.solver;
+  j["notes"] = r.notes;
+}
+
+}  // namespace
+
+std::string analysis_json(const Report& report) {
+  Json j = header(report);
+  if (!report.equilibria.empty()) {
+    const AnalyzedEquilibrium& a = report.equilibria.front();
+    j["equilibrium"] = equilibrium_json(report, a.equilibrium);
+    add_result(j, a.result);
+  }
+  return j.dump(2) + "\n";
+}
+
+std::string equilibria_json(const Report& report) {
+  Json j = header(report);
+  Json list = Json::array();
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    Json item;
+    item["index"] = e + 1;
+    item["equilibrium"] = equilibrium_json(report, report.equilibria[e].equilibrium);
+    add_result(item, report.equilibria[e].result);
+    list.push_back(item);
+  }
+  j["equilibria"] = list;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace modal

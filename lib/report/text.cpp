@@ -1,0 +1,285 @@
+// Human-readable output of the report stage.
+#include "modal/report.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <ostream>
+
+namespace modal {
+
+namespace {
+
+std::string coordinate_name(const Report& report, std::size_t i) {
+  if (i < report.coordinates.size()) return report.coordinates[i];
+  return "q" + std::to_string(i + 1);
+}
+
+bool is_angular(const Report& report, std::size_t i) {
+  return i < report.kinds.size() && report.kinds[i] != CoordinateKind::length;
+}
+
+// A number for a table: `digits` significant digits, "-" when it has no value.
+std::string num(double x, int digits = 10) {
+  if (std::isnan(x)) return "-";
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  return fmt::format("{:.{}g}", x, digits);
+}
+
+std::string sci(double x) {
+  if (!std::isfinite(x)) return num(x);
+  return fmt::format("{:.1e}", x);
+}
+
+const char* joint_name(JointType j) {
+  switch (j) {
+    case JointType::hinge: return "hinge";
+    case JointType::slide: return "slide";
+    case JointType::ball: return "ball";
+    case JointType::free: return "free";
+    case JointType::fixed: return "fixed";
+  }
+  return "?";
+}
+
+const char* kind_name(CoordinateKind k) {
+  switch (k) {
+    case CoordinateKind::angle: return "angle";
+    case CoordinateKind::length: return "length";
+    case CoordinateKind::rotation: return "rotation";
+  }
+  return "?";
+}
+
+std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x(), 6), num(v.y(), 6), num(v.z(), 6)); }
+
+std::size_t name_width(const Report& report, std::size_t n, std::size_t least) {
+  std::size_t w = least;
+  for (std::size_t i = 0; i < n; ++i) w = std::max(w, coordinate_name(report, i).size());
+  return w;
+}
+
+std::string parameter_line(const std::vector<std::pair<std::string, double>>& parameters) {
+  std::string line;
+  for (const auto& [name, value] : parameters) {
+    if (!line.empty()) line += ", ";
+    line += fmt::format("{} = {}", name, num(value, 12));
+  }
+  return line;
+}
+
+void print_header(std::ostream& out, const Report& report) {
+  out << (report.title.empty() ? std::string("(untitled scene)") : report.title) << '\n';
+  if (!report.scene_file.empty()) out << "scene: " << report.scene_file << '\n';
+  if (!report.parameters.empty()) out << "parameters: " << parameter_line(report.parameters) << '\n';
+}
+
+}  // namespace
+
+std::string describe_stability(const ModalResult& r) {
+  auto plural = [](int count, const char* word) {
+    return fmt::format("{} {}{}", count, word, count == 1 ? "" : "s");
+  };
+  std::string zero = r.zero_modes > 0
+                         ? fmt::format("; {} (rigid-body motion or an ignorable coordinate)",
+                                       plural(r.zero_modes, "zero-frequency mode"))
+                         : std::string();
+  switch (r.stability) {
+    case Stability::stable:
+      return "stable: every mode oscillates, none grows";
+    case Stability::asymptotically_stable:
+      return "asymptotically stable: every mode decays";
+    case Stability::marginal:
+      return fmt::format("marginal: {}, nothing grows",
+                         plural(r.zero_modes, "zero-frequency mode") +
+                             " (rigid-body motion or an ignorable coordinate)");
+    case Stability::divergence:
+      return fmt::format("divergence: statically unstable, Morse index {} ({} growing without oscillation){}",
+                         r.morse_index, plural(r.morse_index, "mode"), zero);
+    case Stability::flutter:
+      return fmt::format("flutter: dynamically unstable, an oscillation grows{}{}",
+                         r.morse_index > 0 ? fmt::format("; Morse index {}", r.morse_index) : "",
+                         zero);
+  }
+  return to_string(r.stability);
+}
+
+void print_analysis(std::ostream& out, const Report& report) {
+  print_header(out, report);
+  if (report.equilibria.empty()) {
+    out << "\nno equilibrium\n";
+    return;
+  }
+  const Equilibrium& e = report.equilibria.front().equilibrium;
+  const ModalResult& r = report.equilibria.front().result;
+  const std::size_t n = static_cast<std::size_t>(e.q.size());
+  const std::size_t w = name_width(report, n, 8);
+
+  out << "\nEquilibrium\n";
+  for (std::size_t i = 0; i < n; ++i) {
+    const double v = e.q[static_cast<Eigen::Index>(i)];
+    if (is_angular(report, i))
+      out << fmt::format("  {:<{}} = {:>22} rad  ({} deg)\n", coordinate_name(report, i), w,
+                         num(v, 15), num(v * 180 / std::numbers::pi, 10));
+    else
+      out << fmt::format("  {:<{}} = {:>22} m\n", coordinate_name(report, i), w, num(v, 15));
+  }
+  out << fmt::format("  {:<{}} = {:>22} J\n", "V", w, num(e.potential, 15));
+  out << fmt::format("  relative residual {} (|grad V - Q| = {}, {} Newton iterations)\n",
+                     sci(e.residual), sci(e.residual_norm), e.iterations);
+
+  out << "\nStability: " << describe_stability(r) << '\n';
+
+  // Columns: ω² always (negative shown negative, "-" where complex); σ when
+  // anything grows or decays; the damping ratio for first-order solutions.
+  const bool first_order = std::any_of(r.modes.begin(), r.modes.end(),
+                                       [](const Mode& m) { return std::isnan(m.omega2); });
+  const bool sigma = std::any_of(r.modes.begin(), r.modes.end(),
+                                 [](const Mode& m) { return m.growth_rate != 0; });
+  out << "\nModes";
+  if (!r.solver.empty()) out << " (" << r.solver << ")";
+  out << '\n';
+  auto row = [&](std::string mode, std::string omega2, std::string growth, std::string omega,
+                 std::string f, std::string period, std::string zeta, std::string error,
+                 std::string kind) {
+    std::string line = fmt::format("  {:>4}  {:>20}", mode, omega2);
+    if (sigma) line += fmt::format("  {:>18}", growth);
+    line += fmt::format("  {:>18}  {:>16}  {:>16}", omega, f, period);
+    if (first_order) line += fmt::format("  {:>13}", zeta);
+    line += fmt::format("  {:>9}  {}\n", error, kind);
+    out << line;
+  };
+  row("mode", "omega^2 [rad2/s2]", "sigma [1/s]", "omega [rad/s]", "f [Hz]", "period [s]",
+      "damping ratio", "error", "kind");
+  for (std::size_t k = 0; k < r.modes.size(); ++k) {
+    const Mode& m = r.modes[k];
+    row(std::to_string(k + 1), num(m.omega2), num(m.growth_rate), num(m.omega), num(m.frequency_hz),
+        num(m.period), num(m.damping_ratio, 6), sci(m.error_estimate), to_string(m.kind));
+  }
+  if (r.modes.empty()) out << "  (none)\n";
+
+  // Shapes: only for small systems, where a table is readable.
+  const std::size_t shown = std::min<std::size_t>(r.modes.size(), 8);
+  if (shown > 0 && n <= 12) {
+    out << "\nMode shapes (real part" << (first_order ? "" : ", M-normalized") << ")\n";
+    out << fmt::format("  {:<{}}", "coordinate", std::max<std::size_t>(w, 10));
+    for (std::size_t k = 0; k < shown; ++k) out << fmt::format("  {:>12}", fmt::format("mode {}", k + 1));
+    out << '\n';
+    for (std::size_t i = 0; i < n; ++i) {
+      out << fmt::format("  {:<{}}", coordinate_name(report, i), std::max<std::size_t>(w, 10));
+      for (std::size_t k = 0; k < shown; ++k) {
+        const auto& s = r.modes[k].shape;
+        const double v = static_cast<Eigen::Index>(i) < s.size() ? s[static_cast<Eigen::Index>(i)].real()
+                                                                  : std::nan("");
+        out << fmt::format("  {:>12}", num(v, 6));
+      }
+      out << '\n';
+    }
+    if (shown < r.modes.size()) out << fmt::format("  ({} more modes in the CSV/JSON output)\n", r.modes.size() - shown);
+  }
+
+  if (!r.notes.empty()) {
+    out << "\nNotes\n";
+    for (const std::string& note : r.notes) out << "  - " << note << '\n';
+  }
+}
+
+void print_equilibria(std::ostream& out, const Report& report) {
+  print_header(out, report);
+  out << fmt::format("\n{} equilibri{} found\n", report.equilibria.size(),
+                     report.equilibria.size() == 1 ? "um" : "a");
+  if (report.equilibria.empty()) return;
+  std::size_t n = report.coordinates.size();
+  out << fmt::format("  {:>3}  {:<21}  {:>5}  {:>22}  {:>9}", "#", "stability", "morse", "V [J]",
+                     "residual");
+  for (std::size_t i = 0; i < n; ++i) {
+    std::string name = coordinate_name(report, i);
+    if (is_angular(report, i)) name += " [deg]";
+    out << fmt::format("  {:>14}", name);
+  }
+  out << '\n';
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    const AnalyzedEquilibrium& a = report.equilibria[e];
+    out << fmt::format("  {:>3}  {:<21}  {:>5}  {:>22}  {:>9}", e + 1, to_string(a.result.stability),
+                       a.result.morse_index, num(a.equilibrium.potential, 15),
+                       sci(a.equilibrium.residual));
+    for (std::size_t i = 0; i < n; ++i) {
+      double v = i < static_cast<std::size_t>(a.equilibrium.q.size())
+                     ? a.equilibrium.q[static_cast<Eigen::Index>(i)]
+                     : std::nan("");
+      if (is_angular(report, i)) v *= 180 / std::numbers::pi;
+      out << fmt::format("  {:>14}", num(v, 8));
+    }
+    out << '\n';
+  }
+  bool any_notes = false;
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e)
+    for (const std::string& note : report.equilibria[e].result.notes) {
+      if (!any_notes) out << "\nNotes\n";
+      any_notes = true;
+      out << fmt::format("  - equilibrium {}: {}\n", e + 1, note);
+    }
+}
+
+void print_summary(std::ostream& out, const std::string& scene_file,
+                   const std::vector<std::pair<std::string, double>>& parameters,
+                   const System& system) {
+  out << (system.title().empty() ? std::string("(untitled scene)") : system.title()) << '\n';
+  out << "scene: " << scene_file << "  (valid)\n";
+
+  out << fmt::format("\nParameters ({})\n", parameters.size());
+  for (const auto& [name, value] : parameters) out << fmt::format("  {:<16} = {}\n", name, num(value, 15));
+
+  const auto& bodies = system.bodies();
+  auto body_name = [&](int index) -> std::string {
+    return index < 0 ? std::string("world") : bodies[static_cast<std::size_t>(index)].name;
+  };
+  double total_mass = 0;
+  out << fmt::format("\nBodies ({})\n", bodies.size());
+  if (!bodies.empty())
+    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", "name", "joint", "parent", "mass [kg]",
+                       "coordinates");
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    total_mass += body.mass;
+    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", body.name, joint_name(body.joint),
+                       body_name(body.parent), num(body.mass, 10),
+                       system.joint_size(static_cast<int>(b)));
+  }
+
+  const auto& coords = system.coordinates();
+  out << fmt::format("\nCoordinates ({})\n", coords.size());
+  for (const Coordinate& c : coords)
+    out << fmt::format("  {:<16}  {:<8}  initial {}\n", c.name, kind_name(c.kind), num(c.initial, 12));
+
+  out << fmt::format("\nSprings ({})\n", system.springs().size());
+  for (const Spring& s : system.springs())
+    out << fmt::format("  {} {} -- {} {}: stiffness {} N/m, rest length {} m{}\n", body_name(s.a.body),
+                       vec(s.a.point), body_name(s.b.body), vec(s.b.point), num(s.stiffness, 10),
+                       num(s.rest_length, 10),
+                       s.damping != 0 ? fmt::format(", damping {} N s/m", num(s.damping, 10)) : "");
+  std::size_t joint_springs = 0;
+  for (const Body& body : bodies)
+    if (body.stiffness != 0 || body.damping != 0) ++joint_springs;
+  if (joint_springs > 0) {
+    out << fmt::format("  joint springs/dampers on {} bod{}:\n", joint_springs,
+                       joint_springs == 1 ? "y" : "ies");
+    for (const Body& body : bodies)
+      if (body.stiffness != 0 || body.damping != 0)
+        out << fmt::format("    {}: stiffness {}, damping {}\n", body.name, num(body.stiffness, 10),
+                           num(body.damping, 10));
+  }
+
+  out << fmt::format("\nLoads ({})\n", system.loads().size());
+  for (const DeadLoad& l : system.loads())
+    out << fmt::format("  {} at {}: force {} N (dead load)\n", body_name(l.at.body), vec(l.at.point),
+                       vec(l.force));
+
+  out << fmt::format("\nTotal mass: {} kg\n", num(total_mass, 12));
+  out << fmt::format("Gravity: {} m/s^2\n", vec(system.gravity()));
+  out << fmt::format("Damping: {}\n", system.has_damping() ? "yes" : "none");
+}
+
+}  // namespace modal

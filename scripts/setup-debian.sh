@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs everything modal needs on Debian 12 (bookworm) from Debian's packages.
+# Runs apt-get as root, or through sudo when started by another user.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev        # dense linear algebra, Eigen 3.4
+  libspectra-dev       # sparse/iterative eigen-solvers, Spectra 1.0
+  libnlopt-cxx-dev     # NLopt with its C++ API (equilibrium searches)
+  libgsl-dev           # GSL: ODE integration (energy conservation, simulation)
+  libcli11-dev         # command line
+  libtomlplusplus-dev  # scene files (TOML)
+  libfmt-dev           # text tables
+  nlohmann-json3-dev   # JSON output
+  libgtest-dev libgmock-dev  # tests
+  libbenchmark-dev     # benchmarks
+)
+
+if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
+# Only touch apt when something is missing, so repeated runs are fast and offline-safe.
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all dependencies are installed"
+fi

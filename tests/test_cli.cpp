@@ -1,0 +1,485 @@
+// End-to-end tests of the `modal` program: each test runs the built binary
+// (MODAL_BINARY) on the models in MODAL_SOURCE_DIR/models or on scenes written
+// into a temporary directory, and checks exit statuses, messages and the CSV /
+// JSON files it writes against closed forms (REFERENCES.md).
+//
+// Tolerances. The CSV files hold %.17g numbers, so what is compared is the
+// program's own double. The reference values are closed forms evaluated in
+// double (error ~1e-15). The eigen-solutions are of well-conditioned dense
+// problems of size ≤ 40 (stiffness ratios ≤ ~1e3), for which the backward-
+// stable symmetric-definite solver gives eigenvalues to ~1e-13 relative. 1e-9
+// relative therefore leaves four orders of margin for round-off while still
+// catching any modelling error (a wrong mass or length changes ω by ≥ 1e-3).
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Eigenvalues>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
+
+struct Outcome {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+using Row = std::map<std::string, std::string>;
+
+// Splits one CSV record (RFC 4180, no embedded line breaks).
+std::vector<std::string> fields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        out.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        out.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.emplace_back();
+    } else {
+      out.back() += c;
+    }
+  }
+  return out;
+}
+
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<Row> rows;
+};
+
+Csv read_csv(const fs::path& p) {
+  Csv csv;
+  std::ifstream in(p);
+  EXPECT_TRUE(in.good()) << "missing " << p;
+  std::string line;
+  if (!std::getline(in, line)) return csv;
+  csv.header = fields(line);
+  while (std::getline(in, line)) {
+    const auto f = fields(line);
+    EXPECT_EQ(f.size(), csv.header.size()) << p << ": " << line;
+    Row row;
+    for (std::size_t i = 0; i < f.size() && i < csv.header.size(); ++i) row[csv.header[i]] = f[i];
+    csv.rows.push_back(row);
+  }
+  return csv;
+}
+
+double number(const Row& row, const std::string& column) {
+  const auto it = row.find(column);
+  EXPECT_NE(it, row.end()) << "no column " << column;
+  if (it == row.end() || it->second.empty()) return std::nan("");
+  return std::strtod(it->second.c_str(), nullptr);
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  fs::path dir;
+
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir = fs::temp_directory_path() /
+          ("modal_cli_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir);
+  }
+
+  Outcome run(const std::vector<std::string>& args) const {
+    std::string cmd = quote(MODAL_BINARY);
+    for (const auto& a : args) cmd += " " + quote(a);
+    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+    cmd += " >" + quote(out.string()) + " 2>" + quote(err.string());
+    const int raw = std::system(cmd.c_str());
+    Outcome r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  std::string write(const std::string& name, const std::string& text) const {
+    const fs::path p = dir / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+  std::string prefix(const std::string& name = "P") const { return (dir / name).string(); }
+};
+
+// Checks |actual − expected| ≤ tol·|expected|.
+#define EXPECT_REL(actual, expected, tol)                                          \
+  EXPECT_LE(std::abs((actual) - (expected)), (tol) * std::abs(expected))           \
+      << "actual " << (actual) << ", expected " << (expected)
+
+// --- R1: double pendulum (Kibble & Berkshire eq. 11.21, REFERENCES.md R1) -----
+
+TEST_F(Cli, R1DoublePendulumAllFourRows) {
+  struct Case { double m1, m2, l1, l2; };
+  const Case cases[] = {{1, 1, 1, 1}, {2, 1, 1, 1}, {1, 2, 1, 1}, {1, 1, 1, 2}};
+  const double g = 1;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(::testing::Message() << "m1=" << c.m1 << " m2=" << c.m2 << " l1=" << c.l1 << " l2=" << c.l2);
+    auto s = [](double v) { std::ostringstream o; o.precision(17); o << v; return o.str(); };
+    const Outcome r = run({"analyze", models + "double_pendulum.toml", "--set", "m1=" + s(c.m1), "--set",
+                       "m2=" + s(c.m2), "--set", "l1=" + s(c.l1), "--set", "l2=" + s(c.l2), "--set",
+                       "g=1", "--csv", prefix()});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double mt = c.m1 + c.m2, ls = c.l1 + c.l2;
+    const double root = std::sqrt(mt * (mt * ls * ls - 4 * c.m1 * c.l1 * c.l2));
+    const double w2[2] = {g / (2 * c.m1 * c.l1 * c.l2) * (mt * ls - root),
+                          g / (2 * c.m1 * c.l1 * c.l2) * (mt * ls + root)};
+    const Csv modes = read_csv(prefix() + "_modes.csv");
+    ASSERT_EQ(modes.rows.size(), 2u);
+    for (int k = 0; k < 2; ++k) {
+      const Row& row = modes.rows[static_cast<std::size_t>(k)];
+      EXPECT_EQ(row.at("equilibrium"), "1");
+      EXPECT_EQ(row.at("mode"), std::to_string(k + 1));
+      EXPECT_REL(number(row, "omega"), std::sqrt(w2[k]), 1e-9);
+      EXPECT_REL(number(row, "omega2"), w2[k], 1e-9);
+      EXPECT_REL(number(row, "period"), 2 * std::numbers::pi / std::sqrt(w2[k]), 1e-9);
+      EXPECT_EQ(row.at("stability"), "stable");
+    }
+    const Csv eq = read_csv(prefix() + "_equilibria.csv");
+    ASSERT_EQ(eq.rows.size(), 1u);
+    EXPECT_EQ(eq.rows[0].at("stability"), "stable");
+    EXPECT_EQ(eq.rows[0].at("morse_index"), "0");
+    // Hanging equilibrium: V = −g(m1 l1 + m2 (l1 + l2)) with the pivot at V = 0.
+    EXPECT_REL(number(eq.rows[0], "potential"), -g * (c.m1 * c.l1 + c.m2 * (c.l1 + c.l2)), 1e-12);
+  }
+}
+
+TEST_F(Cli, R1TablePrintedValues) {
+  // The printed table has 10 significant digits: REFERENCES.md's ω1, ω2 for row 1.
+  const Outcome r = run({"analyze", models + "double_pendulum.toml"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("0.7653668647"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1.847759065"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stable"), std::string::npos);
+}
+
+// --- R2: spring–mass chain (Morin, Waves, ch. 2) ------------------------------
+
+TEST_F(Cli, R2SpringChainFrequenciesAndShapes) {
+  const double k = 3, m = 0.5;  // sqrt(k/m) = sqrt(6): not 1, so a k/m mix-up shows
+  const Outcome r = run({"analyze", models + "spring_chain.toml", "--set", "k=3", "--set", "m=0.5", "--csv",
+                     prefix()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const int N = 3;
+  const Csv modes = read_csv(prefix() + "_modes.csv");
+  ASSERT_EQ(modes.rows.size(), 3u);
+  for (int j = 1; j <= N; ++j) {
+    const double w = 2 * std::sqrt(k / m) * std::sin(j * std::numbers::pi / (2 * (N + 1)));
+    EXPECT_REL(number(modes.rows[static_cast<std::size_t>(j - 1)], "omega"), w, 1e-9);
+  }
+  // Shapes φ_j(n) ∝ sin(n j π/(N+1)); M = m I on slides, so M-normalized means
+  // m Σφ² = 1, and the sign convention makes the largest |component| positive.
+  const Csv shapes = read_csv(prefix() + "_shapes.csv");
+  ASSERT_EQ(shapes.rows.size(), 9u);
+  EXPECT_EQ(shapes.header, (std::vector<std::string>{"equilibrium", "mode", "coordinate", "value"}));
+  for (int j = 1; j <= N; ++j) {
+    Eigen::Vector3d ref, got;
+    for (int n = 1; n <= N; ++n) ref[n - 1] = std::sin(n * j * std::numbers::pi / (N + 1));
+    ref /= std::sqrt(m * ref.squaredNorm());
+    Eigen::Index big;
+    ref.cwiseAbs().maxCoeff(&big);
+    if (ref[big] < 0) ref = -ref;
+    for (const Row& row : shapes.rows)
+      if (row.at("mode") == std::to_string(j)) {
+        const std::string name = row.at("coordinate");
+        ASSERT_EQ(name.rfind("mass", 0), 0u) << name;
+        got[std::stoi(name.substr(4)) - 1] = number(row, "value");
+      }
+    // Shapes are eigenvectors of well-separated eigenvalues (gap/‖K‖ ≳ 0.3), so
+    // their error is ~eps/gap: 1e-9 absolute on O(1) components is ample.
+    EXPECT_LE((got - ref).norm(), 1e-9) << "mode " << j << ": " << got.transpose() << " vs "
+                                        << ref.transpose();
+  }
+}
+
+// --- R3: hanging chain (discrete: Laguerre zeros; continuum: Bessel zeros) ----
+
+// Zeros of the Laguerre polynomial L_N: eigenvalues of its symmetric tridiagonal
+// Jacobi matrix, diagonal 2i+1, off-diagonal i (Golub–Welsch), ascending.
+Eigen::VectorXd laguerre_zeros(int N) {
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(N, N);
+  for (int i = 0; i < N; ++i) J(i, i) = 2 * i + 1;
+  for (int i = 1; i < N; ++i) J(i, i - 1) = J(i - 1, i) = i;
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(J, Eigen::EigenvaluesOnly).eigenvalues();
+}
+
+// A hanging chain of N point-mass links, in the format of models/hanging_chain.toml.
+std::string chain_scene(int N) {
+  return "title = \"Hanging chain, " + std::to_string(N) + " links\"\n"
+         "gravity = [0, 0, \"-g\"]\n[parameters]\nL = 1.0\nM = 1.0\ng = 9.81\n"
+         "[[chain]]\nname = \"link\"\nlinks = " + std::to_string(N) + "\n"
+         "length = \"L\"\nmass = \"M\"\nmass_model = \"point\"\naxis = [0, 1, 0]\ndirection = [0, 0, -1]\n";
+}
+
+TEST_F(Cli, R3HangingChainLaguerreZeros) {
+  // models/hanging_chain.toml: N = 20, L = 1, g = 9.81 (its [parameters]).
+  const int N = 20;
+  const double L = 1, g = 9.81, a = L / N;
+  const Outcome r = run({"analyze", models + "hanging_chain.toml", "--modes", "5", "--csv", prefix()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv modes = read_csv(prefix() + "_modes.csv");
+  ASSERT_EQ(modes.rows.size(), 5u);  // --modes 5
+  const Eigen::VectorXd x = laguerre_zeros(N);
+  for (int k = 0; k < 5; ++k)
+    EXPECT_REL(number(modes.rows[static_cast<std::size_t>(k)], "omega2"), g / a * x[k], 1e-9)
+        << "mode " << k + 1;
+  // The shapes file has N rows per reported mode.
+  EXPECT_EQ(read_csv(prefix() + "_shapes.csv").rows.size(), 5u * N);
+}
+
+TEST_F(Cli, R3HangingChainConvergesToBessel) {
+  // Continuum limit ω_k = (j0,k/2) sqrt(g/L) (REFERENCES.md R3); point-mass
+  // links converge as O(1/N): doubling N should roughly halve the error.
+  const double half_j0[3] = {1.202412778848, 2.760039055143, 4.326863956456};
+  const double g = 9.81, L = 1;
+  std::vector<std::array<double, 3>> errors;
+  for (int N : {10, 20, 40}) {
+    const std::string scene = write("chain" + std::to_string(N) + ".toml", chain_scene(N));
+    const Outcome r = run({"analyze", scene, "--modes", "3", "--csv", prefix("C" + std::to_string(N))});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const Csv modes = read_csv(prefix("C" + std::to_string(N)) + "_modes.csv");
+    ASSERT_EQ(modes.rows.size(), 3u);
+    // Each discrete chain also matches its own Laguerre zeros to 1e-9.
+    const Eigen::VectorXd x = laguerre_zeros(N);
+    std::array<double, 3> e{};
+    for (int k = 0; k < 3; ++k) {
+      const double w = number(modes.rows[static_cast<std::size_t>(k)], "omega");
+      EXPECT_REL(w, std::sqrt(g * N / L * x[k]), 1e-9);
+      const double exact = half_j0[k] * std::sqrt(g / L);
+      e[static_cast<std::size_t>(k)] = std::abs(w - exact) / exact;
+    }
+    errors.push_back(e);
+  }
+  for (std::size_t k = 0; k < 3; ++k)
+    for (std::size_t i = 0; i + 1 < errors.size(); ++i) {
+      const double ratio = errors[i][k] / errors[i + 1][k];
+      // O(1/N): ratio → 2 as N grows; [1.6, 2.4] tolerates the O(1/N²) terms at N = 10.
+      EXPECT_GT(ratio, 1.6) << "mode " << k + 1 << ", step " << i;
+      EXPECT_LT(ratio, 2.4) << "mode " << k + 1 << ", step " << i;
+    }
+}
+
+// --- equilibria, stability --------------------------------------------------
+
+TEST_F(Cli, DoublePendulumHasFourEquilibria) {
+  const std::string file = prefix("eq") + ".csv";
+  const Outcome r = run({"equilibria", models + "double_pendulum.toml", "--csv", file});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv eq = read_csv(file);
+  EXPECT_EQ(eq.header, (std::vector<std::string>{"equilibrium", "stability", "morse_index", "potential",
+                                                 "residual", "upper", "lower"}));
+  ASSERT_EQ(eq.rows.size(), 4u) << r.out;
+  std::vector<int> morse;
+  for (const Row& row : eq.rows) {
+    morse.push_back(std::stoi(row.at("morse_index")));
+    EXPECT_EQ(row.at("stability"), morse.back() == 0 ? "stable" : "divergence");
+    EXPECT_LE(number(row, "residual"), 1e-10);
+  }
+  std::sort(morse.begin(), morse.end());
+  EXPECT_EQ(morse, (std::vector<int>{0, 1, 1, 2}));  // REFERENCES.md R1
+  EXPECT_NE(r.out.find("4 equilibria"), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, InvertedPendulumDiverges) {
+  // V = m g l cos θ about the top: λ = −g/l, kept negative (DESIGN.md §1).
+  const double g = 9.81, l = 2;
+  const Outcome r = run({"analyze", models + "inverted_pendulum.toml", "--set", "l=2", "--csv", prefix(),
+                     "--json", prefix() + ".json"});
+  ASSERT_EQ(r.status, 0) << r.err;  // unstable is not a failure without --require-stable
+  const Csv modes = read_csv(prefix() + "_modes.csv");
+  ASSERT_EQ(modes.rows.size(), 1u);
+  EXPECT_REL(number(modes.rows[0], "omega2"), -g / l, 1e-9);
+  EXPECT_REL(number(modes.rows[0], "growth_rate"), std::sqrt(g / l), 1e-9);
+  EXPECT_EQ(modes.rows[0].at("stability"), "divergence");
+  EXPECT_EQ(modes.rows[0].at("period"), "");  // ω = 0: infinite period, empty field
+  const Csv eq = read_csv(prefix() + "_equilibria.csv");
+  ASSERT_EQ(eq.rows.size(), 1u);
+  EXPECT_EQ(eq.rows[0].at("stability"), "divergence");
+  EXPECT_EQ(eq.rows[0].at("morse_index"), "1");
+  EXPECT_NE(r.out.find("divergence"), std::string::npos);
+
+  const Outcome strict = run({"analyze", models + "inverted_pendulum.toml", "--require-stable"});
+  EXPECT_EQ(strict.status, 3) << strict.err;
+  EXPECT_NE(strict.err.find("unstable"), std::string::npos) << strict.err;
+
+  const Outcome fine = run({"analyze", models + "double_pendulum.toml", "--require-stable"});
+  EXPECT_EQ(fine.status, 0) << fine.err;
+}
+
+TEST_F(Cli, AtSelectsAnEquilibrium) {
+  // Both rods up, (π, 0) in relative angles: Morse index 2.
+  const Outcome r = run({"analyze", models + "double_pendulum.toml", "--at", "3.141592653589793,0", "--csv",
+                     prefix()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv eq = read_csv(prefix() + "_equilibria.csv");
+  ASSERT_EQ(eq.rows.size(), 1u);
+  EXPECT_EQ(eq.rows[0].at("morse_index"), "2");
+  EXPECT_REL(std::abs(number(eq.rows[0], "upper")), std::numbers::pi, 1e-12);
+  const Csv modes = read_csv(prefix() + "_modes.csv");
+  ASSERT_EQ(modes.rows.size(), 2u);
+  EXPECT_LT(number(modes.rows[0], "omega2"), 0);
+  EXPECT_LT(number(modes.rows[1], "omega2"), 0);
+}
+
+// --- errors and exit statuses ------------------------------------------------
+
+TEST_F(Cli, MalformedScenesExit2WithFileAndLine) {
+  const std::string bad = write("bad.toml", "title = \"bad\"\n\n[[body]]\nname = \"a\"\njoint = \"hinge\"\nmass = -1\n");
+  Outcome r = run({"analyze", bad});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(std::regex_search(r.err, std::regex("bad\\.toml:6:[0-9]+: .*mass"))) << r.err;
+
+  const std::string syntax = write("syntax.toml", "title = \"bad\"\n[[body]\nname = \"a\"\n");
+  r = run({"check", syntax});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(std::regex_search(r.err, std::regex("syntax\\.toml:2:[0-9]+"))) << r.err;
+
+  r = run({"analyze", (dir / "no_such_file.toml").string()});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("no_such_file.toml"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, BadSetAndAtExit2) {
+  Outcome r = run({"analyze", models + "double_pendulum.toml", "--set", "m1"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--set"), std::string::npos) << r.err;
+
+  r = run({"analyze", models + "double_pendulum.toml", "--set", "nosuch=1"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("nosuch"), std::string::npos) << r.err;
+
+  r = run({"analyze", models + "double_pendulum.toml", "--at", "0.1"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("2 comma-separated"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("upper, lower"), std::string::npos) << r.err;
+
+  r = run({"analyze", models + "double_pendulum.toml", "--at", "0.1,abc"});
+  EXPECT_EQ(r.status, 2);
+
+  r = run({"analyze", models + "double_pendulum.toml", "--at", "0.3,0.2"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("not an equilibrium"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("nearest equilibrium"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, UsageErrorsExit1) {
+  EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--no-such-option"}).status, 1);
+  EXPECT_EQ(run({"frobnicate"}).status, 1);
+  EXPECT_EQ(run({}).status, 1);
+  EXPECT_EQ(run({"analyze"}).status, 1);  // SCENE missing
+  EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--modes", "many"}).status, 1);
+}
+
+TEST_F(Cli, FreeBodyUnderGravityHasNoEquilibrium) {
+  const std::string scene = write(
+      "free.toml", "title = \"falling\"\n[[body]]\nname = \"b\"\njoint = \"free\"\nmass = 1\ninertia = [1, 1, 1, 0, 0, 0]\n");
+  const Outcome r = run({"analyze", scene});
+  EXPECT_EQ(r.status, 4) << r.out << r.err;
+  EXPECT_NE(r.err.find("numerical failure"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("no equilibrium"), std::string::npos) << r.err;
+}
+
+// --- outputs -------------------------------------------------------------------
+
+TEST_F(Cli, JsonHasTheWholeResult) {
+  const std::string file = prefix() + ".json";
+  const Outcome r = run({"analyze", models + "double_pendulum.toml", "--json", file});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(slurp(file));
+  EXPECT_EQ(j["title"], "Planar double pendulum (point masses)");
+  EXPECT_EQ(j["coordinates"], (std::vector<std::string>{"upper", "lower"}));
+  EXPECT_EQ(j["parameters"]["g"].get<double>(), 1.0);
+  EXPECT_EQ(j["stability"], "stable");
+  ASSERT_EQ(j["modes"].size(), 2u);
+  // R1 row 1: ω² = 2 ∓ √2.
+  EXPECT_REL(j["modes"][0]["omega2"].get<double>(), 2 - std::numbers::sqrt2, 1e-9);
+  EXPECT_REL(j["modes"][1]["omega2"].get<double>(), 2 + std::numbers::sqrt2, 1e-9);
+  EXPECT_EQ(j["modes"][0]["shape"].size(), 2u);
+  EXPECT_TRUE(j["equilibrium"]["coordinates"].contains("upper"));
+  EXPECT_TRUE(j["solver"].is_string());
+  EXPECT_TRUE(j["notes"].is_array());
+
+  const std::string all = prefix("all") + ".json";
+  ASSERT_EQ(run({"equilibria", models + "double_pendulum.toml", "--json", all}).status, 0);
+  EXPECT_EQ(nlohmann::json::parse(slurp(all))["equilibria"].size(), 4u);
+}
+
+TEST_F(Cli, CheckSummarizes) {
+  const Outcome r = run({"check", models + "double_pendulum.toml", "--set", "m2=3"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Planar double pendulum"), std::string::npos);
+  EXPECT_NE(r.out.find("Total mass: 4 kg"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("upper"), std::string::npos);
+  EXPECT_NE(r.out.find("hinge"), std::string::npos);
+}
+
+TEST_F(Cli, TimingReportsEveryStage) {
+  const Outcome r = run({"analyze", models + "double_pendulum.toml", "--timing"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* stage : {"parse+build", "equilibrium", "linearize", "eigen", "report", "total"})
+    EXPECT_NE(r.err.find(stage), std::string::npos) << stage << "\n" << r.err;
+}
+
+TEST_F(Cli, VersionAndHelp) {
+  Outcome r = run({"--version"});
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.out.rfind("modal ", 0), 0u) << r.out;
+  r = run({"--help"});
+  EXPECT_EQ(r.status, 0);
+  for (const char* cmd : {"analyze", "equilibria", "check"})
+    EXPECT_NE(r.out.find(cmd), std::string::npos) << r.out;
+  for (const char* cmd : {"analyze", "equilibria", "check"}) {
+    r = run({cmd, "--help"});
+    EXPECT_EQ(r.status, 0) << cmd;
+    EXPECT_NE(r.out.find("--set"), std::string::npos) << r.out;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,194 @@
+// The bundled models through the whole library pipeline (scene → System →
+// equilibrium → linear model → modes) against the closed forms of
+// ../shared/REFERENCES.md. Tolerance 1e-9 relative on frequencies, as the
+// issue asks; in addition every eigenvalue's own error estimate must cover its
+// actual error against the closed form (plus the rounding of the closed form).
+#include "modal/equilibrium.hpp"
+#include "modal/linearize.hpp"
+#include "modal/modes.hpp"
+#include "modal/scene.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+namespace {
+
+using namespace modal;
+constexpr double kRel = 1e-9;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+struct Analysis {
+  ModalResult modes;
+  Equilibrium equilibrium;
+  LinearModel model;
+};
+
+Analysis analyze(const std::string& model, const std::vector<ParameterOverride>& set = {}) {
+  const Scene scene = load_scene(std::string(MODAL_SOURCE_DIR) + "/models/" + model, set);
+  const System sys = build_system(scene);
+  Analysis a;
+  a.equilibrium = find_equilibrium(sys, sys.initial_configuration());
+  a.model = linearize(sys, a.equilibrium.q);
+  a.modes = solve_modes(a.model);
+  return a;
+}
+
+// |λ − λ_ref| within the reported error estimate (and the closed form's own rounding).
+void expect_within_estimate(const Mode& m, double lambda_ref) {
+  EXPECT_LE(std::abs(m.omega2 - lambda_ref), m.error_estimate + 8 * kEps * std::abs(lambda_ref))
+      << "omega2 " << m.omega2 << " reference " << lambda_ref << " estimate " << m.error_estimate;
+}
+
+TEST(References, R1DoublePendulumAllTableRows) {
+  struct Row { double m1, m2, l1, l2, w1, w2; };
+  // REFERENCES.md R1 (g = 1); the closed form is evaluated below, the table's
+  // 10-digit values are checked to their own precision.
+  const Row rows[] = {{1, 1, 1, 1, 0.7653668647, 1.8477590650},
+                      {2, 1, 1, 1, 0.7962252170, 1.5381890013},
+                      {1, 2, 1, 1, 0.7419637843, 2.3344142183},
+                      {1, 1, 1, 2, 0.6180339887, 1.6180339887}};
+  for (const Row& r : rows) {
+    const auto s = [](double v) { return std::to_string(v); };
+    const Analysis a = analyze("double_pendulum.toml",
+                               {{"m1", s(r.m1)}, {"m2", s(r.m2)}, {"l1", s(r.l1)}, {"l2", s(r.l2)}, {"g", "1"}});
+    const double M = r.m1 + r.m2, L = r.l1 + r.l2;
+    const double root = std::sqrt(M * (M * L * L - 4 * r.m1 * r.l1 * r.l2));
+    const double lam[2] = {(M * L - root) / (2 * r.m1 * r.l1 * r.l2), (M * L + root) / (2 * r.m1 * r.l1 * r.l2)};
+    ASSERT_EQ(a.modes.modes.size(), 2u);
+    EXPECT_EQ(a.modes.stability, Stability::stable);
+    for (int i = 0; i < 2; ++i) {
+      const Mode& m = a.modes.modes[static_cast<std::size_t>(i)];
+      EXPECT_NEAR(m.omega, std::sqrt(lam[i]), kRel * std::sqrt(lam[i]));
+      EXPECT_NEAR(m.omega, i == 0 ? r.w1 : r.w2, 6e-11);  // the table's 10 decimals
+      expect_within_estimate(m, lam[i]);
+    }
+  }
+}
+
+TEST(References, R1DoublePendulumHasFourEquilibriaWithMorseIndices0112) {
+  const System sys = build_system(load_scene(std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.toml"));
+  const auto all = find_equilibria(sys);
+  ASSERT_EQ(all.size(), 4u);
+  std::vector<int> morse;
+  for (const Equilibrium& e : all) {
+    EXPECT_LE(e.residual, 1e-12);
+    morse.push_back(solve_modes(linearize(sys, e.q)).morse_index);
+  }
+  // Sorted by potential: both down, then the two with one rod up, then both up.
+  EXPECT_EQ(morse, (std::vector<int>{0, 1, 1, 2}));
+}
+
+TEST(References, R2SpringChain) {
+  // ω_j = 2 sqrt(k/m) sin(jπ/(2(N+1))), φ_j(n) ∝ sin(n j π/(N+1)), N = 3 (Morin, Waves, ch. 2).
+  const double k = 3.0, m = 2.0;
+  const Analysis a = analyze("spring_chain.toml", {{"k", "3"}, {"m", "2"}});
+  ASSERT_EQ(a.modes.modes.size(), 3u);
+  for (int j = 1; j <= 3; ++j) {
+    const Mode& mode = a.modes.modes[static_cast<std::size_t>(j - 1)];
+    const double w = 2 * std::sqrt(k / m) * std::sin(j * std::numbers::pi / 8);
+    EXPECT_NEAR(mode.omega, w, kRel * w);
+    expect_within_estimate(mode, w * w);
+    Eigen::Vector3d ref;
+    for (int n = 1; n <= 3; ++n) ref[n - 1] = std::sin(n * j * std::numbers::pi / 4);
+    const Eigen::Vector3d shape = mode.shape.real();
+    // Same direction: |cos| = 1 to rounding of the eigenvectors (well separated eigenvalues).
+    EXPECT_NEAR(std::abs(shape.dot(ref)) / (shape.norm() * ref.norm()), 1.0, 1e-12);
+  }
+}
+
+// Zeros of the Laguerre polynomial L_N: eigenvalues of its symmetric tridiagonal
+// Jacobi matrix (Golub–Welsch), diagonal 2i+1 (i = 0…N−1), off-diagonal i (i = 1…N−1).
+Eigen::VectorXd laguerre_zeros(int N) {
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(N, N);
+  for (int i = 0; i < N; ++i) J(i, i) = 2 * i + 1;
+  for (int i = 1; i < N; ++i) J(i, i - 1) = J(i - 1, i) = i;
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(J).eigenvalues();
+}
+
+TEST(References, R3DiscreteHangingChainMatchesLaguerreZeros) {
+  // N equal point masses on N massless links of length a, hanging: linearizing
+  // in the horizontal displacements, the tension below mass i is (N − i) m g and
+  // the eigenproblem is the Laguerre recurrence, so ω_k² = (g/a) x_k with x_k the
+  // zeros of L_N (N = 1: x = 1, ω² = g/a; N = 2: x = 2 ∓ √2, which is R1).
+  const int N = 20;
+  const double g = 9.81, L = 1.0, a = L / N;
+  const Analysis an = analyze("hanging_chain.toml");
+  const Eigen::VectorXd x = laguerre_zeros(N);
+  ASSERT_EQ(an.modes.modes.size(), static_cast<std::size_t>(N));
+  for (int k = 0; k < N; ++k) {
+    const double lam = g / a * x[k];
+    const Mode& m = an.modes.modes[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(m.omega2, lam, kRel * lam) << "mode " << k + 1;
+    // The reference itself comes from a 20×20 eigen-solve: allow its rounding.
+    EXPECT_LE(std::abs(m.omega2 - lam), m.error_estimate + 1e3 * kEps * lam) << "mode " << k + 1;
+  }
+}
+
+TEST(References, R3HangingChainConvergesToBesselZerosAsOneOverN) {
+  // REFERENCES.md R3: ω_k → (j₀,k/2) sqrt(g/L); point masses at the link ends
+  // converge as O(1/N), so doubling N halves the error.
+  const double bessel_half[3] = {1.202412778848, 2.760039055143, 4.326863956456};
+  const double g = 9.81, L = 1.0;
+  double previous[3] = {0, 0, 0};
+  for (int N : {10, 20, 40, 80}) {
+    const Analysis a = analyze("hanging_chain.toml", {{"N", std::to_string(N)}});
+    for (int k = 0; k < 3; ++k) {
+      const double exact = bessel_half[k] * std::sqrt(g / L);
+      const double error = std::abs(a.modes.modes[static_cast<std::size_t>(k)].omega - exact) / exact;
+      if (previous[k] > 0) {
+        // Higher modes reach the asymptotic rate later (mode 3: ratio 1.64 from
+        // N = 10 to 20); by 40 → 80 every ratio is within 5 % of 2.
+        const double ratio = previous[k] / error;
+        const double slack = N == 80 ? 0.1 : 0.4;
+        EXPECT_GT(ratio, 2 - slack) << "N = " << N << " mode " << k + 1;
+        EXPECT_LT(ratio, 2 + slack) << "N = " << N << " mode " << k + 1;
+      }
+      previous[k] = error;
+    }
+  }
+  EXPECT_LT(previous[0], 5e-3);  // N = 80: within 0.5 % of the continuum
+}
+
+TEST(References, InvertedPendulumIsDivergentWithNegativeOmega2) {
+  const Analysis a = analyze("inverted_pendulum.toml");
+  ASSERT_EQ(a.modes.modes.size(), 1u);
+  EXPECT_NEAR(std::abs(a.equilibrium.q[0]), 0.0, 1e-12);  // the top, where it started
+  EXPECT_EQ(a.modes.stability, Stability::divergence);
+  EXPECT_EQ(a.modes.morse_index, 1);
+  EXPECT_NEAR(a.modes.modes[0].omega2, -9.81, kRel * 9.81);  // λ = −g/l, never |λ|
+  EXPECT_EQ(a.modes.modes[0].kind, ModeKind::divergent);
+}
+
+TEST(References, SphericalPendulumHasADoubleSwingModeAndAZeroSpinMode) {
+  // Sphere of radius r at distance l: ω² = m g l / (m l² + 2/5 m r²), twice;
+  // spin about the rod: no stiffness, a zero mode, so the class is marginal.
+  const double m = 1, l = 1, r = 0.1, g = 9.81;
+  const double lam = m * g * l / (m * l * l + 0.4 * m * r * r);
+  const Analysis a = analyze("spherical_pendulum.toml");
+  ASSERT_EQ(a.modes.modes.size(), 3u);
+  EXPECT_EQ(a.modes.stability, Stability::marginal);
+  EXPECT_EQ(a.modes.zero_modes, 1);
+  EXPECT_EQ(a.modes.modes[0].kind, ModeKind::zero);
+  for (int i = 1; i <= 2; ++i) EXPECT_NEAR(a.modes.modes[static_cast<std::size_t>(i)].omega2, lam, kRel * lam);
+  // The two swing shapes of the double eigenvalue are M-orthonormal.
+  const Eigen::Vector3d p = a.modes.modes[1].shape.real(), q = a.modes.modes[2].shape.real();
+  EXPECT_NEAR(p.dot(a.model.M * q), 0.0, 1e-12);
+  EXPECT_NEAR(p.dot(a.model.M * p), 1.0, 1e-12);
+}
+
+TEST(References, SeesawTiltAndFrequency) {
+  // Beam balance: tan θ = Σ m s / (h Σ m) (tilt towards the heavier side),
+  // ω² = g sqrt((Σ m s)² + (h Σ m)²) / Σ m (s² + h²) — see models/seesaw.toml.
+  const double m1 = 1, m2 = 2, s1 = -0.5, s2 = 0.4, h = 0.3, g = 9.81;
+  const double ms = m1 * s1 + m2 * s2, mh = h * (m1 + m2), I = m1 * (s1 * s1 + h * h) + m2 * (s2 * s2 + h * h);
+  const Analysis a = analyze("seesaw.toml");
+  EXPECT_NEAR(std::abs(std::tan(a.equilibrium.q[0])), std::abs(ms / mh), 1e-12);
+  EXPECT_NEAR(a.modes.modes[0].omega2, g * std::hypot(ms, mh) / I, kRel * g * std::hypot(ms, mh) / I);
+}
+
+}  // namespace
