@@ -114,6 +114,7 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
   Polished out;
   VectorX q = canonical_coordinates(s, q0);
   double best_rel = std::numeric_limits<double>::infinity();
+  int refinements = 0;
   for (int it = 0;; ++it) {
     q = canonical_coordinates(s, q);  // the same configuration; keeps rotation vectors away from |φ| = 2π
     const VectorX r = p.residual(q);
@@ -124,10 +125,22 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       best_rel = rel;
       out.best = record(p, q, rnorm, rel, it);
     }
-    if (rel <= options.tolerance) {
+    if (rel <= options.tolerance && !out.converged) {
       out.converged = true;
       out.best = record(p, q, rnorm, rel, it);
-      return out;
+    }
+    if (out.converged) {
+      // Accepted. Newton converges quadratically here, so a few more full
+      // steps usually bring the residual to rounding level; keep each only
+      // while it halves the residual.
+      if (refinements++ == 3 || rnorm == 0.0) return out;
+      const MatrixX& j = p.jacobian(q);
+      const VectorX d = newton_step(j, r, p.symmetric_jacobian());
+      const VectorX qt = q + d;
+      const VectorX& rt = p.residual(qt);
+      if (!finite(d) || !finite(rt) || rt.norm() > 0.5 * rnorm) return out;
+      q = qt;
+      continue;
     }
     if (it >= options.max_iterations) return out;
     const MatrixX& j = p.jacobian(q);

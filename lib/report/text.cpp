@@ -127,8 +127,8 @@ void print_analysis(std::ostream& out, const Report& report) {
       out << fmt::format("  {:<{}} = {:>22} m\n", coordinate_name(report, i), w, num(v, 15));
   }
   out << fmt::format("  {:<{}} = {:>22} J\n", "V", w, num(e.potential, 15));
-  out << fmt::format("  relative residual {} (|grad V - Q| = {}, {} Newton iterations)\n",
-                     sci(e.residual), sci(e.residual_norm), e.iterations);
+  out << fmt::format("  relative residual {} (|grad V - Q| = {}, {} Newton iteration{})\n",
+                     sci(e.residual), sci(e.residual_norm), e.iterations, e.iterations == 1 ? "" : "s");
 
   out << "\nStability: " << describe_stability(r) << '\n';
 
