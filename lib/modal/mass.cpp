@@ -62,13 +62,15 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   std::ostringstream out;
   out << "the combination ";
   bool first = true;
-  for (Eigen::Index i : terms) {
+  const std::size_t shown = std::min<std::size_t>(terms.size(), 6);  // a message, not a dump
+  for (Eigen::Index i : std::vector<Eigen::Index>(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(shown))) {
     const double c = v(i);
     if (!first) out << (c < 0 ? " − " : " + ");
     else if (c < 0) out << "−";
     out << format_number(std::abs(c), 2) << "·" << names[static_cast<std::size_t>(i)];
     first = false;
   }
+  if (terms.size() > shown) out << " + … (" << terms.size() - shown << " more coordinates)";
   return out.str();
 }
 
@@ -87,15 +89,18 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   const bool indefinite = values(0) < -tolerance;
   out << "the mass matrix is " << (indefinite ? "not positive definite" : "singular")
       << " at this configuration: ";
-  int listed = 0;
-  for (Eigen::Index j = 0; j < values.size() && (j == 0 || values(j) <= tolerance); ++j, ++listed) {
+  Eigen::Index null_dimension = 1;
+  while (null_dimension < values.size() && values(null_dimension) <= tolerance) ++null_dimension;
+  const Eigen::Index listed = std::min<Eigen::Index>(null_dimension, 3);
+  for (Eigen::Index j = 0; j < listed; ++j) {
     if (j > 0) out << "; ";
     out << describe_combination(eig.eigenvectors().col(j), names)
         << (values(j) < -tolerance ? " has negative inertia" : " has no inertia") << " (eigenvalue "
         << format_number(values(j), 2) << " of largest " << format_number(largest, 3) << ")";
   }
-  if (listed > 1)
-    out << " (a " << listed << "-dimensional null space: any basis of it describes it equally well)";
+  if (null_dimension > listed) out << "; and " << null_dimension - listed << " more such directions";
+  if (null_dimension > 1)
+    out << " (a " << null_dimension << "-dimensional null space: any basis of it describes it equally well)";
   out << (indefinite ? "; negative mass or inertia in the model, which is inconsistent"
                      : "; a coordinate singularity (e.g. a rotation vector at a gimbal-lock point, "
                        "aligned hinge axes) or a body without mass or inertia");
@@ -106,10 +111,13 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names) {
   const Eigen::Index n = M.rows();
-  // Relative tolerance for "singular": an eigenvalue below n·ε·‖M‖ is at the
-  // level of the rounding committed in assembling M (sums of n terms), so it is
-  // indistinguishable from zero. ‖M‖_F ≥ ‖M‖₂ keeps the test on the safe side.
-  const double tolerance = static_cast<double>(n) * eps * M.norm();
+  // Relative tolerance for "singular": an eigenvalue below 16·ε·‖M‖ is at the
+  // level of the rounding in M's entries, so it cannot be told from zero. Not
+  // n·ε: a long chain's M is genuinely positive definite with condition
+  // numbers of 1e12 and more (link masses and lengths shrink as 1/N), and
+  // Cholesky factors it stably; the error estimates of the modes then say how
+  // much accuracy the conditioning costs. ‖M‖_F ≥ ‖M‖₂ keeps the test safe.
+  const double tolerance = 16 * eps * M.norm();
   Cholesky llt(M);
   if (llt.info() != Eigen::Success || !(M.norm() > 0) ||
       smallest_eigenvalue_bound(llt, n) <= tolerance)
