@@ -366,8 +366,34 @@ TEST(Core, DampersDissipateAtTheRateQdotQ) {
   EXPECT_LT(-qd.dot(D * qd), 0.0);
 }
 
-TEST(Core, CanonicalCoordinatesWrapAnglesAndRotations) {
+// everything_tree() without joint springs: its hinge and ball coordinates are periodic.
+System periodic_tree() {
+  const System t = everything_tree();
+  SystemDescription d;
+  d.gravity = t.gravity();
+  d.bodies = t.bodies();
+  for (Body& b : d.bodies) b.stiffness = 0;
+  d.springs = t.springs();
+  d.loads = t.loads();
+  return System(d);
+}
+
+TEST(Core, JointSpringsMakeCoordinatesNonPeriodic) {
+  // V = ½k(θ − rest)² differs at θ and θ + 2π: such coordinates are not wrapped.
   const System s = everything_tree();
+  EXPECT_FALSE(s.coordinates()[0].periodic);  // hinge with a spring
+  EXPECT_FALSE(s.coordinates()[1].periodic);  // ball with a spring
+  EXPECT_TRUE(s.coordinates()[5].periodic);   // hinge without one
+  VectorX q = VectorX::Zero(s.size());
+  q[0] = 5.0;
+  EXPECT_EQ(canonical_coordinates(s, q)[0], 5.0);
+  VectorX r = q;
+  r[0] -= 2 * std::numbers::pi;
+  EXPECT_NEAR(configuration_distance(s, q, r), 2 * std::numbers::pi, 1e-12);
+}
+
+TEST(Core, CanonicalCoordinatesWrapAnglesAndRotations) {
+  const System s = periodic_tree();
   VectorX q = VectorX::Zero(s.size());
   q[0] = 3 * std::numbers::pi / 2;                // hinge → −π/2
   q.segment<3>(1) = Vec3(0, 0, 1.5 * std::numbers::pi);  // rotation of 3π/2 about z → −π/2 about z

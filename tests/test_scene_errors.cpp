@@ -86,7 +86,7 @@ TEST(scene_errors, BodyNamesAndParents) {
 TEST(scene_errors, PhysicallyMeaninglessValues) {
   check_error(pendulum + "[[body]]\nname = \"q\"\njoint = \"hinge\"\nmass = -2\n",
               {8, 8, "body[2].mass", "must be non-negative, got -2"});
-  check_error(pendulum + "axis = [0, 0, 0]\n", {5, 8, "body[1].axis", "must be a nonzero direction, got [0, 0, 0]"});
+  check_error(pendulum + "axis = [0, 0, 0]\n", {5, 8, "body[1].axis", "must be a nonzero finite direction, got [0, 0, 0]"});
   check_error(pendulum + "inertia = [1, 1, 1, 2, 0, 0]\n",
               {5, 11, "body[1].inertia", "not positive semidefinite (principal moments -1, 1, 3 kg·m²)"});
   check_error(pendulum + "inertia = [1, 1, 3, 0, 0, 0]\n",

@@ -137,15 +137,15 @@ modal::Equilibrium equilibrium_at(const modal::System& sys, const modal::VectorX
                                relative, nearest));
 }
 
-int run_analyze(const SceneOptions& so, int modes, const std::string& at, const std::string& csv,
+int run_analyze(const SceneOptions& so, int modes, const std::optional<std::string>& at, const std::string& csv,
                 const std::string& json, bool require_stable, bool timing) {
   Stopwatch clock;
   const modal::Scene scene = load(so);
   const modal::System sys = modal::build_system(scene);
   clock.lap("parse+build");
 
-  const modal::Equilibrium eq = at.empty() ? modal::find_equilibrium(sys, sys.initial_configuration())
-                                           : equilibrium_at(sys, parse_at(at, sys));
+  const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration())
+                                    : equilibrium_at(sys, parse_at(*at, sys));
   clock.lap("equilibrium");
   const modal::LinearModel lin = modal::linearize(sys, eq.q);
   clock.lap("linearize");
@@ -216,7 +216,8 @@ int main(int argc, char** argv) {
   add_scene_options(analyze, analyze_scene);
   analyze->add_option("--modes", modes, "number of lowest modes to report (default: all)")
       ->check(CLI::PositiveNumber);
-  analyze->add_option("--at", at, "analyze the equilibrium at this point: q1,q2,... (one value per coordinate)");
+  CLI::Option* at_option =
+      analyze->add_option("--at", at, "analyze the equilibrium at this point: q1,q2,... (one value per coordinate)");
   analyze->add_option("--csv", analyze_csv, "write PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv")
       ->type_name("PREFIX");
   analyze->add_option("--json", analyze_json, "write the whole result as JSON")->type_name("FILE");
@@ -247,7 +248,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*analyze)
-      return run_analyze(analyze_scene, modes, at, analyze_csv, analyze_json, require_stable, timing);
+      return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing);
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene);
     return usage;

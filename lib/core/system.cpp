@@ -20,6 +20,26 @@ int joint_coordinate_count(JointType t) {
   return 0;
 }
 
+const char* to_string(JointType t) {
+  switch (t) {
+    case JointType::hinge: return "hinge";
+    case JointType::slide: return "slide";
+    case JointType::ball: return "ball";
+    case JointType::free: return "free";
+    case JointType::fixed: return "fixed";
+  }
+  return "?";
+}
+
+const char* to_string(CoordinateKind k) {
+  switch (k) {
+    case CoordinateKind::angle: return "angle";
+    case CoordinateKind::length: return "length";
+    case CoordinateKind::rotation: return "rotation";
+  }
+  return "?";
+}
+
 namespace {
 
 void require(bool ok, const std::string& what) {
@@ -58,7 +78,8 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     if (body.damping > 0) has_damping_ = true;
 
     auto add = [&](const std::string& suffix, CoordinateKind kind, int i) {
-      coords_.push_back({body.name + suffix, kind, static_cast<int>(b), body.initial[i]});
+      const bool periodic = kind != CoordinateKind::length && body.stiffness == 0.0;
+      coords_.push_back({body.name + suffix, kind, static_cast<int>(b), body.initial[i], periodic});
     };
     switch (body.joint) {
       case JointType::hinge: add("", CoordinateKind::angle, 0); break;
@@ -151,6 +172,7 @@ VectorX canonical_coordinates(const System& s, const VectorX& q) {
   const auto& coords = s.coordinates();
   for (int i = 0; i < s.size(); ++i) {
     const auto& c = coords[static_cast<std::size_t>(i)];
+    if (!c.periodic) continue;
     if (c.kind == CoordinateKind::angle) {
       r[i] = wrap_angle(q[i]);
     } else if (c.kind == CoordinateKind::rotation && (i == 0 || coords[static_cast<std::size_t>(i - 1)].kind != CoordinateKind::rotation ||
@@ -167,8 +189,8 @@ double configuration_distance(const System& s, const VectorX& a, const VectorX& 
   double d2 = 0;
   for (int i = 0; i < s.size();) {
     const auto& c = coords[static_cast<std::size_t>(i)];
-    if (c.kind == CoordinateKind::angle) {
-      const double d = wrap_angle(ca[i] - cb[i]);
+    if (c.kind == CoordinateKind::angle || (c.kind == CoordinateKind::rotation && !c.periodic)) {
+      const double d = c.periodic ? wrap_angle(ca[i] - cb[i]) : ca[i] - cb[i];
       d2 += d * d;
       ++i;
     } else if (c.kind == CoordinateKind::length) {

@@ -80,11 +80,14 @@ std::vector<VectorX> starting_points(const System& s, int halton_count) {
     for (int i = 0; i < n; ++i) {
       const double u = radical_inverse(j, primes[static_cast<std::size_t>(i)]);
       const Coordinate& c = s.coordinates()[static_cast<std::size_t>(i)];
+      // Periodic angles cover one turn; angles of joints with springs two
+      // turns each way (their equilibria need not lie within one turn).
       q[i] = c.kind == CoordinateKind::length ? c.initial + (2 * u - 1) * 2 * s.length_scale()
-                                              : (2 * u - 1) * std::numbers::pi;
+             : c.periodic                     ? (2 * u - 1) * std::numbers::pi
+                                              : (2 * u - 1) * 2 * std::numbers::pi;
     }
     for (int i = 0; i < n; ++i) {
-      if (!starts_rotation_vector(s, i)) continue;
+      if (!starts_rotation_vector(s, i) || !s.coordinates()[static_cast<std::size_t>(i)].periodic) continue;
       const double len = q.segment<3>(i).norm();
       if (len > std::numbers::pi) q.segment<3>(i) *= std::numbers::pi / len;
     }
@@ -170,19 +173,16 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   }
   for (const DeadLoad& l : s.loads()) at(l.at);
   // A joint spring sees the joint value itself: those coordinates join the
-  // signature (angles as L·(cos, sin), rotation components and lengths as
-  // canonical values, all in lengths comparable with L).
+  // signature as values scaled to lengths comparable with L.
   const VectorX c = canonical_coordinates(s, q);
   const double L = s.length_scale();
   for (std::size_t b = 0; b < s.bodies().size(); ++b) {
     if (s.bodies()[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
     for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) {
+      // A joint with a spring is not periodic: its value itself, not modulo 2π.
       const CoordinateKind kind = s.coordinates()[static_cast<std::size_t>(i)].kind;
-      if (kind == CoordinateKind::angle)
-        pts.emplace_back(L * std::cos(c[i]), L * std::sin(c[i]), 0.0);
-      else
-        pts.emplace_back(kind == CoordinateKind::length ? c[i] : L * c[i], 0.0, 0.0);
+      pts.emplace_back(kind == CoordinateKind::length ? c[i] : L * c[i], 0.0, 0.0);
     }
   }
   VectorX v(3 * static_cast<Eigen::Index>(pts.size()));

@@ -21,9 +21,14 @@
 //     |M_ij|), the standard deviation of δλ is
 //     2ε·sqrt(Σ_ij (x_i K_ij x_j)² + λ² Σ_ij (x_i M_ij x_j)²),
 //     and the estimate takes twice that. The worst case Σ|x_i K_ij x_j| (or the
-//     normwise (‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper
+//     normwise n·ε·(‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper
 //     modes of a 1000-link chain by four to seven orders of magnitude, because
 //     a mode with many sign changes sums many entries with cancellation.
+//     Entries that are themselves the result of cancellation (a zero mode:
+//     the spin of a body whose stiffness terms cancel exactly) carry an
+//     absolute error of about ε·‖K‖ rather than ε·|K_ij|; a normwise floor
+//     4ε·(‖K‖_F + |λ|‖M‖_F)·‖x‖² covers them, so that such an eigenvalue is a
+//     zero mode and not a divergent one with a rounding-size sign.
 //
 // A zero mode is one with |λ| ≤ its estimate: it cannot be told from 0.
 #include "detail.hpp"
@@ -71,7 +76,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double l = lambda(j);
     const double x2 = Phi.col(j).squaredNorm();
     const double residual_bound = LR.col(j).norm() / LtPhi.col(j).norm();
-    const double data_bound = 4 * eps * std::sqrt(S.col(j).dot(K2S.col(j)) + l * l * S.col(j).dot(M2S.col(j)));
+    const double data_bound = 4 * eps * std::sqrt(S.col(j).dot(K2S.col(j)) + l * l * S.col(j).dot(M2S.col(j))) +
+                              4 * eps * (normK + std::abs(l) * normM) * x2;
     const double error = residual_bound + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);

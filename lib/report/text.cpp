@@ -33,25 +33,6 @@ std::string sci(double x) {
   return fmt::format("{:.1e}", x);
 }
 
-const char* joint_name(JointType j) {
-  switch (j) {
-    case JointType::hinge: return "hinge";
-    case JointType::slide: return "slide";
-    case JointType::ball: return "ball";
-    case JointType::free: return "free";
-    case JointType::fixed: return "fixed";
-  }
-  return "?";
-}
-
-const char* kind_name(CoordinateKind k) {
-  switch (k) {
-    case CoordinateKind::angle: return "angle";
-    case CoordinateKind::length: return "length";
-    case CoordinateKind::rotation: return "rotation";
-  }
-  return "?";
-}
 
 std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x(), 6), num(v.y(), 6), num(v.z(), 6)); }
 
@@ -244,7 +225,7 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     total_mass += body.mass;
-    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", body.name, joint_name(body.joint),
+    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", body.name, to_string(body.joint),
                        body_name(body.parent), num(body.mass, 10),
                        system.joint_size(static_cast<int>(b)));
   }
@@ -252,7 +233,7 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   const auto& coords = system.coordinates();
   out << fmt::format("\nCoordinates ({})\n", coords.size());
   for (const Coordinate& c : coords)
-    out << fmt::format("  {:<16}  {:<8}  initial {}\n", c.name, kind_name(c.kind), num(c.initial, 12));
+    out << fmt::format("  {:<16}  {:<8}  initial {}\n", c.name, to_string(c.kind), num(c.initial, 12));
 
   out << fmt::format("\nSprings ({})\n", system.springs().size());
   for (const Spring& s : system.springs())

@@ -198,10 +198,11 @@ Vec3 Section::required_vector3(std::string_view name) const {
 
 Vec3 Section::unit_vector(std::string_view name, const Vec3& fallback) const {
   const Vec3 v = vector3(name, fallback);
-  const double norm = v.norm();
-  if (!(norm > 1e-12)) fail(name, "must be a nonzero direction, got [" + format_number(v.x()) + ", " +
-                                      format_number(v.y()) + ", " + format_number(v.z()) + "]");
-  return v / norm;
+  const double norm = v.stableNorm();  // no overflow for components near 1e308
+  if (!(norm > 1e-12) || !std::isfinite(norm))
+    fail(name, "must be a nonzero finite direction, got [" + format_number(v.x()) + ", " + format_number(v.y()) + ", " +
+                   format_number(v.z()) + "]");
+  return (v / norm).normalized();
 }
 
 std::string Section::string(std::string_view name, const std::string& fallback) const {

@@ -74,13 +74,8 @@ using scene_detail::Reader;
 using scene_detail::Section;
 using scene_detail::format_number;
 
-constexpr std::array<std::pair<std::string_view, JointType>, 5> joint_types{{
-    {"hinge", JointType::hinge},
-    {"slide", JointType::slide},
-    {"ball", JointType::ball},
-    {"free", JointType::free},
-    {"fixed", JointType::fixed},
-}};
+constexpr std::array<JointType, 5> joint_types{JointType::hinge, JointType::slide, JointType::ball,
+                                                JointType::free, JointType::fixed};
 
 std::string index_key(std::string_view array, std::size_t index) {
   return std::string(array) + "[" + std::to_string(index + 1) + "]";
@@ -145,11 +140,11 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   if (b.name == "world") s.fail("name", "'world' is reserved for the fixed frame; choose another name");
 
   const std::string joint = s.required_string("joint");
-  const auto type = std::find_if(joint_types.begin(), joint_types.end(), [&](const auto& t) { return t.first == joint; });
+  const auto type = std::find_if(joint_types.begin(), joint_types.end(), [&](JointType t) { return to_string(t) == joint; });
   if (type == joint_types.end())
     s.fail("joint", "unknown joint type '" + joint + "'; expected hinge, slide, ball, free or fixed" +
                         did_you_mean(joint, {"hinge", "slide", "ball", "free", "fixed"}));
-  b.joint = type->second;
+  b.joint = *type;
   const bool has_axis = b.joint == JointType::hinge || b.joint == JointType::slide;
   const bool has_spring = has_axis || b.joint == JointType::ball;
   const bool has_initial = b.joint != JointType::fixed;

@@ -59,6 +59,9 @@ enum class JointType { hinge, slide, ball, free, fixed };
 // Number of generalized coordinates of a joint: hinge, slide 1; ball 3; free 6; fixed 0.
 int joint_coordinate_count(JointType type);
 
+// The scene-file word for a joint type: "hinge", "slide", "ball", "free", "fixed".
+const char* to_string(JointType type);
+
 // What a coordinate measures; decides wrapping and search ranges.
 enum class CoordinateKind {
   angle,     // hinge angle, rad, periodic with period 2π
@@ -66,11 +69,17 @@ enum class CoordinateKind {
   rotation,  // component of a rotation vector (ball, free), rad
 };
 
+const char* to_string(CoordinateKind kind);  // "angle", "length", "rotation"
+
 struct Coordinate {
   std::string name;  // hinge/slide: body name; ball: body.rx|ry|rz; free: body.x|y|z|rx|ry|rz
   CoordinateKind kind = CoordinateKind::angle;
   int body = -1;       // index of the body whose joint owns the coordinate
   double initial = 0;  // starting value for searches
+  // Whether q and q + 2π (angles; rotation vectors of length differing by 2π)
+  // are the same configuration for the energy. A joint spring ½k(q − rest)²
+  // makes its joint's coordinates non-periodic: θ and θ + 2π then differ.
+  bool periodic = false;
 };
 
 // A point fixed to a body (point in the body frame) or to the world (body = -1,
@@ -211,12 +220,13 @@ struct Pose {
 };
 std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q);
 
-// Coordinates brought to their canonical chart: hinge angles to (−π, π],
-// rotation vectors to length ≤ π (the same rotation). Used to compare
-// configurations and to report them.
+// Coordinates brought to their canonical chart: periodic hinge angles to
+// (−π, π], periodic rotation vectors to length ≤ π (the same rotation); joints
+// with springs are left as they are. Used to compare and report configurations.
 VectorX canonical_coordinates(const System& s, const VectorX& q);
-// Distance between configurations after canonicalization (angles modulo 2π,
-// rotations by their geodesic angle, translations divided by the length scale).
+// Distance between configurations after canonicalization (periodic angles
+// modulo 2π, periodic rotations by their geodesic angle, translations divided
+// by the length scale, other coordinates by their difference).
 double configuration_distance(const System& s, const VectorX& a, const VectorX& b);
 
 }  // namespace modal
