@@ -11,7 +11,7 @@ modal="$build/modal"
 out=results/chain_analyze.md
 [ -x "$modal" ] || { echo "no $modal: build first" >&2; exit 1; }
 
-sizes=(10 100 300 1000 2000)
+sizes=(10 100 300 1000)
 repeats=3
 {
   echo "# \`modal analyze\` on hanging chains"
