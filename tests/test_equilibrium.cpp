@@ -306,4 +306,37 @@ TEST(Equilibrium, SystemWithoutCoordinatesIsItsOwnEquilibrium) {
   EXPECT_EQ(all[0].q.size(), 0);
 }
 
+TEST(Equilibrium, AFamilyOfEquilibriaIsReportedOnce) {
+  // Two masses on slides along x joined by a spring of rest length L, nothing
+  // else: every rigid translation of an equilibrium is one too. The energy has
+  // two families, x_b − x_a = +L (as written) and x_b − x_a = −L (the ends
+  // passed through each other); each must be one row, not one per start.
+  const double L = 1.0;
+  SystemDescription d;
+  d.gravity = Vec3(0, 0, -9.81);  // perpendicular to the slides: no effect
+  for (int i = 0; i < 2; ++i) {
+    Body b;
+    b.name = i == 0 ? "a" : "b";
+    b.joint = JointType::slide;
+    b.axis = Vec3::UnitX();
+    b.origin = Vec3(i * L, 0, 0);
+    b.mass = 1;
+    d.bodies.push_back(b);
+  }
+  Spring sp;
+  sp.a = {0, Vec3::Zero()};
+  sp.b = {1, Vec3::Zero()};
+  sp.stiffness = 10;
+  sp.rest_length = L;
+  d.springs.push_back(sp);
+  const System s(d);
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  ASSERT_EQ(all.size(), 2u);
+  std::vector<double> separations;
+  for (const Equilibrium& e : all) separations.push_back(L + e.q[1] - e.q[0]);
+  std::sort(separations.begin(), separations.end());
+  EXPECT_NEAR(separations[0], -L, 1e-12);
+  EXPECT_NEAR(separations[1], L, 1e-12);
+}
+
 }  // namespace

@@ -260,8 +260,25 @@ std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q,
   return r.best;
 }
 
+namespace {
+
+// Overflow is not "no equilibrium": say so before searching.
+void require_finite_energy(const System& s, const VectorX& q) {
+  Workspace w(s);
+  const double v = potential(s, w, q);
+  const VectorX& g = potential_gradient(s, w, q);
+  if (std::isfinite(v) && g.allFinite()) return;
+  throw NumericalError("the potential energy" + std::string(std::isfinite(v) ? "'s gradient" : "") +
+                       " is not finite at the initial configuration: it overflows double precision "
+                       "(a mass, stiffness, load or length too large, e.g. beyond 1e150 in SI units); "
+                       "rescale the scene's units");
+}
+
+}  // namespace
+
 Equilibrium find_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
+  require_finite_energy(s, start);
   Problem p(s);
   const VectorX local = levenberg_marquardt(p, start, options);
   Polished pol = polish(p, local, options);
@@ -286,6 +303,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
 }
 
 std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptions& options) {
+  require_finite_energy(s, s.initial_configuration());
   Problem p(s);
   SearchResult all = search(p, options);
   if (all.found.empty()) throw NumericalError(no_equilibrium_message(p, all.best_failure, all.starts));

@@ -190,6 +190,28 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   return v;
 }
 
+// Whether a and b lie on one straight family of equilibria (a free
+// translation, a neutral slide, a rotation about a symmetry axis written as a
+// hinge): equal potential, and the segment between them (angles the short way
+// round) is made of equilibria. A curved family fails the segment test and is
+// left to the point-signature test; the cost is three residuals per pair.
+bool same_straight_family(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
+  const double scale = std::max({std::abs(a.potential), std::abs(b.potential), force_scale(s, w, a.q)});
+  if (!(std::abs(a.potential - b.potential) <= 1e-10 * scale)) return false;
+  VectorX d = b.q - a.q;
+  for (int i = 0; i < s.size(); ++i)
+    if (s.coordinates()[static_cast<std::size_t>(i)].periodic &&
+        s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::angle)
+      d[i] = std::remainder(d[i], 2 * std::numbers::pi);
+  for (const double t : {0.25, 0.5, 0.75}) {
+    const VectorX q = a.q + t * d;
+    const double fs = force_scale(s, w, q);
+    const double r = equilibrium_residual(s, w, q).norm();
+    if (!(r <= 1e-9 * std::max(fs, 1e-300))) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
@@ -205,7 +227,8 @@ void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
       if (configuration_distance(s, e.q, k.q) < 1e-6) {  // the same point (angles modulo 2π)
         if (e.residual < k.residual) k = e;
         duplicate = true;
-      } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale()) {
+      } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale() ||
+                 same_straight_family(s, w, e, k)) {
         // Another member of the same continuous family: keep the representative
         // nearest the initial configuration.
         if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) k = e;

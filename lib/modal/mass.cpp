@@ -111,6 +111,10 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names) {
   const Eigen::Index n = M.rows();
+  if (!std::isfinite(M.norm()))
+    throw SingularMassMatrix("the mass matrix overflows double precision (largest entry " +
+                             format_number(M.cwiseAbs().maxCoeff(), 3) +
+                             "): masses or lengths too large for the scene's units; rescale them");
   // Relative tolerance for "singular": an eigenvalue below 16·ε·‖M‖ is at the
   // level of the rounding in M's entries, so it cannot be told from zero. Not
   // n·ε: a long chain's M is genuinely positive definite with condition

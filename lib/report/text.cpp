@@ -21,6 +21,11 @@ bool is_angular(const Report& report, std::size_t i) {
   return i < report.kinds.size() && report.kinds[i] != CoordinateKind::length;
 }
 
+// An angle for a human table: rounding residue below 1e-13 rad (a polished
+// equilibrium is not more accurate than that) is shown as 0; CSV and JSON keep
+// every digit.
+double display_angle(double radians) { return std::abs(radians) < 1e-13 ? 0.0 : radians; }
+
 // A number for a table: `digits` significant digits, "-" when it has no value.
 std::string num(double x, int digits = 10) {
   if (std::isnan(x)) return "-";
@@ -100,7 +105,8 @@ void print_analysis(std::ostream& out, const Report& report) {
 
   out << "\nEquilibrium\n";
   for (std::size_t i = 0; i < n; ++i) {
-    const double v = e.q[static_cast<Eigen::Index>(i)];
+    const double v = is_angular(report, i) ? display_angle(e.q[static_cast<Eigen::Index>(i)])
+                                           : e.q[static_cast<Eigen::Index>(i)];
     if (is_angular(report, i))
       out << fmt::format("  {:<{}} = {:>22} rad  ({} deg)\n", coordinate_name(report, i), w,
                          num(v, 15), num(v * 180 / std::numbers::pi, 10));
@@ -137,7 +143,7 @@ void print_analysis(std::ostream& out, const Report& report) {
   for (std::size_t k = 0; k < r.modes.size(); ++k) {
     const Mode& m = r.modes[k];
     row(std::to_string(k + 1), num(m.omega2), num(m.growth_rate), num(m.omega), num(m.frequency_hz),
-        num(m.period), num(m.damping_ratio, 6), sci(m.error_estimate), to_string(m.kind));
+        m.omega == 0 ? "-" : num(m.period), num(m.damping_ratio, 6), sci(m.error_estimate), to_string(m.kind));
   }
   if (r.modes.empty()) out << "  (none)\n";
 
@@ -190,7 +196,7 @@ void print_equilibria(std::ostream& out, const Report& report) {
       double v = i < static_cast<std::size_t>(a.equilibrium.q.size())
                      ? a.equilibrium.q[static_cast<Eigen::Index>(i)]
                      : std::nan("");
-      if (is_angular(report, i)) v *= 180 / std::numbers::pi;
+      if (is_angular(report, i)) v = display_angle(v) * 180 / std::numbers::pi;
       out << fmt::format("  {:>14}", num(v, 8));
     }
     out << '\n';
