@@ -118,12 +118,22 @@ struct DeadLoad {
   Vec3 force = Vec3::Zero();  // N
 };
 
+// A force that turns with the body it acts on (a follower load, circulatory:
+// Q = Jᵀ R f is not the gradient of any potential). `force` is given in the
+// body frame, which at q = 0 has the orientation of the scene frame, so it is
+// the force as written in the scene at q = 0.
+struct FollowerLoad {
+  Attachment at;
+  Vec3 force = Vec3::Zero();  // N, body frame
+};
+
 struct SystemDescription {
   std::string title;
   Vec3 gravity{0, 0, -9.81};  // m/s²
   std::vector<Body> bodies;   // parents before children
   std::vector<Spring> springs;
   std::vector<DeadLoad> loads;
+  std::vector<FollowerLoad> followers;
 };
 
 // The constant model. Construction validates (throws std::invalid_argument on
@@ -139,6 +149,8 @@ class System {
   const std::vector<Body>& bodies() const { return d_.bodies; }
   const std::vector<Spring>& springs() const { return d_.springs; }
   const std::vector<DeadLoad>& loads() const { return d_.loads; }
+  const std::vector<FollowerLoad>& followers() const { return d_.followers; }
+  bool has_follower_loads() const { return !d_.followers.empty(); }
   const std::vector<Coordinate>& coordinates() const { return coords_; }
   std::vector<std::string> coordinate_names() const;
 
@@ -200,8 +212,11 @@ double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const Vec
 double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);    // T + V, J
 // Damping matrix D(q) (n×n, symmetric PSD): the dampers' forces are Q = −D q̇.
 MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q);
-// Non-conservative generalized forces Q(q, q̇), n (dampers).
+// Non-conservative generalized forces Q(q, q̇), n (dampers, follower loads).
 VectorX generalized_forces(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+// ∂Q/∂q at q̇ = 0 (n×n, not symmetric in general): the follower loads' part of
+// the stiffness, K = ∇∇V − ∂Q/∂q. Exact (same tree accumulation as ∇∇V).
+MatrixX generalized_force_jacobian(const System& s, Workspace& w, const VectorX& q);
 
 // ∂M/∂q: n matrices, entry k is ∂M/∂q_k (n×n). Exact (AD through the templated mass matrix).
 std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& w, const VectorX& q);
