@@ -145,8 +145,15 @@ TEST(scene_errors, SpringsAndLoads) {
   check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"world\"\nstiffness = 0\n",
               {8, 13, "spring[1].stiffness", "must be positive, got 0"});
   check_error(pendulum + "[[spring]]\na = \"p\"\nb = \"world\"\n", {5, 1, "spring[1].stiffness", "missing required key 'stiffness'"});
-  check_error(pendulum + "[[load]]\nbody = \"p\"\nforce = [0, 0, -1]\nfollower = true\n",
-              {8, 12, "load[1].follower", "follower loads are not supported by this version of modal (dead loads only)"});
+  check_error(pendulum + "[[load]]\nbody = \"p\"\nforce = [0, 0, -1]\nfollower = 1\n",
+              {8, 12, "load[1].follower", "expected true or false, got an integer"});
+  check_error(pendulum + "[[load]]\nbody = \"world\"\nforce = [0, 0, -1]\nfollower = true\n",
+              {6, 8, "load[1].body", "must name a body, not the world"});
+  check_error(pendulum + "[[load]]\nbody = \"column.tip\"\nforce = [0, 0, -1]\n",
+              {6, 8, "load[1].body", "unknown chain 'column' in 'column.tip'; the scene has no [[chain]]"});
+  check_error(pendulum + "[[chain]]\nname = \"column\"\nlinks = 2\nlength = 1\nmass = 1\n"
+                         "[[spring]]\na = \"colum.tip\"\nb = \"world\"\nstiffness = 1\n",
+              {11, 5, "spring[1].a", "unknown chain 'colum' in 'colum.tip' (did you mean 'column'?)"});
   check_error(pendulum + "[[load]]\nbody = \"world\"\nforce = [0, 0, -1]\n", {6, 8, "load[1].body", "must name a body, not the world"});
 }
 

@@ -8,6 +8,7 @@
 #include "modal/modes.hpp"
 #include "modal/report.hpp"
 #include "modal/scene.hpp"
+#include "modal/sweep.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -22,6 +23,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 namespace {
 
@@ -193,6 +196,240 @@ int run_check(const SceneOptions& so) {
   return ok;
 }
 
+// --- sweep ---------------------------------------------------------------------
+
+// A progress bar on stderr, only when stderr is a terminal and the sweep has
+// already taken more than a second.
+class ProgressBar {
+ public:
+  ProgressBar() : tty_(isatty(STDERR_FILENO) == 1) {}
+  void operator()(int done, int total) {
+    if (!tty_ || total <= 0) return;
+    const double elapsed = std::chrono::duration<double>(Stopwatch::Clock::now() - start_).count();
+    if (elapsed < 1.0) return;
+    constexpr int width = 40;
+    const int filled = static_cast<int>(static_cast<long long>(width) * done / total);
+    std::cerr << '\r' << "sweep [" << std::string(static_cast<std::size_t>(filled), '#')
+              << std::string(static_cast<std::size_t>(width - filled), ' ') << "] " << done << '/' << total
+              << fmt::format(" {:.1f} s", elapsed) << std::flush;
+    shown_ = true;
+  }
+  void finish() {
+    if (shown_) std::cerr << '\r' << std::string(72, ' ') << '\r' << std::flush;
+    shown_ = false;
+  }
+
+ private:
+  bool tty_;
+  bool shown_ = false;
+  Stopwatch::Clock::time_point start_ = Stopwatch::Clock::now();
+};
+
+std::string read_scene_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// FILE.csv → FILE_critical.csv (FILE → FILE_critical.csv).
+std::string critical_path(const std::string& csv) {
+  const std::string ext = ".csv";
+  const bool has_ext = csv.size() > ext.size() && csv.compare(csv.size() - ext.size(), ext.size(), ext) == 0;
+  return (has_ext ? csv.substr(0, csv.size() - ext.size()) : csv) + "_critical.csv";
+}
+
+std::string g(double v, int digits = 6) {
+  if (std::isnan(v)) return "-";
+  return fmt::format("{:.{}g}", v, digits);
+}
+
+// "P = 2.0857864376 ± 3.1e-12" style value with its error.
+std::string value_with_error(double value, double error) {
+  return fmt::format("{:.12g} ± {:.2g}", value, error);
+}
+
+// A critical value in words: kind, the change of class, frequency.
+std::string describe_critical(const modal::CriticalValue& c, const std::string& name) {
+  std::string out = fmt::format("{} = {}  {}", name, value_with_error(c.value, c.error), modal::to_string(c.kind));
+  out += fmt::format(" ({} → {}", modal::to_string(c.before), modal::to_string(c.after));
+  if (c.restabilization()) out += ": restabilization";
+  if (c.loss()) out += ": loss of stability";
+  out += ")";
+  if (c.kind == modal::CriticalKind::divergence) out += "  ω = 0";
+  else if (std::isfinite(c.omega)) out += fmt::format("  ω = {:.10g} rad/s", c.omega);
+  if (!c.refined) out += "  [not refined]";
+  return out;
+}
+
+void print_sweep(std::ostream& out, const modal::SweepResult& r, const std::string& file, double tolerance) {
+  const modal::SweepAxis& ax = r.axis;
+  out << fmt::format("Sweep of {} in {}: {} points from {} to {}", ax.name, file, ax.count, g(ax.from, 10),
+                     g(ax.to, 10));
+  if (!r.coordinates.empty()) out << fmt::format(" ({} coordinates)", r.coordinates.size());
+  out << "\n\n";
+  bool all_symmetric = true;
+  for (const modal::SweepPoint& p : r.points)
+    if (p.ok && !p.symmetric) all_symmetric = false;
+  constexpr std::size_t shown = 3;
+  const std::string modes_header = all_symmetric ? "lowest ω² [rad²/s²]" : "lowest ω [rad/s]";
+  const int width = std::max(12, static_cast<int>(ax.name.size()));
+  out << fmt::format("{:>{}}  {:<22}  {:>16}  {}\n", ax.name, width, "class", "max growth [1/s]", modes_header);
+  for (const modal::SweepPoint& p : r.points) {
+    if (!p.ok) {
+      out << fmt::format("{:>{}}  failed: {}\n", g(p.value, 10), width, p.failure);
+      continue;
+    }
+    std::string modes;
+    for (std::size_t i = 0; i < p.result.modes.size() && i < shown; ++i) {
+      const modal::Mode& m = p.result.modes[i];
+      modes += fmt::format("{:>12}", g(all_symmetric ? m.omega2 : m.omega));
+    }
+    out << fmt::format("{:>{}}  {:<22}  {:>16}  {}\n", g(p.value, 10), width,
+                       modal::to_string(p.result.stability), g(p.max_growth_rate), modes);
+  }
+  out << '\n';
+  if (r.critical.empty()) {
+    out << "No change of stability class between " << g(ax.from, 10) << " and " << g(ax.to, 10) << ".\n";
+  } else {
+    out << fmt::format("Critical values (class changes, refined to {:.0e} relative):\n", tolerance);
+    for (const modal::CriticalValue& c : r.critical) out << "  " << describe_critical(c, ax.name) << '\n';
+  }
+  for (const std::string& note : r.notes) out << "note: " << note << '\n';
+  out << fmt::format("{} evaluations ({} grid points, {} in refinements)\n", r.evaluations, ax.count,
+                     r.evaluations - ax.count);
+}
+
+std::string sweep_modes_csv(const modal::SweepResult& r) {
+  std::ostringstream out;
+  out << modal::csv_field(r.axis.name)
+      << ",mode,omega2,growth_rate,omega,frequency_hz,period,damping_ratio,stability,error_estimate\n";
+  for (const modal::SweepPoint& p : r.points) {
+    const std::string value = modal::csv_number(p.value);
+    if (!p.ok) {
+      out << value << ",,,,,,,,failed,\n";
+      continue;
+    }
+    int index = 0;
+    for (const modal::Mode& m : p.result.modes)
+      out << value << ',' << ++index << ',' << modal::csv_number(m.omega2) << ',' << modal::csv_number(m.growth_rate)
+          << ',' << modal::csv_number(m.omega) << ',' << modal::csv_number(m.frequency_hz) << ','
+          << modal::csv_number(m.period) << ',' << modal::csv_number(m.damping_ratio) << ','
+          << modal::csv_field(modal::mode_stability(m.kind)) << ',' << modal::csv_number(m.error_estimate) << '\n';
+  }
+  return out.str();
+}
+
+std::string sweep_critical_csv(const modal::SweepResult& r) {
+  std::ostringstream out;
+  out << "parameter,value,error,kind,omega,before,after\n";
+  for (const modal::CriticalValue& c : r.critical)
+    out << modal::csv_field(r.axis.name) << ',' << modal::csv_number(c.value) << ',' << modal::csv_number(c.error)
+        << ',' << modal::to_string(c.kind) << ',' << modal::csv_number(c.omega) << ','
+        << modal::csv_field(modal::to_string(c.before)) << ',' << modal::csv_field(modal::to_string(c.after)) << '\n';
+  return out.str();
+}
+
+char map_symbol(const modal::MapPoint& p) {
+  if (!p.ok) return '?';
+  switch (p.stability) {
+    case modal::Stability::stable: return 'o';
+    case modal::Stability::asymptotically_stable: return 'a';
+    case modal::Stability::marginal: return 'm';
+    case modal::Stability::divergence: return 'D';
+    case modal::Stability::flutter: return 'F';
+  }
+  return '?';
+}
+
+void print_map(std::ostream& out, const modal::StabilityMap& map, const std::string& file) {
+  const modal::SweepAxis &x = map.x, &y = map.y;
+  out << fmt::format("Stability map of {}: {} across ({} values, {} … {}), {} upwards ({} values, {} … {})\n\n",
+                     file, x.name, x.count, g(x.from), g(x.to), y.name, y.count, g(y.from), g(y.to));
+  std::vector<std::string> labels;
+  std::size_t label_width = y.name.size();
+  for (int j = 0; j < y.count; ++j) {
+    labels.push_back(g(y.value(j)));
+    label_width = std::max(label_width, labels.back().size());
+  }
+  out << fmt::format("{:>{}}\n", y.name, label_width);
+  for (int j = y.count - 1; j >= 0; --j) {
+    std::string row;
+    for (int i = 0; i < x.count; ++i) row += map_symbol(map.at(i, j));
+    out << fmt::format("{:>{}} |{}\n", labels[static_cast<std::size_t>(j)], label_width, row);
+  }
+  out << fmt::format("{:>{}} +{}\n", "", label_width, std::string(static_cast<std::size_t>(x.count), '-'));
+  out << fmt::format("{:>{}}  {} = {} … {}\n\n", "", label_width, x.name, g(x.from), g(x.to));
+  out << "legend: o stable, a asymptotically stable, m marginal, D divergence, F flutter, ? failed\n";
+  int shown = 0, failed = 0;
+  for (const modal::MapPoint& p : map.points) {
+    if (p.ok) continue;
+    ++failed;
+    if (shown++ < 5) out << fmt::format("failed at {} = {}, {} = {}: {}\n", x.name, g(p.x), y.name, g(p.y), p.failure);
+  }
+  if (failed > shown) out << fmt::format("… {} failed points in all\n", failed);
+}
+
+std::string map_csv(const modal::StabilityMap& map) {
+  std::ostringstream out;
+  out << modal::csv_field(map.x.name) << ',' << modal::csv_field(map.y.name)
+      << ",stability,max_growth_rate,min_omega2\n";
+  for (const modal::MapPoint& p : map.points) {
+    out << modal::csv_number(p.x) << ',' << modal::csv_number(p.y) << ',';
+    if (p.ok)
+      out << modal::csv_field(modal::to_string(p.stability)) << ',' << modal::csv_number(p.max_growth_rate) << ','
+          << modal::csv_number(p.min_omega2) << '\n';
+    else
+      out << "failed,,\n";
+  }
+  return out.str();
+}
+
+// Exit status when no point of a sweep worked: the first failure says why.
+template <class Points>
+void require_some_point(const Points& points) {
+  for (const auto& p : points)
+    if (p.ok) return;
+  if (points.empty()) return;
+  const auto& first = points.front();
+  if (first.scene_error) throw InputError("every point of the sweep failed; the first: " + first.failure);
+  throw modal::NumericalError("every point of the sweep failed; the first: " + first.failure);
+}
+
+int run_sweep(const SceneOptions& so, const std::vector<std::string>& varies, const std::string& csv, int modes) {
+  std::vector<modal::SweepAxis> axes;
+  for (const std::string& v : varies) axes.push_back(modal::parse_vary(v));
+  if (axes.empty() || axes.size() > 2)
+    throw InputError(fmt::format("sweep takes one --vary (a sweep) or two (a stability map), got {}", axes.size()));
+  std::vector<modal::ParameterOverride> fixed;
+  for (const std::string& text : so.sets) fixed.push_back(modal::parse_override(text));
+  const std::string text = read_scene_text(so.file);
+
+  ProgressBar bar;
+  modal::SweepOptions options;
+  options.modes = modes;
+  options.progress = [&bar](int done, int total) { bar(done, total); };
+
+  if (axes.size() == 1) {
+    const modal::SweepResult r = modal::sweep(text, so.file, fixed, axes[0], options);
+    bar.finish();
+    require_some_point(r.points);
+    print_sweep(std::cout, r, so.file, options.tolerance);
+    if (!csv.empty()) {
+      modal::write_text_file(csv, sweep_modes_csv(r));
+      modal::write_text_file(critical_path(csv), sweep_critical_csv(r));
+    }
+    return ok;
+  }
+  const modal::StabilityMap map = modal::sweep_map(text, so.file, fixed, axes[0], axes[1], options);
+  bar.finish();
+  require_some_point(map.points);
+  print_map(std::cout, map, so.file);
+  if (!csv.empty()) modal::write_text_file(csv, map_csv(map));
+  return ok;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -234,6 +471,26 @@ int main(int argc, char** argv) {
   equilibria->add_option("--json", equilibria_json, "write all equilibria and their modes as JSON")
       ->type_name("FILE");
 
+  SceneOptions sweep_scene;
+  std::vector<std::string> varies;
+  std::string sweep_csv;
+  int sweep_modes = -1;
+  CLI::App* sweep = app.add_subcommand(
+      "sweep",
+      "frequencies and stability along a parameter, critical values refined; two --vary: a stability map");
+  add_scene_options(sweep, sweep_scene);
+  sweep->add_option("--vary", varies,
+                    "vary a parameter over COUNT evenly spaced values (COUNT >= 2); give it twice for a map")
+      ->type_name("N=FROM:TO:COUNT")
+      ->required()
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sweep->add_option("--csv", sweep_csv,
+                    "one --vary: one row per point and mode, critical values to FILE_critical.csv; "
+                    "two: one row per grid point")
+      ->type_name("FILE");
+  sweep->add_option("--modes", sweep_modes, "number of lowest modes per point in the CSV (default: all)")
+      ->check(CLI::PositiveNumber);
+
   CLI::App* check = app.add_subcommand("check", "validate the scene and print a summary");
   add_scene_options(check, check_scene);
 
@@ -251,9 +508,13 @@ int main(int argc, char** argv) {
       return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing);
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene);
+    if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes);
     return usage;
   } catch (const modal::SceneError& e) {
     std::cerr << e.what() << '\n';
+    return bad_input;
+  } catch (const modal::SweepInputError& e) {
+    std::cerr << "modal: " << e.what() << '\n';
     return bad_input;
   } catch (const InputError& e) {
     std::cerr << "modal: " << e.what() << '\n';

@@ -14,6 +14,11 @@
 // rotation-vector joint the twists depend on the joint's own coordinates
 // through the left Jacobian J_l(φ); that derivative comes from AD of J_l.
 // Elements with a local Hessian add Jᵀ H J. Cost: O(n·depth) for the Hessian.
+//
+// Follower loads (f = R_b f_body at x) use the same accumulation with the
+// cotangent e = f: the tree gradient is then Q_j = f·∂x/∂q_j and the tree
+// Hessian f·∂²x/∂q_j∂q_k, the first part of ∂Q/∂q; the second part,
+// (ω_k × f)·∂x/∂q_j, comes from the point Jacobian of the load's path.
 #include "modal/core.hpp"
 
 #include "core/model.hpp"
@@ -146,9 +151,9 @@ void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& 
   }
 }
 
-// Fills the subtree sums F, τ, P of the cotangents.
-template <class SpringHessian>
-void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&& spring_hessian) {
+// Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
+// to deposit(body, x, e).
+template <class Source> void accumulate_sums(const System& s, Workspace& w, bool second_order, Source&& source) {
   KinematicsCache& c = w.cache();
   const auto nb = s.bodies().size();
   for (std::size_t b = 0; b < nb; ++b) {
@@ -156,16 +161,13 @@ void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&
     c.tau[b].setZero();
     c.P[b].setZero();
   }
-  for_each_cotangent(
-      s, c.st,
-      [&](int body, const Vec3& x, const Vec3& e) {
-        if (body < 0) return;
-        const auto b = static_cast<std::size_t>(body);
-        c.F[b] += e;
-        c.tau[b] += x.cross(e);
-        if (second_order) c.P[b] += x * e.transpose();
-      },
-      spring_hessian, second_order);
+  source([&](int body, const Vec3& x, const Vec3& e) {
+    if (body < 0) return;
+    const auto b = static_cast<std::size_t>(body);
+    c.F[b] += e;
+    c.tau[b] += x.cross(e);
+    if (second_order) c.P[b] += x * e.transpose();
+  });
   for (std::size_t b = nb; b-- > 0;) {
     const int p = s.bodies()[b].parent;
     if (p < 0) continue;
@@ -176,52 +178,48 @@ void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&
   }
 }
 
+// The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
+template <class SpringHessian>
+void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&& spring_hessian) {
+  accumulate_sums(s, w, second_order, [&](auto&& deposit) {
+    for_each_cotangent(s, w.cache().st, deposit, spring_hessian, second_order);
+  });
+}
+
+// World force of a follower load at the current kinematics: R_b · (body-frame force).
+Vec3 follower_force(const TreeState<double>& st, const FollowerLoad& l) {
+  return st.rotation[static_cast<std::size_t>(l.at.body)] * l.force;
+}
+
+// The subtree sums of the follower forces themselves (cotangent e = f): then
+// the tree gradient below is Q_j = f·∂x/∂q_j and the tree Hessian is f·∂²x/∂q_j∂q_k.
+void accumulate_followers(const System& s, Workspace& w, bool second_order) {
+  const TreeState<double>& st = w.cache().st;
+  accumulate_sums(s, w, second_order, [&](auto&& deposit) {
+    for (const FollowerLoad& l : s.followers()) deposit(l.at.body, model::world_point(st, l.at), follower_force(st, l));
+  });
+}
+
 bool is_rotation_vector(const Body& body, int local) {
   return body.joint == JointType::ball || (body.joint == JointType::free && local >= 3);
 }
 
-}  // namespace
-
-double potential(const System& s, Workspace& w, const VectorX& q) {
-  return model::potential(s, kinematics(s, w, q), q.data());
-}
-
-const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q) {
-  const TreeState<double>& st = kinematics(s, w, q);
-  accumulate(s, w, false, [](auto&&...) {});
-  const KinematicsCache& c = w.cache();
-  VectorX& g = w.gradient;
+// g_k = ω_k·τ + v_k·F with the subtree sums of the body that coordinate k moves:
+// Σ e·∂x/∂q_k over the deposited cotangents (n entries, g resized).
+void tree_gradient(const System& s, const TreeState<double>& st, const KinematicsCache& c, VectorX& g) {
   g.setZero(s.size());
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
-      const auto k = static_cast<std::size_t>(k0 + i);
-      g[k0 + i] = st.omega[k].dot(c.tau[b]) + st.vel[k].dot(c.F[b]) + bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      g[k] = st.omega[kk].dot(c.tau[b]) + st.vel[kk].dot(c.F[b]);
     }
   }
-  return g;
 }
 
-const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q) {
-  const TreeState<double>& st = kinematics(s, w, q);
-  MatrixX& H = w.hessian;
-  H.setZero(s.size(), s.size());
-  // Elements' local Hessians: Jᵀ H_e J.
-  auto spring_hessian = [&](const Spring& sp, const Vec3& xa, const Vec3& xb, const Eigen::Matrix<double, 6, 6>& He) {
-    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
-    const PointJacobian* J[2] = {&Ja, &Jb};
-    for (int u = 0; u < 2; ++u)
-      for (int v = 0; v < 2; ++v) {
-        const Mat3 block = He.block<3, 3>(3 * u, 3 * v);
-        for (std::size_t i = 0; i < J[u]->index.size(); ++i) {
-          const Vec3 left = block.transpose() * J[u]->column[i];
-          for (std::size_t j = 0; j < J[v]->index.size(); ++j) H(J[u]->index[i], J[v]->index[j]) += left.dot(J[v]->column[j]);
-        }
-      }
-  };
-  accumulate(s, w, true, spring_hessian);
-  const KinematicsCache& c = w.cache();
+// H_jk += Σ e·∂²x/∂q_j∂q_k over the deposited cotangents (symmetric; the
+// formulas of the header comment, O(n·depth)).
+void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, MatrixX& H) {
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
@@ -280,7 +278,52 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
         }
       H.block<3, 3>(r0, r0) += 0.5 * (h + h.transpose());
     }
-    for (int i = 0; i < nq; ++i) H(k0 + i, k0 + i) += body.stiffness;
+  }
+}
+
+}  // namespace
+
+double potential(const System& s, Workspace& w, const VectorX& q) {
+  return model::potential(s, kinematics(s, w, q), q.data());
+}
+
+const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  accumulate(s, w, false, [](auto&&...) {});
+  VectorX& g = w.gradient;
+  tree_gradient(s, st, w.cache(), g);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
+      g[k0 + i] += bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
+  }
+  return g;
+}
+
+const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  MatrixX& H = w.hessian;
+  H.setZero(s.size(), s.size());
+  // Elements' local Hessians: Jᵀ H_e J.
+  auto spring_hessian = [&](const Spring& sp, const Vec3& xa, const Vec3& xb, const Eigen::Matrix<double, 6, 6>& He) {
+    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
+    const PointJacobian* J[2] = {&Ja, &Jb};
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) {
+        const Mat3 block = He.block<3, 3>(3 * u, 3 * v);
+        for (std::size_t i = 0; i < J[u]->index.size(); ++i) {
+          const Vec3 left = block.transpose() * J[u]->column[i];
+          for (std::size_t j = 0; j < J[v]->index.size(); ++j) H(J[u]->index[i], J[v]->index[j]) += left.dot(J[v]->column[j]);
+        }
+      }
+  };
+  accumulate(s, w, true, spring_hessian);
+  tree_hessian(s, st, w.cache(), q, H);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) H(k0 + i, k0 + i) += bodies[b].stiffness;
   }
   return H;
 }
@@ -302,6 +345,8 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
     }
   }
   for (const DeadLoad& l : s.loads())
+    scale += l.force.norm() * frobenius(point_jacobian(s, st, l.at, model::world_point(st, l.at)));
+  for (const FollowerLoad& l : s.followers())
     scale += l.force.norm() * frobenius(point_jacobian(s, st, l.at, model::world_point(st, l.at)));
   for (const Spring& sp : s.springs()) {
     const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
@@ -363,8 +408,44 @@ MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
 
 VectorX generalized_forces(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
   check_size(s, qd, "generalized_forces");
-  if (!s.has_damping()) return VectorX::Zero(s.size());
-  return -(damping_matrix(s, w, q) * qd);
+  VectorX Q = VectorX::Zero(s.size());
+  if (s.has_follower_loads()) {
+    // Q_j = f·∂x/∂q_j: the tree gradient of the cotangents e = f.
+    kinematics(s, w, q);
+    accumulate_followers(s, w, false);
+    tree_gradient(s, w.cache().st, w.cache(), Q);
+  }
+  if (s.has_damping()) Q -= damping_matrix(s, w, q) * qd;
+  return Q;
+}
+
+// ∂Q_j/∂q_k = f·∂²x/∂q_j∂q_k + (ω_k × f)·∂x/∂q_j for f = R_b f_body at x = p_b + R_b r
+// (∂f/∂q_k = ω_k × f; slides and coordinates off b's path leave f unchanged).
+// The first term is the tree Hessian of the cotangents e = f (minus the
+// geometric stiffness of a dead load equal to the current force); the second
+// is a product of the path's point-Jacobian columns and rotated forces.
+MatrixX generalized_force_jacobian(const System& s, Workspace& w, const VectorX& q) {
+  const int n = s.size();
+  MatrixX A = MatrixX::Zero(n, n);
+  if (!s.has_follower_loads()) {
+    check_size(s, q, "generalized_force_jacobian");
+    return A;
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  accumulate_followers(s, w, true);
+  tree_hessian(s, st, w.cache(), q, A);
+  for (const FollowerLoad& l : s.followers()) {
+    const Vec3 x = model::world_point(st, l.at);
+    const Vec3 f = follower_force(st, l);
+    const PointJacobian J = point_jacobian(s, st, l.at, x);
+    for (std::size_t c = 0; c < J.index.size(); ++c) {
+      const int k = J.index[c];
+      const Vec3 df = st.omega[static_cast<std::size_t>(k)].cross(f);  // ∂f/∂q_k
+      if (df.isZero(0.0)) continue;
+      for (std::size_t r = 0; r < J.index.size(); ++r) A(J.index[r], k) += df.dot(J.column[r]);
+    }
+  }
+  return A;
 }
 
 namespace {

@@ -117,6 +117,11 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     require(l.at.body >= 0, "a load must act on a body");
     require(finite(l.force), "load force is not finite");
   }
+  for (const FollowerLoad& l : d_.followers) {
+    check_attachment(l.at, "follower load");
+    require(l.at.body >= 0, "a follower load must act on a body");
+    require(finite(l.force), "follower load force is not finite");
+  }
 
   // Length scale: farthest joint, centre of mass or attachment from the origin at q = 0.
   std::vector<Vec3> origin_at_zero(nb);
@@ -132,6 +137,7 @@ System::System(SystemDescription description) : d_(std::move(description)) {
   for (const Spring& s : d_.springs)
     scale = std::max({scale, point_at_zero(s.a).norm(), point_at_zero(s.b).norm(), s.rest_length});
   for (const DeadLoad& l : d_.loads) scale = std::max(scale, point_at_zero(l.at).norm());
+  for (const FollowerLoad& l : d_.followers) scale = std::max(scale, point_at_zero(l.at).norm());
   length_scale_ = std::max(scale, 1e-3);
 }
 

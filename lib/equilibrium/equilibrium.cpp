@@ -24,12 +24,15 @@ namespace equilibrium_detail {
 namespace {
 
 // The one place where non-conservative generalized forces at rest enter the
-// equilibrium condition: r −= Q(q, 0) and J −= ∂Q/∂q(q, 0). In this version the
-// only non-conservative forces are dampers, Q = −D(q) q̇, which vanish at rest
-// with their q-derivative; a follower load would be added here (and would make
-// J non-symmetric: see Problem::symmetric_jacobian).
-void add_forces_at_rest(const System&, const VectorX&, VectorX&) {}
-void add_force_jacobian_at_rest(const System&, const VectorX&, MatrixX&) {}
+// equilibrium condition: r −= Q(q, 0) and J −= ∂Q/∂q(q, 0). Dampers, Q = −D(q) q̇,
+// vanish at rest with their q-derivative; follower loads do not, and make J
+// non-symmetric (see Problem::symmetric_jacobian).
+void add_forces_at_rest(const System& s, Workspace& w, const VectorX& q, VectorX& r) {
+  if (s.has_follower_loads()) r -= generalized_forces(s, w, q, VectorX::Zero(s.size()));
+}
+void add_force_jacobian_at_rest(const System& s, Workspace& w, const VectorX& q, MatrixX& j) {
+  if (s.has_follower_loads()) j -= generalized_force_jacobian(s, w, q);
+}
 
 bool finite(const VectorX& v) { return v.allFinite(); }
 
@@ -58,7 +61,7 @@ const VectorX& Problem::residual(const VectorX& q) {
   ++residual_evaluations;
   try {
     r_ = potential_gradient(s_, w_, q);
-    add_forces_at_rest(s_, q, r_);
+    add_forces_at_rest(s_, w_, q, r_);
   } catch (const NumericalError&) {
     // A singular configuration of the model (a spring with coincident ends):
     // reported as a non-finite residual, which every solver here rejects.
@@ -71,7 +74,7 @@ const MatrixX& Problem::jacobian(const VectorX& q) {
   ++jacobian_evaluations;
   try {
     j_ = potential_hessian(s_, w_, q);
-    add_force_jacobian_at_rest(s_, q, j_);
+    add_force_jacobian_at_rest(s_, w_, q, j_);
   } catch (const NumericalError&) {
     j_.setConstant(s_.size(), s_.size(), std::numeric_limits<double>::quiet_NaN());
   }
@@ -248,7 +251,7 @@ using namespace equilibrium_detail;
 
 VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q) {
   VectorX r = potential_gradient(s, w, q);
-  add_forces_at_rest(s, q, r);
+  add_forces_at_rest(s, w, q, r);
   return r;
 }
 

@@ -25,7 +25,7 @@ class Problem {
   // J(q) = ∂r/∂q = ∇∇V − ∂Q/∂q at rest. The reference lives until the next call.
   const MatrixX& jacobian(const VectorX& q);
   // True while J is symmetric (no circulatory forces).
-  bool symmetric_jacobian() const { return true; }
+  bool symmetric_jacobian() const { return !s_.has_follower_loads(); }
 
   double potential(const VectorX& q) { return modal::potential(s_, w_, q); }
 

@@ -153,7 +153,7 @@ VectorX minimize_residual(Problem& p, const VectorX& start) {
 namespace {
 
 // World positions of every point the potential depends on: centres of mass of
-// bodies with mass, spring ends, load points. Two configurations that agree on
+// bodies with mass, spring ends, load points (and follower load directions). Two configurations that agree on
 // all of them have the same V everywhere nearby up to a motion V cannot see
 // (spin of a point mass about its rod, rotation of a balanced wheel): they are
 // one equilibrium of a continuous family, reported once.
@@ -172,6 +172,12 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
     at(sp.b);
   }
   for (const DeadLoad& l : s.loads()) at(l.at);
+  // A follower load's force turns with its body: its point and the tip of its
+  // force direction (one length scale along it) both join the signature.
+  for (const FollowerLoad& l : s.followers()) {
+    at(l.at);
+    if (l.force.norm() > 0) at({l.at.body, Vec3(l.at.point + s.length_scale() * l.force.normalized())});
+  }
   // A joint spring sees the joint value itself: those coordinates join the
   // signature as values scaled to lengths comparable with L.
   const VectorX c = canonical_coordinates(s, q);

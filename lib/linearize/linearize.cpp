@@ -1,12 +1,13 @@
 // lib/linearize/linearize.cpp — the linear model M δq̈ + (D + G) δq̇ + K δq = 0
 // about an equilibrium q̄ of a System (DESIGN.md §1).
 //
-// With the core's present scope (fixed frame, dead loads, dampers, no
-// constraints) the terms are
-//   M = M(q̄), K = ∇∇V(q̄), D = damping_matrix(q̄) (dampers: Q = −D q̇),
-//   G = 0 (no moving frame), and K is symmetric (no follower loads).
-// Dampers exert no force at rest, Q(q̄, 0) = 0, so q̄ is an equilibrium when
-// ∇V(q̄) = 0; its relative residual is ‖∇V(q̄)‖₂ / force_scale(q̄).
+// With the core's present scope (fixed frame, dead and follower loads,
+// dampers, no constraints) the terms are
+//   M = M(q̄), K = ∇∇V(q̄) − ∂Q/∂q(q̄, 0), D = damping_matrix(q̄) (dampers: Q = −D q̇),
+//   G = 0 (no moving frame). K is symmetric unless follower loads act
+//   (circulatory): then it is kept exactly as computed, not symmetrized.
+// q̄ is an equilibrium when ∇V(q̄) = Q(q̄, 0) (dampers exert no force at rest;
+// follower loads do); its relative residual is ‖∇V − Q‖₂ / force_scale(q̄).
 #include "modal/linearize.hpp"
 
 #include <cmath>
@@ -56,8 +57,9 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   model.coordinates = s.coordinate_names();
   Workspace ws(s);
 
-  // Equilibrium check: ‖∇V‖ relative to the scale of the forces acting.
-  const VectorX gradient = potential_gradient(s, ws, q);
+  // Equilibrium check: ‖∇V − Q(q, 0)‖ relative to the scale of the forces acting.
+  VectorX gradient = potential_gradient(s, ws, q);
+  if (s.has_follower_loads()) gradient -= generalized_forces(s, ws, q, VectorX::Zero(n));
   if (!gradient.allFinite())
     throw NumericalError("linearize: the potential gradient ∇V is not finite at this configuration");
   const double scale = force_scale(s, ws, q);
@@ -68,7 +70,8 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     gradient.cwiseAbs().maxCoeff(&worst);
     const auto& coordinate = s.coordinates()[static_cast<std::size_t>(worst)];
     std::ostringstream out;
-    out << "this configuration is not an equilibrium: the relative residual ‖∇V‖/(force scale) is "
+    out << "this configuration is not an equilibrium: the relative residual "
+        << (s.has_follower_loads() ? "‖∇V − Q‖" : "‖∇V‖") << "/(force scale) is "
         << format_number(model.residual, 3) << ", above the tolerance " << format_number(options.tolerance, 3)
         << "; the largest unbalanced generalized force is " << format_number(-gradient(worst), 4) << " "
         << force_unit(coordinate.kind) << " acting on the coordinate '" << coordinate.name
@@ -76,9 +79,16 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     throw NotAnEquilibrium(out.str());
   }
 
-  const MatrixX K = potential_hessian(s, ws, q);
-  require_finite(K, "stiffness matrix K = ∇∇V", model.coordinates);
-  model.K = symmetric_part(K);
+  model.circulatory = s.has_follower_loads();
+  if (model.circulatory) {
+    const MatrixX K = potential_hessian(s, ws, q) - generalized_force_jacobian(s, ws, q);
+    require_finite(K, "stiffness matrix K = ∇∇V − ∂Q/∂q", model.coordinates);
+    model.K = K;  // not symmetric: its skew part is the circulatory stiffness
+  } else {
+    const MatrixX K = potential_hessian(s, ws, q);
+    require_finite(K, "stiffness matrix K = ∇∇V", model.coordinates);
+    model.K = symmetric_part(K);
+  }
   const MatrixX M = mass_matrix(s, ws, q);
   require_finite(M, "mass matrix M", model.coordinates);
   model.M = symmetric_part(M);
@@ -93,7 +103,6 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   }
   model.G = MatrixX::Zero(n, n);  // no moving frames yet
   model.has_gyroscopic = false;
-  model.circulatory = false;      // no follower loads yet
   return model;
 }
 

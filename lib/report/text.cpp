@@ -259,10 +259,13 @@ void print_summary(std::ostream& out, const std::string& scene_file,
                            num(body.damping, 10));
   }
 
-  out << fmt::format("\nLoads ({})\n", system.loads().size());
+  out << fmt::format("\nLoads ({})\n", system.loads().size() + system.followers().size());
   for (const DeadLoad& l : system.loads())
     out << fmt::format("  {} at {}: force {} N (dead load)\n", body_name(l.at.body), vec(l.at.point),
                        vec(l.force));
+  for (const FollowerLoad& l : system.followers())
+    out << fmt::format("  {} at {}: force {} N (follower load, body frame)\n", body_name(l.at.body),
+                       vec(l.at.point), vec(l.force));
 
   out << fmt::format("\nTotal mass: {} kg\n", num(total_mass, 12));
   out << fmt::format("Gravity: {} m/s^2\n", vec(system.gravity()));

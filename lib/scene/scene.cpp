@@ -337,10 +337,13 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemD
   }
 }
 
-// A body index by name ("world" is −1) for springs and loads.
+// A body index by name ("world" is −1) for springs and loads. "<chain>.tip"
+// names the last link of the chain called <chain>, whatever its length (a body
+// whose own name is exactly that takes precedence).
 class BodyNames {
  public:
-  explicit BodyNames(const std::vector<Body>& bodies) {
+  BodyNames(const std::vector<Body>& bodies, std::map<std::string, std::string> chain_tips)
+      : tips_(std::move(chain_tips)) {
     for (std::size_t i = 0; i < bodies.size(); ++i) {
       index_.emplace(bodies[i].name, static_cast<int>(i));
       names_.push_back(bodies[i].name);
@@ -352,17 +355,28 @@ class BodyNames {
       return -1;
     }
     const auto it = index_.find(name);
-    if (it == index_.end()) {
-      std::vector<std::string> candidates = names_;
-      if (allow_world) candidates.emplace_back("world");
-      s.fail(key, "unknown body '" + name + "'" + did_you_mean(name, candidates));
+    if (it != index_.end()) return it->second;
+    static constexpr std::string_view tip = ".tip";
+    if (name.size() > tip.size() && name.ends_with(tip)) {
+      const std::string chain = name.substr(0, name.size() - tip.size());
+      const auto t = tips_.find(chain);
+      if (t == tips_.end()) {
+        std::vector<std::string> chains;
+        for (const auto& [c, last] : tips_) chains.push_back(c);
+        s.fail(key, "unknown chain '" + chain + "' in '" + name + "'" + did_you_mean(chain, chains) +
+                        (chains.empty() ? "; the scene has no [[chain]]" : "; \"<chain>.tip\" names a chain's last link"));
+      }
+      return index_.at(t->second);
     }
-    return it->second;
+    std::vector<std::string> candidates = names_;
+    if (allow_world) candidates.emplace_back("world");
+    s.fail(key, "unknown body '" + name + "'" + did_you_mean(name, candidates));
   }
 
  private:
   std::map<std::string, int> index_;
   std::vector<std::string> names_;
+  std::map<std::string, std::string> tips_;  // chain name → its last body's name
 };
 
 // World position of each body frame at q = 0 (frames are translated copies of
@@ -396,16 +410,21 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
   return spring;
 }
 
-DeadLoad read_load(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names) {
+// A [[load]]: a dead load, or with `follower = true` a follower load whose
+// force as written is its body-frame force (the scene frame at q = 0).
+void read_load(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
+               SystemDescription& d) {
   const Section s(reader, table, index_key("load", index), "[[load]]");
   s.check_keys({"body", "point", "force", "follower"});
-  if (s.boolean("follower", false))
-    s.fail("follower", "follower loads are not supported by this version of modal (dead loads only)");
-  DeadLoad load;
-  load.at.body = names.find(s, "body", s.required_string("body"), false);
-  load.at.point = s.vector3("point", Vec3::Zero());
-  load.force = s.required_vector3("force");
-  return load;
+  const bool follower = s.boolean("follower", false);
+  Attachment at;
+  at.body = names.find(s, "body", s.required_string("body"), false);
+  at.point = s.vector3("point", Vec3::Zero());
+  const Vec3 force = s.required_vector3("force");
+  if (follower)
+    d.followers.push_back({at, force});
+  else
+    d.loads.push_back({at, force});
 }
 
 // The tables of the array `key` of the root, or none.
@@ -451,20 +470,24 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   const auto bodies = tables_of(reader, root, "body");
   for (std::size_t i = 0; i < bodies.size(); ++i) entries.push_back(read_body(reader, *bodies[i], i));
   const auto chains = tables_of(reader, root, "chain");
-  for (std::size_t i = 0; i < chains.size(); ++i)
-    for (BodyEntry& e : read_chain(reader, *chains[i], i)) entries.push_back(std::move(e));
+  std::map<std::string, std::string> chain_tips;  // chain name → its last link's body name
+  for (std::size_t i = 0; i < chains.size(); ++i) {
+    std::vector<BodyEntry> links = read_chain(reader, *chains[i], i);
+    chain_tips[links.back().chain] = links.back().body.name;
+    for (BodyEntry& e : links) entries.push_back(std::move(e));
+  }
   if (entries.empty())
     throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]] or a [[chain]]");
   std::stable_sort(entries.begin(), entries.end(),
                    [](const BodyEntry& x, const BodyEntry& y) { return x.order < y.order; });
   order_bodies(reader, entries, d, scene.body_locations);
 
-  const BodyNames names(d.bodies);
+  const BodyNames names(d.bodies, chain_tips);
   const std::vector<Vec3> frames = frame_positions(d.bodies);
   const auto springs = tables_of(reader, root, "spring");
   for (std::size_t i = 0; i < springs.size(); ++i) d.springs.push_back(read_spring(reader, *springs[i], i, names, frames));
   const auto loads = tables_of(reader, root, "load");
-  for (std::size_t i = 0; i < loads.size(); ++i) d.loads.push_back(read_load(reader, *loads[i], i, names));
+  for (std::size_t i = 0; i < loads.size(); ++i) read_load(reader, *loads[i], i, names, d);
   return scene;
 }
 

@@ -1,12 +1,12 @@
 // modal/core.hpp — the Lagrangian core.
 //
 // A System is the constant model of a tree of rigid bodies joined by joints,
-// with springs, joint springs and dampers, and dead loads: everything needed to
+// with springs, joint springs and dampers, dead and follower loads: everything needed to
 // evaluate, at generalized coordinates q (n of them) and velocities q̇,
 //
 //   M(q)        mass matrix (n×n, symmetric positive semidefinite)      [kg·m², kg·m, kg]
 //   V(q)        potential energy (gravity, springs, dead loads)           [J]
-//   Q(q, q̇)     non-conservative generalized forces (dampers)             [N·m or N]
+//   Q(q, q̇)     non-conservative generalized forces (dampers, followers)  [N·m or N]
 //
 // and their exact derivatives. All evaluation is by free functions taking the
 // System (constant) and a Workspace (scratch memory, one per thread):

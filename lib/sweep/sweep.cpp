@@ -1,0 +1,557 @@
+// lib/sweep/sweep.cpp — sweep(), sweep_map(), parse_vary(): continuation of the
+// equilibrium along a parameter grid, classification at every point, and the
+// refinement of every change of class (the method is described in
+// modal/sweep.hpp).
+#include "modal/sweep.hpp"
+
+#include "modal/linearize.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <optional>
+#include <utility>
+
+namespace modal {
+namespace {
+
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+
+// Exact text of a double (round trip), for --set style overrides.
+std::string exact_text(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string short_text(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+bool unstable(Stability s) { return s == Stability::divergence || s == Stability::flutter; }
+
+// What guides the refinement of one change of class (modal/sweep.hpp).
+enum class Indicator { none, real_eigenvalue, discriminant, growth_rate };
+
+const char* describe(Indicator i) {
+  switch (i) {
+    case Indicator::none: return "bisection on the class";
+    case Indicator::real_eigenvalue:
+      return "regula falsi on the real eigenvalue μ of M⁻¹K nearest 0 (signed by det K)";
+    case Indicator::discriminant:
+      return "regula falsi on the discriminant (μ₁ − μ₂)² of the closest pair of eigenvalues of M⁻¹K";
+    case Indicator::growth_rate: return "regula falsi on the largest growth rate of an oscillating mode";
+  }
+  return "";
+}
+
+CriticalKind kind_of(Stability before, Stability after) {
+  const bool div = before == Stability::divergence || after == Stability::divergence;
+  const bool flu = before == Stability::flutter || after == Stability::flutter;
+  if (div && flu) return after == Stability::flutter ? CriticalKind::flutter : CriticalKind::divergence;
+  if (div) return CriticalKind::divergence;
+  if (flu) return CriticalKind::flutter;
+  return CriticalKind::marginal;
+}
+
+// Everything one point of the parameter space gives.
+struct Evaluation {
+  bool ok = false;
+  bool scene_error = false;
+  std::string failure;
+  Equilibrium equilibrium;
+  ModalResult result;  // all modes
+  std::vector<std::string> coordinates;
+  bool symmetric = true;
+  bool velocity_terms = false;  // damping or gyroscopic terms
+  double max_growth_rate = 0;
+  double min_omega2 = 0;
+  double f = nan;      // the requested indicator
+  double omega = nan;  // frequency of the pair that the indicator follows, rad/s
+};
+
+// Real eigenvalues (sorted) and complex ones (upper half plane) of M⁻¹K.
+struct Spectrum {
+  std::vector<double> real;
+  std::vector<std::complex<double>> complex;
+};
+
+Spectrum stiffness_spectrum(const LinearModel& lin, const ModalResult& r) {
+  Spectrum sp;
+  if (lin.symmetric()) {  // the modes are the eigenvalues λ of (K, M)
+    for (const Mode& m : r.modes) sp.real.push_back(m.omega2);
+  } else {
+    const MatrixX MinvK = Eigen::LLT<MatrixX>(0.5 * (lin.M + lin.M.transpose())).solve(lin.K);
+    Eigen::EigenSolver<MatrixX> eig(MinvK, false);
+    if (eig.info() != Eigen::Success) return sp;
+    for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
+      const std::complex<double> mu = eig.eigenvalues()(i);
+      if (mu.imag() == 0)
+        sp.real.push_back(mu.real());
+      else if (mu.imag() > 0)
+        sp.complex.push_back(mu);
+    }
+  }
+  std::sort(sp.real.begin(), sp.real.end());
+  return sp;
+}
+
+// The frequency of a pair of eigenvalues μ = ω² that merge: (μ₁μ₂)^¼.
+double pair_frequency(double product, double sum) {
+  return product > 0 && sum > 0 ? std::sqrt(std::sqrt(product)) : nan;
+}
+
+void compute_indicator(Indicator ind, const LinearModel& lin, Evaluation& e) {
+  switch (ind) {
+    case Indicator::none: return;
+    case Indicator::real_eigenvalue: {
+      const Spectrum sp = stiffness_spectrum(lin, e.result);
+      if (sp.real.empty()) return;
+      double nearest = std::numeric_limits<double>::infinity();
+      int negatives = 0;
+      for (double mu : sp.real) {
+        nearest = std::min(nearest, std::abs(mu));
+        if (mu < 0) ++negatives;
+      }
+      e.f = negatives % 2 == 0 ? nearest : -nearest;  // sign of det K (complex pairs are positive)
+      e.omega = 0;
+      return;
+    }
+    case Indicator::discriminant: {
+      const Spectrum sp = stiffness_spectrum(lin, e.result);
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i + 1 < sp.real.size(); ++i) {
+        const double d = (sp.real[i + 1] - sp.real[i]) * (sp.real[i + 1] - sp.real[i]);
+        if (d < best) {
+          best = d;
+          e.omega = pair_frequency(sp.real[i] * sp.real[i + 1], sp.real[i] + sp.real[i + 1]);
+        }
+      }
+      for (const std::complex<double>& mu : sp.complex) {
+        const double d = -4 * mu.imag() * mu.imag();
+        if (d < best) {
+          best = d;
+          e.omega = pair_frequency(std::norm(mu), 2 * mu.real());
+        }
+      }
+      if (std::isfinite(best)) e.f = best;
+      return;
+    }
+    case Indicator::growth_rate: {
+      double best = -std::numeric_limits<double>::infinity();
+      for (const Mode& m : e.result.modes)
+        if (m.omega > m.error_estimate && m.growth_rate > best) {
+          best = m.growth_rate;
+          e.omega = m.omega;
+        }
+      if (std::isfinite(best)) e.f = best;
+      return;
+    }
+  }
+}
+
+// Runs the pipeline at one point of the parameter space.
+class Evaluator {
+ public:
+  Evaluator(const std::string& text, const std::string& file, const std::vector<ParameterOverride>& fixed,
+            std::vector<std::string> names, const SweepOptions& options)
+      : text_(text), file_(file), fixed_(fixed), names_(std::move(names)), options_(options) {}
+
+  Evaluation operator()(const std::vector<double>& values, const VectorX* start, Indicator ind) const {
+    Evaluation e;
+    std::vector<ParameterOverride> overrides = fixed_;
+    for (std::size_t i = 0; i < names_.size(); ++i) overrides.push_back({names_[i], exact_text(values[i])});
+    std::optional<System> sys;
+    try {
+      sys.emplace(build_system(parse_scene(text_, file_, overrides)));
+    } catch (const SceneError& ex) {
+      e.scene_error = true;
+      e.failure = std::string("invalid scene: ") + ex.what();
+      return e;
+    } catch (const std::invalid_argument& ex) {
+      e.scene_error = true;
+      e.failure = std::string("invalid scene: ") + ex.what();
+      return e;
+    }
+    std::string stage = "no equilibrium";
+    try {
+      const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
+      e.equilibrium = find_equilibrium(*sys, q0, options_.equilibrium);
+      stage = "linearization failed";
+      const LinearModel lin = linearize(*sys, e.equilibrium.q);
+      stage = "eigen-solution failed";
+      e.result = solve_modes(lin);
+      e.coordinates = lin.coordinates;
+      e.symmetric = lin.symmetric();
+      e.velocity_terms = lin.has_damping || lin.has_gyroscopic;
+      e.max_growth_rate = e.result.modes.empty() ? 0.0 : -std::numeric_limits<double>::infinity();
+      e.min_omega2 = e.result.modes.empty() ? 0.0 : std::numeric_limits<double>::infinity();
+      for (const Mode& m : e.result.modes) {
+        e.max_growth_rate = std::max(e.max_growth_rate, m.growth_rate);
+        const double w2 = std::isfinite(m.omega2) ? m.omega2 : (-(m.s * m.s)).real();
+        e.min_omega2 = std::min(e.min_omega2, w2);
+      }
+      compute_indicator(ind, lin, e);
+      e.ok = true;
+    } catch (const std::exception& ex) {
+      e.failure = stage + ": " + ex.what();
+    }
+    return e;
+  }
+
+ private:
+  const std::string& text_;
+  const std::string& file_;
+  const std::vector<ParameterOverride>& fixed_;
+  std::vector<std::string> names_;
+  const SweepOptions& options_;
+};
+
+// Checks the scene and the axes before anything runs.
+void validate(const std::string& text, const std::string& file, const std::vector<ParameterOverride>& fixed,
+              const std::vector<const SweepAxis*>& axes) {
+  const Scene scene = parse_scene(text, file, fixed);  // SceneError: bad scene or --set
+  std::string known;
+  for (const auto& [name, value] : scene.parameters) known += (known.empty() ? "" : ", ") + name;
+  for (const SweepAxis* axis : axes) {
+    if (axis->count < 2 || !std::isfinite(axis->from) || !std::isfinite(axis->to) || axis->from == axis->to)
+      throw SweepInputError("--vary " + axis->name + ": needs finite FROM ≠ TO and COUNT ≥ 2");
+    const bool found = std::any_of(scene.parameters.begin(), scene.parameters.end(),
+                                   [&](const auto& p) { return p.first == axis->name; });
+    if (!found)
+      throw SweepInputError("--vary: '" + axis->name + "' is not a parameter of " + file +
+                            (known.empty() ? " (it has no [parameters])" : "; its parameters are: " + known));
+    for (const ParameterOverride& o : fixed)
+      if (o.name == axis->name)
+        throw SweepInputError("--vary and --set both give the parameter '" + axis->name + "'");
+  }
+  if (axes.size() == 2 && axes[0]->name == axes[1]->name)
+    throw SweepInputError("the two --vary options name the same parameter '" + axes[0]->name + "'");
+}
+
+void fill_point(SweepPoint& p, const Evaluation& e, int modes) {
+  p.ok = e.ok;
+  p.scene_error = e.scene_error;
+  p.failure = e.failure;
+  if (!e.ok) return;
+  p.equilibrium = e.equilibrium;
+  p.result = e.result;
+  if (modes >= 0 && static_cast<std::size_t>(modes) < p.result.modes.size())
+    p.result.modes.resize(static_cast<std::size_t>(modes));
+  p.symmetric = e.symmetric;
+  p.max_growth_rate = e.max_growth_rate;
+  p.min_omega2 = e.min_omega2;
+}
+
+// The change of class between a (class ea) and b (class eb), neighbours in sweep order.
+CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a, Evaluation ea, double b,
+                     Evaluation eb, const SweepOptions& options, std::vector<std::string>& notes) {
+  CriticalValue c;
+  c.before = ea.result.stability;
+  c.after = eb.result.stability;
+  c.kind = kind_of(c.before, c.after);
+  c.omega = c.kind == CriticalKind::divergence ? 0.0 : nan;
+
+  Indicator ind = Indicator::none;
+  if (c.kind == CriticalKind::divergence && !(unstable(c.before) && unstable(c.after)))
+    ind = Indicator::real_eigenvalue;
+  if (c.kind == CriticalKind::flutter && !(unstable(c.before) && unstable(c.after)))
+    ind = ea.velocity_terms || eb.velocity_terms ? Indicator::growth_rate : Indicator::discriminant;
+
+  // Which side of the change a class belongs to: that of b, or not.
+  const Stability target = eb.result.stability;
+  auto on_b_side = [&](Stability s) {
+    if (c.kind == CriticalKind::divergence && ind != Indicator::none)
+      return (s == Stability::divergence) == (target == Stability::divergence);
+    if (c.kind == CriticalKind::flutter && ind != Indicator::none)
+      return (s == Stability::flutter) == (target == Stability::flutter);
+    return s == target;
+  };
+
+  const double span = std::abs(axis.to - axis.from);
+  auto tolerance = [&] { return options.tolerance * std::max({std::abs(a), std::abs(b), 1e-6 * span}); };
+
+  if (!options.refine) {
+    c.value = 0.5 * (a + b);
+    c.error = 0.5 * std::abs(b - a);
+    c.indicator = "none (not refined)";
+    return c;
+  }
+
+  if (ind != Indicator::none) {  // the endpoints again, with the indicator
+    Evaluation ra = evaluate({a}, &ea.equilibrium.q, ind), rb = evaluate({b}, &eb.equilibrium.q, ind);
+    c.evaluations += 2;
+    if (ra.ok && rb.ok && ra.result.stability == ea.result.stability &&
+        rb.result.stability == eb.result.stability) {
+      ea = std::move(ra);
+      eb = std::move(rb);
+    } else {
+      ind = Indicator::none;
+    }
+  }
+  c.indicator = describe(ind);
+  double fa = ea.f, fb = eb.f;
+  bool secant = ind != Indicator::none && std::isfinite(fa) && std::isfinite(fb) && fa * fb < 0;
+  if (ind != Indicator::none && !secant) c.indicator = describe(Indicator::none);
+
+  int last = 0;  // −1: a was replaced last, +1: b
+  int since_halving = 0;
+  double checkpoint = std::abs(b - a);
+  bool noted_third = false;
+  while (std::abs(b - a) > tolerance() && c.evaluations < options.max_evaluations) {
+    const double tol = tolerance();
+    double x = a + 0.5 * (b - a);
+    if (secant && since_halving < 2) {
+      const double s = b - fb * (b - a) / (fb - fa);
+      const double lo = std::min(a, b) + 0.25 * tol, hi = std::max(a, b) - 0.25 * tol;
+      if (std::isfinite(s) && lo < hi) x = std::clamp(s, lo, hi);
+    }
+    if (x == a || x == b) break;  // no representable value in between
+    const VectorX& start = std::abs(x - a) <= std::abs(x - b) ? ea.equilibrium.q : eb.equilibrium.q;
+    Evaluation ex = evaluate({x}, &start, ind);
+    ++c.evaluations;
+    if (!ex.ok) {
+      notes.push_back("the refinement of the change at " + axis.name + " between " + short_text(a) + " and " +
+                      short_text(b) + " stopped at " + axis.name + " = " + short_text(x) + ": " + ex.failure);
+      break;
+    }
+    const Stability sx = ex.result.stability;
+    if (sx == Stability::marginal && c.kind != CriticalKind::marginal && sx != ea.result.stability &&
+        sx != eb.result.stability) {
+      // A zero mode: x is the change itself, up to rounding (the interpolation
+      // hits it exactly when the indicator is linear in the parameter). Close
+      // the bracket around it.
+      const double d = std::copysign(0.25 * tol, b - a);
+      Evaluation el = evaluate({x - d}, &ex.equilibrium.q, ind), er = evaluate({x + d}, &ex.equilibrium.q, ind);
+      c.evaluations += 2;
+      if (el.ok && er.ok && el.result.stability == ea.result.stability && on_b_side(er.result.stability)) {
+        a = x - d;
+        b = x + d;
+        ea = std::move(el);
+        eb = std::move(er);
+        break;
+      }
+    }
+    if (sx != ea.result.stability && sx != eb.result.stability && !noted_third &&
+        !(sx == Stability::marginal && c.kind != CriticalKind::marginal)) {  // a zero mode at a change is expected
+      noted_third = true;
+      notes.push_back("between " + axis.name + " = " + short_text(a) + " and " + short_text(b) + " the class is also " +
+                      to_string(sx) + " (at " + short_text(x) + "): refine the grid to separate the changes");
+    }
+    const bool on_b = on_b_side(sx);
+    double fx = ex.f;
+    if (secant) {
+      if (!std::isfinite(fx)) {
+        secant = false;
+      } else {  // the class decides the side; keep the indicator's sign consistent with it
+        const double side = on_b ? fb : fa;
+        if (fx == 0 || (fx > 0) != (side > 0)) fx = std::copysign(std::max(std::abs(fx), 1e-300), side);
+      }
+    }
+    if (on_b) {
+      b = x;
+      fb = fx;
+      if (last == 1) fa *= 0.5;
+      last = 1;
+      eb = std::move(ex);
+    } else {
+      a = x;
+      fa = fx;
+      if (last == -1) fb *= 0.5;
+      last = -1;
+      ea = std::move(ex);
+    }
+    if (std::abs(b - a) <= 0.5 * checkpoint) {  // halved: the interpolation is doing its work
+      checkpoint = std::abs(b - a);
+      since_halving = 0;
+    } else {
+      ++since_halving;  // two steps without halving: the next one bisects
+    }
+  }
+  c.value = 0.5 * (a + b);
+  c.error = 0.5 * std::abs(b - a);
+  c.refined = std::abs(b - a) <= tolerance();
+  if (!c.refined && c.evaluations >= options.max_evaluations)
+    notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) + " was not refined to the tolerance within " +
+                    std::to_string(options.max_evaluations) + " evaluations");
+  if (c.kind == CriticalKind::flutter && ind != Indicator::none) {
+    double sum = 0;
+    int count = 0;
+    for (double w : {ea.omega, eb.omega})
+      if (std::isfinite(w)) sum += w, ++count;
+    c.omega = count > 0 ? sum / count : nan;
+  }
+  return c;
+}
+
+// Two changes that meet (a class seen at a single point between them, such as
+// a zero mode exactly at a grid value) are one change.
+std::vector<CriticalValue> merge_touching(std::vector<CriticalValue> in, double tolerance) {
+  std::vector<CriticalValue> out;
+  for (CriticalValue& c : in) {
+    if (!out.empty()) {
+      CriticalValue& p = out.back();
+      const double gap = std::abs(c.value - p.value);
+      if (gap <= p.error + c.error + tolerance * std::max({std::abs(p.value), std::abs(c.value), 1e-300})) {
+        const double lo = std::min(p.value - p.error, c.value - c.error);
+        const double hi = std::max(p.value + p.error, c.value + c.error);
+        p.value = 0.5 * (lo + hi);
+        p.error = 0.5 * (hi - lo);
+        p.after = c.after;
+        p.kind = kind_of(p.before, p.after);
+        p.omega = p.kind == CriticalKind::divergence ? 0.0 : (std::isfinite(p.omega) ? p.omega : c.omega);
+        p.evaluations += c.evaluations;
+        p.refined = p.refined && c.refined;
+        continue;
+      }
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
+double SweepAxis::value(int i) const {
+  if (i >= count - 1) return to;
+  return from + (to - from) * (static_cast<double>(i) / static_cast<double>(count - 1));
+}
+
+const char* to_string(CriticalKind k) {
+  switch (k) {
+    case CriticalKind::divergence: return "divergence";
+    case CriticalKind::flutter: return "flutter";
+    case CriticalKind::marginal: return "marginal";
+  }
+  return "unknown";
+}
+
+bool CriticalValue::restabilization() const { return unstable(before) && !unstable(after); }
+bool CriticalValue::loss() const { return !unstable(before) && unstable(after); }
+
+SweepAxis parse_vary(std::string_view text) {
+  const std::string expected = "--vary expects NAME=FROM:TO:COUNT (e.g. P=0:4:41)";
+  const std::string got = "; got '" + std::string(text) + "'";
+  auto trim = [](std::string_view s) {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+    return s;
+  };
+  const std::size_t eq = text.find('=');
+  if (eq == std::string_view::npos) throw SweepInputError(expected + got + " (no '=')");
+  SweepAxis axis;
+  axis.name = std::string(trim(text.substr(0, eq)));
+  if (axis.name.empty()) throw SweepInputError(expected + got + " (the parameter name is missing)");
+  std::vector<std::string_view> parts;
+  std::string_view rest = text.substr(eq + 1);
+  for (std::size_t colon; (colon = rest.find(':')) != std::string_view::npos; rest.remove_prefix(colon + 1))
+    parts.push_back(trim(rest.substr(0, colon)));
+  parts.push_back(trim(rest));
+  if (parts.size() != 3)
+    throw SweepInputError(expected + got + " (" + std::to_string(parts.size()) + " part" +
+                          (parts.size() == 1 ? "" : "s") + " after '=', expected FROM:TO:COUNT)");
+  auto number = [&](std::string_view s, const char* what) {
+    const std::string str(s);
+    char* end = nullptr;
+    const double v = str.empty() ? nan : std::strtod(str.c_str(), &end);
+    if (str.empty() || end != str.c_str() + str.size() || !std::isfinite(v))
+      throw SweepInputError(expected + got + " (" + what + " '" + str + "' is not a finite number)");
+    return v;
+  };
+  axis.from = number(parts[0], "FROM");
+  axis.to = number(parts[1], "TO");
+  const std::string_view count = parts[2];
+  const auto [ptr, ec] = std::from_chars(count.data(), count.data() + count.size(), axis.count);
+  if (count.empty() || ec != std::errc() || ptr != count.data() + count.size() || axis.count < 2)
+    throw SweepInputError(expected + got + " (COUNT '" + std::string(count) + "' must be an integer ≥ 2)");
+  if (axis.from == axis.to)
+    throw SweepInputError(expected + got + " (FROM and TO are equal: nothing to sweep)");
+  return axis;
+}
+
+SweepResult sweep(const std::string& scene_text, const std::string& file,
+                  const std::vector<ParameterOverride>& fixed, const SweepAxis& axis, const SweepOptions& options) {
+  validate(scene_text, file, fixed, {&axis});
+  const Evaluator evaluate(scene_text, file, fixed, {axis.name}, options);
+
+  SweepResult result;
+  result.axis = axis;
+  result.points.resize(static_cast<std::size_t>(axis.count));
+  std::vector<Evaluation> evaluations(static_cast<std::size_t>(axis.count));
+  const VectorX* start = nullptr;
+  for (int i = 0; i < axis.count; ++i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    SweepPoint& p = result.points[k];
+    p.value = axis.value(i);
+    evaluations[k] = evaluate({p.value}, start, Indicator::none);
+    ++result.evaluations;
+    fill_point(p, evaluations[k], options.modes);
+    if (p.ok) {
+      start = &evaluations[k].equilibrium.q;
+      if (result.coordinates.empty()) result.coordinates = evaluations[k].coordinates;
+    }
+    if (options.progress) options.progress(i + 1, axis.count);
+  }
+
+  // Changes of class between consecutive points that worked.
+  std::vector<CriticalValue> found;
+  std::size_t previous = evaluations.size();
+  for (std::size_t k = 0; k < evaluations.size(); ++k) {
+    if (!evaluations[k].ok) continue;
+    if (previous < evaluations.size() &&
+        evaluations[previous].result.stability != evaluations[k].result.stability) {
+      CriticalValue c = refine(evaluate, axis, result.points[previous].value, evaluations[previous],
+                               result.points[k].value, evaluations[k], options, result.notes);
+      result.evaluations += c.evaluations;
+      found.push_back(std::move(c));
+    }
+    previous = k;
+  }
+  result.critical = merge_touching(std::move(found), options.tolerance);
+  return result;
+}
+
+StabilityMap sweep_map(const std::string& scene_text, const std::string& file,
+                       const std::vector<ParameterOverride>& fixed, const SweepAxis& x, const SweepAxis& y,
+                       const SweepOptions& options) {
+  validate(scene_text, file, fixed, {&x, &y});
+  const Evaluator evaluate(scene_text, file, fixed, {x.name, y.name}, options);
+  StabilityMap map;
+  map.x = x;
+  map.y = y;
+  map.points.resize(static_cast<std::size_t>(x.count) * static_cast<std::size_t>(y.count));
+  std::optional<VectorX> row_start, start;
+  for (int j = 0; j < y.count; ++j) {
+    start = row_start;
+    for (int i = 0; i < x.count; ++i) {
+      MapPoint& p = map.points[static_cast<std::size_t>(j * x.count + i)];
+      p.x = x.value(i);
+      p.y = y.value(j);
+      const Evaluation e = evaluate({p.x, p.y}, start ? &*start : nullptr, Indicator::none);
+      p.ok = e.ok;
+      p.scene_error = e.scene_error;
+      p.failure = e.failure;
+      if (e.ok) {
+        p.stability = e.result.stability;
+        p.max_growth_rate = e.max_growth_rate;
+        p.min_omega2 = e.min_omega2;
+        start = e.equilibrium.q;
+        if (i == 0 || !row_start) row_start = e.equilibrium.q;
+      }
+      if (options.progress) options.progress(j * x.count + i + 1, x.count * y.count);
+    }
+  }
+  return map;
+}
+
+}  // namespace modal
