@@ -218,7 +218,8 @@ TEST_F(Cli, R2SpringChainFrequenciesAndShapes) {
   // m Σφ² = 1, and the sign convention makes the largest |component| positive.
   const Csv shapes = read_csv(prefix() + "_shapes.csv");
   ASSERT_EQ(shapes.rows.size(), 9u);
-  EXPECT_EQ(shapes.header, (std::vector<std::string>{"equilibrium", "mode", "coordinate", "value"}));
+  EXPECT_EQ(shapes.header,
+            (std::vector<std::string>{"equilibrium", "mode", "coordinate", "value", "amplitude", "phase_deg"}));
   for (int j = 1; j <= N; ++j) {
     Eigen::Vector3d ref, got;
     for (int n = 1; n <= N; ++n) ref[n - 1] = std::sin(n * j * std::numbers::pi / (N + 1));

@@ -212,11 +212,17 @@ TEST(ReportCsv, ComplexModeHasEmptyOmega2) {
 
   std::ostringstream shapes;
   modal::write_shapes_csv(shapes, r);
-  EXPECT_EQ(lines(shapes.str()).at(1), "1,1,x,0.5");  // real part only
+  // value = real part; amplitude and phase of 0.5 − 0.25i: √0.3125 and atan2(−0.25, 0.5).
+  const auto sf = fields(lines(shapes.str()).at(1));
+  ASSERT_EQ(sf.size(), 6u);
+  EXPECT_EQ(sf[3], "0.5");
+  EXPECT_NEAR(std::strtod(sf[4].c_str(), nullptr), std::sqrt(0.3125), 1e-15);
+  EXPECT_NEAR(std::strtod(sf[5].c_str(), nullptr), std::atan2(-0.25, 0.5) * 180 / std::numbers::pi, 1e-13);
 
   const auto j = nlohmann::json::parse(modal::analysis_json(r));
   EXPECT_TRUE(j["modes"][0]["omega2"].is_null());
   EXPECT_EQ(j["modes"][0]["shape_imag"][0].get<double>(), -0.25);
+  EXPECT_NEAR(j["modes"][0]["shape_amplitude"][0].get<double>(), std::sqrt(0.3125), 1e-15);
 }
 
 TEST(ReportCsv, ShapesTable) {
@@ -225,12 +231,14 @@ TEST(ReportCsv, ShapesTable) {
   modal::write_shapes_csv(out, r);
   const auto l = lines(out.str());
   ASSERT_EQ(l.size(), 1u + 2 * 2 * 2);
-  EXPECT_EQ(l[0], "equilibrium,mode,coordinate,value");
-  EXPECT_EQ(fields(l[1]), (std::vector<std::string>{"1", "1", "theta", modal::csv_number(1.0 / 3.0)}));
+  EXPECT_EQ(l[0], "equilibrium,mode,coordinate,value,amplitude,phase_deg");
+  EXPECT_EQ(fields(l[1]), (std::vector<std::string>{"1", "1", "theta", modal::csv_number(1.0 / 3.0),
+                                                    modal::csv_number(1.0 / 3.0), "0"}));
   EXPECT_EQ(l[2].substr(0, 11), "1,1,\"x,1\",-");  // quoted name
   EXPECT_EQ(fields(l[2])[2], "x,1");
   EXPECT_EQ(std::strtod(fields(l[2])[3].c_str(), nullptr), -2.0 / 7.0);
-  EXPECT_EQ(fields(l[8]), (std::vector<std::string>{"2", "2", "x,1", "1"}));
+  EXPECT_EQ(fields(l[8]), (std::vector<std::string>{"2", "2", "x,1", "1", "1", "0"}));
+  EXPECT_EQ(fields(l[2])[5], "180");  // a negative real component is phase 180°
 }
 
 TEST(ReportCsv, EquilibriaTable) {

@@ -48,10 +48,20 @@ TEST(scene_errors, UnknownKeys) {
 }
 
 TEST(scene_errors, KeysOfLaterVersions) {
-  check_error("frame_rotation = [0, 0, 1]\n" + pendulum,
-              {1, 1, "frame_rotation", "'frame_rotation' is not supported by this version of modal"});
+  check_error("coordinates = [1]\n" + pendulum,
+              {1, 1, "coordinates", "'coordinates' is not supported by this version of modal"});
   check_error(pendulum + "[[particle]]\nname = \"q\"\n", {5, 3, "particle", "'particle' is not supported by this version of modal"});
   check_error(pendulum + "potential = \"x^2\"\n", {5, 1, "body[1].potential", "unknown key 'potential' in [[body]]"});
+}
+
+TEST(scene_errors, FrameRotation) {
+  // Accepted since frame rotations are supported; malformed values are errors.
+  EXPECT_NO_THROW((void)modal::parse_scene("frame_rotation = [0, 0, 1]\n" + pendulum, "good.toml"));
+  check_error("frame_rotation = [0, 1]\n" + pendulum, {1, 18, "frame_rotation", "expected an array of 3 numbers, got 2"});
+  check_error("frame_rotation = 3\n" + pendulum, {1, 18, "frame_rotation", "expected an array of 3 numbers, got an integer"});
+  check_error("frame_rotation = [0, 0, inf]\n" + pendulum, {1, 25, "frame_rotation[3]", "the value must be finite"});
+  check_error("frame_rotation = [0, 0, \"1/w\"]\n[parameters]\nw = 0\n" + pendulum,
+              {1, 25, "frame_rotation[3]", "evaluates to inf; the value must be finite"});
 }
 
 TEST(scene_errors, WrongTypes) {

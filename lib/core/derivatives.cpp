@@ -15,6 +15,15 @@
 // through the left Jacobian J_l(φ); that derivative comes from AD of J_l.
 // Elements with a local Hessian add Jᵀ H J. Cost: O(n·depth) for the Hessian.
 //
+// Rotating frame (Ω ≠ 0): the centrifugal potential −T₀ is two elements per
+// body. The centre of mass is a point element, −½m|Ω × x|². The rotational
+// inertia, −½ Σ_ij I_ij (Ω·u_i)(Ω·u_j), depends on the body-fixed world
+// directions u_i = R_b e_i, which turn but do not translate: ∂u/∂q_k = ω_k × u.
+// A direction's cotangent e_u is deposited like a point at x = u that adds
+// u × e_u to τ and u e_uᵀ to P but nothing to F: the formulas above then hold
+// unchanged (every term in them without x is a multiple of F). Both elements
+// get their cotangents and local Hessians from AD of model::centrifugal_*_energy.
+//
 // Follower loads (f = R_b f_body at x) use the same accumulation with the
 // cotangent e = f: the tree gradient is then Q_j = f·∂x/∂q_j and the tree
 // Hessian f·∂²x/∂q_j∂q_k, the first part of ∂Q/∂q; the second part,
@@ -25,8 +34,10 @@
 
 #include <Eigen/Cholesky>
 
+#include <array>
 #include <cmath>
 #include <string>
+#include <tuple>
 
 namespace modal {
 
@@ -84,25 +95,38 @@ template <class F> void for_each_path_coordinate(const System& s, int body, F&& 
   }
 }
 
-// ∂x/∂q_k for a point x moved by coordinate k.
-Vec3 point_velocity(const TreeState<double>& st, int k, const Vec3& x) {
+// What an element depends on: a world point x moved with `body` (∂x/∂q_k =
+// ω_k × x + v_k), or a world direction x fixed in `body` (∂x/∂q_k = ω_k × x);
+// body -1: fixed in the world.
+struct Site {
+  int body = -1;
+  Vec3 x = Vec3::Zero();
+  bool direction = false;
+};
+
+// ∂x/∂q_k for a site moved by coordinate k.
+Vec3 site_velocity(const TreeState<double>& st, int k, const Site& site) {
   const auto kk = static_cast<std::size_t>(k);
-  return st.omega[kk].cross(x) + st.vel[kk];
+  const Vec3 turn = st.omega[kk].cross(site.x);
+  return site.direction ? turn : Vec3(turn + st.vel[kk]);
 }
 
-// Sparse point Jacobian: the columns of the coordinates that move the point.
+// Sparse Jacobian of a site: the columns of the coordinates that move it.
 struct PointJacobian {
   std::vector<int> index;
   std::vector<Vec3> column;
 };
-PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a, const Vec3& x) {
+PointJacobian site_jacobian(const System& s, const TreeState<double>& st, const Site& site) {
   PointJacobian J;
-  if (a.body >= 0)
-    for_each_path_coordinate(s, a.body, [&](int k) {
+  if (site.body >= 0)
+    for_each_path_coordinate(s, site.body, [&](int k) {
       J.index.push_back(k);
-      J.column.push_back(point_velocity(st, k, x));
+      J.column.push_back(site_velocity(st, k, site));
     });
   return J;
+}
+PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a, const Vec3& x) {
+  return site_jacobian(s, st, Site{a.body, x, false});
 }
 double frobenius(const PointJacobian& J) {
   double s2 = 0;
@@ -110,24 +134,71 @@ double frobenius(const PointJacobian& J) {
   return std::sqrt(s2);
 }
 
-Eigen::Matrix<double, 6, 1> stack(const Vec3& a, const Vec3& b) {
-  Eigen::Matrix<double, 6, 1> r;
-  r << a, b;
-  return r;
+// Hands an element's cotangents (and, for second order, its local Hessian) on:
+// `energy` of the stacked site coordinates (3N), templated on the scalar.
+template <int N, class Energy, class Deposit, class LocalHessian>
+void deposit_element(const std::array<Site, N>& sites, Energy&& energy, Deposit&& deposit, LocalHessian&& local_hessian,
+                     bool second_order) {
+  Eigen::Matrix<double, 3 * N, 1> x;
+  for (int i = 0; i < N; ++i) x.template segment<3>(3 * i) = sites[static_cast<std::size_t>(i)].x;
+  Eigen::Matrix<double, 3 * N, 1> g;
+  if (second_order) {
+    const auto r = ad::hessian<3 * N>(energy, x);
+    g = r.gradient;
+    local_hessian(sites, r.hessian);
+  } else {
+    g = ad::gradient<3 * N>(energy, x).gradient;
+  }
+  for (int i = 0; i < N; ++i)
+    if (sites[static_cast<std::size_t>(i)].body >= 0)
+      deposit(sites[static_cast<std::size_t>(i)], Vec3(g.template segment<3>(3 * i)));
 }
 
-// The element cotangents e = ∂V_e/∂x at world points, handed to `deposit(body, x, e)`;
-// springs also hand their local Hessian (6×6 in (xa, xb)) to `spring_hessian` when given.
-template <class Deposit, class SpringHessian>
-void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit, SpringHessian&& spring_hessian,
+// The centrifugal elements of −T₀ (module comment) of every body.
+template <class Deposit, class LocalHessian>
+void for_each_centrifugal_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit,
+                                    LocalHessian&& local_hessian, bool second_order) {
+  const auto& bodies = s.bodies();
+  const Vec3& Omega = s.frame_rotation();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    const int bi = static_cast<int>(b);
+    if (body.mass != 0.0) {
+      auto energy = [&](const auto& x) {
+        using S = std::decay_t<decltype(x[0])>;
+        return model::centrifugal_point_energy<S>(body.mass, Omega, model::V3<S>(x[0], x[1], x[2]));
+      };
+      const std::array<Site, 1> com{Site{bi, Vec3(st.position[b] + st.rotation[b] * body.com), false}};
+      deposit_element<1>(com, energy, deposit, local_hessian, second_order);
+    }
+    if (!body.inertia.isZero(0.0)) {
+      auto energy = [&](const auto& x) {
+        using S = std::decay_t<decltype(x[0])>;
+        const model::V3<S> u[3] = {{x[0], x[1], x[2]}, {x[3], x[4], x[5]}, {x[6], x[7], x[8]}};
+        return model::centrifugal_rotation_energy<S>(body.inertia, Omega, u);
+      };
+      const std::array<Site, 3> axes{Site{bi, st.rotation[b].col(0), true}, Site{bi, st.rotation[b].col(1), true},
+                                     Site{bi, st.rotation[b].col(2), true}};
+      deposit_element<3>(axes, energy, deposit, local_hessian, second_order);
+    }
+  }
+}
+
+// The element cotangents e = ∂V_e/∂x at sites, handed to `deposit(site, e)`;
+// elements with a local Hessian (springs: 6×6 in (xa, xb); centrifugal
+// elements) hand it to `local_hessian(sites, H)` when second_order.
+template <class Deposit, class LocalHessian>
+void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit, LocalHessian&& local_hessian,
                         bool second_order) {
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     if (body.mass == 0.0) continue;
-    deposit(static_cast<int>(b), Vec3(st.position[b] + st.rotation[b] * body.com), Vec3(-body.mass * s.gravity()));
+    deposit(Site{static_cast<int>(b), Vec3(st.position[b] + st.rotation[b] * body.com), false},
+            Vec3(-body.mass * s.gravity()));
   }
-  for (const DeadLoad& l : s.loads()) deposit(l.at.body, model::world_point(st, l.at), Vec3(-l.force));
+  for (const DeadLoad& l : s.loads()) deposit(Site{l.at.body, model::world_point(st, l.at), false}, Vec3(-l.force));
+  if (s.rotating()) for_each_centrifugal_cotangent(s, st, deposit, local_hessian, second_order);
   for (const Spring& sp : s.springs()) {
     const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
     if (sp.rest_length != 0.0 && (xa - xb).norm() == 0.0)
@@ -138,21 +209,13 @@ void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& 
       const model::V3<S> a(x[0], x[1], x[2]), b(x[3], x[4], x[5]);
       return model::spring_energy<S>(sp, a, b);
     };
-    Eigen::Matrix<double, 6, 1> g;
-    if (second_order) {
-      const auto r = ad::hessian<6>(energy, stack(xa, xb));
-      g = r.gradient;
-      spring_hessian(sp, xa, xb, r.hessian);
-    } else {
-      g = ad::gradient<6>(energy, stack(xa, xb)).gradient;
-    }
-    if (sp.a.body >= 0) deposit(sp.a.body, xa, Vec3(g.head<3>()));
-    if (sp.b.body >= 0) deposit(sp.b.body, xb, Vec3(g.tail<3>()));
+    const std::array<Site, 2> ends{Site{sp.a.body, xa, false}, Site{sp.b.body, xb, false}};
+    deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
   }
 }
 
 // Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
-// to deposit(body, x, e).
+// to deposit(site, e) (a direction adds nothing to F).
 template <class Source> void accumulate_sums(const System& s, Workspace& w, bool second_order, Source&& source) {
   KinematicsCache& c = w.cache();
   const auto nb = s.bodies().size();
@@ -161,12 +224,12 @@ template <class Source> void accumulate_sums(const System& s, Workspace& w, bool
     c.tau[b].setZero();
     c.P[b].setZero();
   }
-  source([&](int body, const Vec3& x, const Vec3& e) {
-    if (body < 0) return;
-    const auto b = static_cast<std::size_t>(body);
-    c.F[b] += e;
-    c.tau[b] += x.cross(e);
-    if (second_order) c.P[b] += x * e.transpose();
+  source([&](const Site& site, const Vec3& e) {
+    if (site.body < 0) return;
+    const auto b = static_cast<std::size_t>(site.body);
+    if (!site.direction) c.F[b] += e;
+    c.tau[b] += site.x.cross(e);
+    if (second_order) c.P[b] += site.x * e.transpose();
   });
   for (std::size_t b = nb; b-- > 0;) {
     const int p = s.bodies()[b].parent;
@@ -179,10 +242,10 @@ template <class Source> void accumulate_sums(const System& s, Workspace& w, bool
 }
 
 // The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
-template <class SpringHessian>
-void accumulate(const System& s, Workspace& w, bool second_order, SpringHessian&& spring_hessian) {
+template <class LocalHessian>
+void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian) {
   accumulate_sums(s, w, second_order, [&](auto&& deposit) {
-    for_each_cotangent(s, w.cache().st, deposit, spring_hessian, second_order);
+    for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order);
   });
 }
 
@@ -196,7 +259,8 @@ Vec3 follower_force(const TreeState<double>& st, const FollowerLoad& l) {
 void accumulate_followers(const System& s, Workspace& w, bool second_order) {
   const TreeState<double>& st = w.cache().st;
   accumulate_sums(s, w, second_order, [&](auto&& deposit) {
-    for (const FollowerLoad& l : s.followers()) deposit(l.at.body, model::world_point(st, l.at), follower_force(st, l));
+    for (const FollowerLoad& l : s.followers())
+      deposit(Site{l.at.body, model::world_point(st, l.at), false}, follower_force(st, l));
   });
 }
 
@@ -305,20 +369,21 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
   const TreeState<double>& st = kinematics(s, w, q);
   MatrixX& H = w.hessian;
   H.setZero(s.size(), s.size());
-  // Elements' local Hessians: Jᵀ H_e J.
-  auto spring_hessian = [&](const Spring& sp, const Vec3& xa, const Vec3& xb, const Eigen::Matrix<double, 6, 6>& He) {
-    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
-    const PointJacobian* J[2] = {&Ja, &Jb};
-    for (int u = 0; u < 2; ++u)
-      for (int v = 0; v < 2; ++v) {
-        const Mat3 block = He.block<3, 3>(3 * u, 3 * v);
-        for (std::size_t i = 0; i < J[u]->index.size(); ++i) {
-          const Vec3 left = block.transpose() * J[u]->column[i];
-          for (std::size_t j = 0; j < J[v]->index.size(); ++j) H(J[u]->index[i], J[v]->index[j]) += left.dot(J[v]->column[j]);
+  // Elements' local Hessians (3N×3N in their N sites): Jᵀ H_e J.
+  auto local_hessian = [&](const auto& sites, const auto& He) {
+    constexpr std::size_t N = std::tuple_size_v<std::decay_t<decltype(sites)>>;
+    std::array<PointJacobian, N> J;
+    for (std::size_t u = 0; u < N; ++u) J[u] = site_jacobian(s, st, sites[u]);
+    for (std::size_t u = 0; u < N; ++u)
+      for (std::size_t v = 0; v < N; ++v) {
+        const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
+        for (std::size_t i = 0; i < J[u].index.size(); ++i) {
+          const Vec3 left = block.transpose() * J[u].column[i];
+          for (std::size_t j = 0; j < J[v].index.size(); ++j) H(J[u].index[i], J[v].index[j]) += left.dot(J[v].column[j]);
         }
       }
   };
-  accumulate(s, w, true, spring_hessian);
+  accumulate(s, w, true, local_hessian);
   tree_hessian(s, st, w.cache(), q, H);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -337,6 +402,18 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
     if (body.mass != 0.0) {
       const Attachment at{static_cast<int>(b), body.com};
       scale += body.mass * s.gravity().norm() * frobenius(point_jacobian(s, st, at, model::world_point(st, at)));
+    }
+    if (s.rotating()) {
+      // Centrifugal forces: m|Ω|²|x| at the centre of mass, |Ω|²‖I‖ on the body's rotations.
+      const double w2 = s.frame_rotation().squaredNorm();
+      if (body.mass != 0.0) {
+        const Attachment at{static_cast<int>(b), body.com};
+        const Vec3 x = model::world_point(st, at);
+        scale += body.mass * w2 * x.norm() * frobenius(point_jacobian(s, st, at, x));
+      }
+      double turn2 = 0;
+      for_each_path_coordinate(s, static_cast<int>(b), [&](int k) { turn2 += st.omega[static_cast<std::size_t>(k)].squaredNorm(); });
+      scale += w2 * body.inertia.norm() * std::sqrt(turn2);
     }
     const int k0 = s.first_coordinate(static_cast<int>(b));
     for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
@@ -450,10 +527,11 @@ MatrixX generalized_force_jacobian(const System& s, Workspace& w, const VectorX&
 
 namespace {
 
-// Directional derivatives of M along up to B directions at once (forward-mode AD).
+// Directional derivatives of M (into *dM when given) and of the frame coupling g
+// (into *dg when given) along up to B directions at once (forward-mode AD).
 template <int B>
-void mass_matrix_directional(const System& s, const VectorX& q, const std::vector<VectorX>& dirs, std::size_t first,
-                             std::vector<MatrixX>& out) {
+void kinetic_directional(const System& s, const VectorX& q, const std::vector<VectorX>& dirs, std::size_t first,
+                         std::vector<MatrixX>* dM, std::vector<VectorX>* dg) {
   using D = Dual<double, B>;
   const int n = s.size();
   model::VX<D> qd(n);
@@ -464,30 +542,73 @@ void mass_matrix_directional(const System& s, const VectorX& q, const std::vecto
   }
   TreeState<D> st;
   model::forward_kinematics(s, qd.data(), st);
+  const model::Inertias<D> Ic = model::composite_inertias(s, st);
   model::MX<D> M;
-  model::mass_matrix(s, st, M);
+  model::VX<D> g;
+  if (dM != nullptr) model::mass_matrix(s, st, Ic, M);
+  if (dg != nullptr) model::frame_coupling(s, st, Ic, g);
   for (int d = 0; d < B && first + static_cast<std::size_t>(d) < dirs.size(); ++d) {
-    MatrixX& dM = out[first + static_cast<std::size_t>(d)];
-    dM.resize(n, n);
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) dM(i, j) = M(i, j).d[static_cast<std::size_t>(d)];
+    const std::size_t o = first + static_cast<std::size_t>(d);
+    const auto dd = static_cast<std::size_t>(d);
+    if (dM != nullptr) {
+      (*dM)[o].resize(n, n);
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) (*dM)[o](i, j) = M(i, j).d[dd];
+    }
+    if (dg != nullptr) {
+      (*dg)[o].resize(n);
+      for (int i = 0; i < n; ++i) (*dg)[o][i] = g[i].d[dd];
+    }
   }
 }
 
-std::vector<MatrixX> mass_matrix_along(const System& s, const VectorX& q, const std::vector<VectorX>& dirs) {
+// ∂M along every direction (when dM) and ∂g along every direction (when dg), sized here.
+void kinetic_along(const System& s, const VectorX& q, const std::vector<VectorX>& dirs, std::vector<MatrixX>* dM,
+                   std::vector<VectorX>* dg) {
   constexpr int B = 4;
-  std::vector<MatrixX> out(dirs.size());
-  for (std::size_t first = 0; first < dirs.size(); first += B) mass_matrix_directional<B>(s, q, dirs, first, out);
+  if (dM != nullptr) dM->assign(dirs.size(), MatrixX());
+  if (dg != nullptr) dg->assign(dirs.size(), VectorX());
+  for (std::size_t first = 0; first < dirs.size(); first += B) kinetic_directional<B>(s, q, dirs, first, dM, dg);
+}
+
+std::vector<MatrixX> mass_matrix_along(const System& s, const VectorX& q, const std::vector<VectorX>& dirs) {
+  std::vector<MatrixX> out;
+  kinetic_along(s, q, dirs, &out, nullptr);
   return out;
+}
+
+std::vector<VectorX> unit_directions(int n) {
+  std::vector<VectorX> dirs;
+  for (int k = 0; k < n; ++k) dirs.push_back(VectorX::Unit(n, k));
+  return dirs;
 }
 
 }  // namespace
 
 std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& /*w*/, const VectorX& q) {
   check_size(s, q, "mass_matrix_derivatives");
-  std::vector<VectorX> dirs;
-  for (int k = 0; k < s.size(); ++k) dirs.push_back(VectorX::Unit(s.size(), k));
-  return mass_matrix_along(s, q, dirs);
+  return mass_matrix_along(s, q, unit_directions(s.size()));
+}
+
+VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q) {
+  if (!s.rotating()) {
+    check_size(s, q, "frame_coupling");
+    return VectorX::Zero(s.size());
+  }
+  VectorX g;
+  model::frame_coupling(s, kinematics(s, w, q), g);
+  return g;
+}
+
+MatrixX gyroscopic_matrix(const System& s, Workspace& /*w*/, const VectorX& q) {
+  check_size(s, q, "gyroscopic_matrix");
+  const int n = s.size();
+  if (!s.rotating()) return MatrixX::Zero(n, n);
+  std::vector<VectorX> dg;  // dg[k] = ∂g/∂q_k
+  kinetic_along(s, q, unit_directions(n), nullptr, &dg);
+  MatrixX J(n, n);  // J_ik = ∂g_i/∂q_k
+  for (int k = 0; k < n; ++k) J.col(k) = dg[static_cast<std::size_t>(k)];
+  return J - J.transpose();
 }
 
 std::vector<MatrixX> christoffel(const System& s, Workspace& w, const VectorX& q) {
@@ -514,12 +635,19 @@ MatrixX coriolis(const System& s, Workspace& w, const VectorX& q, const VectorX&
 VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
   check_size(s, qd, "accelerations");
   // C q̇ = Ṁ q̇ − ½ ∂(q̇ᵀ M q̇)/∂q: one directional derivative along q̇ and n along the axes.
+  // Rotating frame, in the same pass: G q̇ = (∂g/∂q) q̇ − (∂g/∂q)ᵀ q̇ (entry k of the last: ∂g/∂q_k · q̇).
   const int n = s.size();
   std::vector<VectorX> dirs{qd};
   for (int k = 0; k < n; ++k) dirs.push_back(VectorX::Unit(n, k));
-  const std::vector<MatrixX> dM = mass_matrix_along(s, q, dirs);
+  std::vector<MatrixX> dM;
+  std::vector<VectorX> dg;
+  kinetic_along(s, q, dirs, &dM, s.rotating() ? &dg : nullptr);
   VectorX cqd = dM[0] * qd;
   for (int k = 0; k < n; ++k) cqd[k] -= 0.5 * qd.dot(dM[static_cast<std::size_t>(k + 1)] * qd);
+  if (s.rotating()) {
+    cqd += dg[0];
+    for (int k = 0; k < n; ++k) cqd[k] -= dg[static_cast<std::size_t>(k + 1)].dot(qd);
+  }
   VectorX rhs = generalized_forces(s, w, q, qd) - cqd - potential_gradient(s, w, q);
   const Eigen::LLT<MatrixX> llt(mass_matrix(s, w, q));
   if (llt.info() != Eigen::Success)

@@ -185,7 +185,25 @@ template <class S> S joint_spring_energy(const Body& body, const S* qj, int nq) 
   return 0.5 * body.stiffness * e;
 }
 
-// V(q) in J.
+// --- rotating frame (System::frame_rotation() = Ω, constant, about the world origin) ---
+// T₀ = ½ ξ_Ωᵀ I6 ξ_Ω with ξ_Ω = (Ω, 0) for every body; the potential carries −T₀,
+// split into the part of the centre of mass (a point element) and the part of
+// the rotational inertia (an element on the body-fixed directions u_i = R e_i).
+
+// −½ m |Ω × x|²: the centrifugal potential of a point mass m at world point x.
+template <class S> S centrifugal_point_energy(double m, const Vec3& Omega, const V3<S>& x) {
+  return -0.5 * m * cast3<S>(Omega).cross(x).squaredNorm();
+}
+
+// −½ Ωᵀ R I Rᵀ Ω = −½ Σ_ij I_ij (Ω·u_i)(Ω·u_j) for the inertia I about the centre
+// of mass (body frame) and the body-fixed world directions u_i = R e_i.
+template <class S> S centrifugal_rotation_energy(const Mat3& I, const Vec3& Omega, const V3<S>* u) {
+  V3<S> w;  // Rᵀ Ω: components of Ω along the body axes
+  for (int i = 0; i < 3; ++i) w[i] = u[i].dot(cast3<S>(Omega));
+  return -0.5 * w.dot(cast33<S>(I) * w);
+}
+
+// V(q) in J; in a rotating frame V_eff = V − T₀ (DESIGN.md §1).
 template <class S> S potential(const System& sys, const TreeState<S>& st, const S* q) {
   S v(0.0);
   const auto& bodies = sys.bodies();
@@ -202,6 +220,16 @@ template <class S> S potential(const System& sys, const TreeState<S>& st, const 
   }
   for (const Spring& sp : sys.springs()) v += spring_energy(sp, world_point(st, sp.a), world_point(st, sp.b));
   for (const DeadLoad& ld : sys.loads()) v -= world_point(st, ld.at).dot(cast3<S>(ld.force));
+  if (sys.rotating())
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const Body& body = bodies[b];
+      if (body.mass != 0.0)
+        v += centrifugal_point_energy(body.mass, sys.frame_rotation(), V3<S>(st.position[b] + st.rotation[b] * cast3<S>(body.com)));
+      if (!body.inertia.isZero(0.0)) {
+        const V3<S> u[3] = {st.rotation[b].col(0), st.rotation[b].col(1), st.rotation[b].col(2)};
+        v += centrifugal_rotation_energy(body.inertia, sys.frame_rotation(), u);
+      }
+    }
   return v;
 }
 
@@ -220,22 +248,53 @@ template <class S> Eigen::Matrix<S, 6, 6> spatial_inertia(const Body& body, cons
   return I;
 }
 
+template <class S> using Inertias = std::vector<Eigen::Matrix<S, 6, 6>>;
+
+// Composite spatial inertias (world coordinates): Ic(b) = Σ of spatial_inertia over b's subtree.
+template <class S> Inertias<S> composite_inertias(const System& sys, const TreeState<S>& st) {
+  const auto& bodies = sys.bodies();
+  const std::size_t nb = bodies.size();
+  Inertias<S> Ic(nb);
+  for (std::size_t b = 0; b < nb; ++b) Ic[b] = spatial_inertia(bodies[b], st, b);
+  for (std::size_t b = nb; b-- > 0;)
+    if (bodies[b].parent >= 0) Ic[static_cast<std::size_t>(bodies[b].parent)] += Ic[b];
+  return Ic;
+}
+
+// Twist of coordinate k, (ω_k, v_k).
+template <class S> Eigen::Matrix<S, 6, 1> coordinate_twist(const TreeState<S>& st, int k) {
+  Eigen::Matrix<S, 6, 1> xk;
+  xk << st.omega[static_cast<std::size_t>(k)], st.vel[static_cast<std::size_t>(k)];
+  return xk;
+}
+
+// Frame coupling g(q) (n) of T = ½q̇ᵀMq̇ + q̇ᵀg + T₀ in a frame rotating at Ω:
+// g_k = ξ_kᵀ Ic(b(k)) ξ_Ω with ξ_Ω = (Ω, 0), the cross term of the bodies'
+// inertial twists Σ_k ξ_k q̇_k + ξ_Ω. Units kg·m²/s (angles) or kg·m/s (lengths).
+template <class S> void frame_coupling(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, VX<S>& g) {
+  g.setZero(sys.size());
+  const Eigen::Matrix<S, 6, 1> xi = (Eigen::Matrix<S, 6, 1>() << cast3<S>(sys.frame_rotation()), V3<S>::Zero()).finished();
+  for (std::size_t b = 0; b < sys.bodies().size(); ++b) {
+    const int k0 = sys.first_coordinate(static_cast<int>(b));
+    if (sys.joint_size(static_cast<int>(b)) == 0) continue;
+    const Eigen::Matrix<S, 6, 1> u = Ic[b] * xi;
+    for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) g[k] = coordinate_twist(st, k).dot(u);
+  }
+}
+template <class S> void frame_coupling(const System& sys, const TreeState<S>& st, VX<S>& g) {
+  frame_coupling(sys, st, composite_inertias(sys, st), g);
+}
+
 // M(q) (n×n) by composite inertias: M_jk = ξ_jᵀ Ic(b(k)) ξ_k for j at or above k.
-template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, MX<S>& M) {
+template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, MX<S>& M) {
   const int n = sys.size();
   const auto& bodies = sys.bodies();
   const std::size_t nb = bodies.size();
   M.setZero(n, n);
-  std::vector<Eigen::Matrix<S, 6, 6>> Ic(nb);
-  for (std::size_t b = 0; b < nb; ++b) Ic[b] = spatial_inertia(bodies[b], st, b);
-  for (std::size_t b = nb; b-- > 0;)
-    if (bodies[b].parent >= 0) Ic[static_cast<std::size_t>(bodies[b].parent)] += Ic[b];
   for (std::size_t b = 0; b < nb; ++b) {
     const int k0 = sys.first_coordinate(static_cast<int>(b));
     for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) {
-      Eigen::Matrix<S, 6, 1> xk;
-      xk << st.omega[static_cast<std::size_t>(k)], st.vel[static_cast<std::size_t>(k)];
-      const Eigen::Matrix<S, 6, 1> u = Ic[b] * xk;
+      const Eigen::Matrix<S, 6, 1> u = Ic[b] * coordinate_twist(st, k);
       // coordinates of this joint up to k, then of every ancestor
       auto visit = [&](int j) {
         const auto jj = static_cast<std::size_t>(j);
@@ -250,6 +309,10 @@ template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, M
       }
     }
   }
+}
+
+template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, MX<S>& M) {
+  mass_matrix(sys, st, composite_inertias(sys, st), M);
 }
 
 }  // namespace modal::model

@@ -56,6 +56,7 @@ System::System(SystemDescription description) : d_(std::move(description)) {
   nq_.resize(nb);
   children_.assign(nb, {});
   require(finite(d_.gravity), "gravity is not finite");
+  require(finite(d_.frame_rotation), "frame rotation is not finite");
   for (std::size_t b = 0; b < nb; ++b) {
     Body& body = d_.bodies[b];
     const std::string who = "body '" + body.name + "': ";

@@ -153,7 +153,8 @@ VectorX minimize_residual(Problem& p, const VectorX& start) {
 namespace {
 
 // World positions of every point the potential depends on: centres of mass of
-// bodies with mass, spring ends, load points (and follower load directions). Two configurations that agree on
+// bodies with mass, spring ends, load points (and follower load directions;
+// body axes in a rotating frame). Two configurations that agree on
 // all of them have the same V everywhere nearby up to a motion V cannot see
 // (spin of a point mass about its rod, rotation of a balanced wheel): they are
 // one equilibrium of a continuous family, reported once.
@@ -167,6 +168,14 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   };
   for (std::size_t b = 0; b < s.bodies().size(); ++b)
     if (s.bodies()[b].mass != 0.0) at({static_cast<int>(b), s.bodies()[b].com});
+  // In a rotating frame the centrifugal potential sees the orientation of a
+  // body with rotational inertia: the tips of its axes join the signature.
+  if (s.rotating())
+    for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+      const Body& body = s.bodies()[b];
+      if (body.inertia.isZero(0.0)) continue;
+      for (int i = 0; i < 3; ++i) at({static_cast<int>(b), Vec3(body.com + s.length_scale() * Vec3::Unit(i))});
+    }
   for (const Spring& sp : s.springs()) {
     at(sp.a);
     at(sp.b);

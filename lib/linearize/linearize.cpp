@@ -1,11 +1,14 @@
 // lib/linearize/linearize.cpp — the linear model M δq̈ + (D + G) δq̇ + K δq = 0
 // about an equilibrium q̄ of a System (DESIGN.md §1).
 //
-// With the core's present scope (fixed frame, dead and follower loads,
-// dampers, no constraints) the terms are
+// With the core's present scope (a fixed or steadily rotating frame, dead and
+// follower loads, dampers, no constraints) the terms are
 //   M = M(q̄), K = ∇∇V(q̄) − ∂Q/∂q(q̄, 0), D = damping_matrix(q̄) (dampers: Q = −D q̇),
-//   G = 0 (no moving frame). K is symmetric unless follower loads act
-//   (circulatory): then it is kept exactly as computed, not symmetrized.
+//   G = gyroscopic_matrix(q̄) (rotating frame; else 0),
+// where V is V_eff = V − T₀ in a rotating frame (the core's potential). K is
+// symmetric unless follower loads act (circulatory): then it is kept exactly
+// as computed, not symmetrized. has_gyroscopic is set only when G is not zero
+// (a one-coordinate system in a rotating frame keeps the symmetric solver).
 // q̄ is an equilibrium when ∇V(q̄) = Q(q̄, 0) (dampers exert no force at rest;
 // follower loads do); its relative residual is ‖∇V − Q‖₂ / force_scale(q̄).
 #include "modal/linearize.hpp"
@@ -101,8 +104,19 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   } else {
     model.D = MatrixX::Zero(n, n);
   }
-  model.G = MatrixX::Zero(n, n);  // no moving frames yet
+  model.G = MatrixX::Zero(n, n);
   model.has_gyroscopic = false;
+  if (s.rotating()) {
+    const MatrixX G = gyroscopic_matrix(s, ws, q);
+    require_finite(G, "gyroscopic matrix G", model.coordinates);
+    const MatrixX skew = 0.5 * (G - G.transpose());
+    // Zero up to rounding relative to its natural size |Ω|·‖M‖.
+    const double size = s.frame_rotation().norm() * model.M.cwiseAbs().maxCoeff();
+    if (skew.cwiseAbs().maxCoeff() > 1e-14 * size) {
+      model.G = skew;
+      model.has_gyroscopic = true;
+    }
+  }
   return model;
 }
 

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <complex>
+#include <numbers>
 #include <ostream>
 
 namespace modal {
@@ -77,7 +79,7 @@ void write_modes_csv(std::ostream& out, const Report& report) {
 }
 
 void write_shapes_csv(std::ostream& out, const Report& report) {
-  out << "equilibrium,mode,coordinate,value\n";
+  out << "equilibrium,mode,coordinate,value,amplitude,phase_deg\n";
   for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
     const auto& modes = report.equilibria[e].result.modes;
     for (std::size_t k = 0; k < modes.size(); ++k) {
@@ -85,7 +87,8 @@ void write_shapes_csv(std::ostream& out, const Report& report) {
       for (Eigen::Index i = 0; i < shape.size(); ++i) {
         out << (e + 1) << ',' << (k + 1) << ','
             << csv_field(coordinate_name(report, static_cast<std::size_t>(i))) << ','
-            << csv_number(shape[i].real()) << '\n';
+            << csv_number(shape[i].real()) << ',' << csv_number(std::abs(shape[i])) << ','
+            << csv_number(std::arg(shape[i]) * 180 / std::numbers::pi) << '\n';
       }
     }
   }

@@ -1,6 +1,9 @@
 // JSON output of the report stage.
 #include "modal/report.hpp"
 
+#include <complex>
+#include <numbers>
+
 #include <nlohmann/json.hpp>
 
 namespace modal {
@@ -58,7 +61,16 @@ Json mode_json(std::size_t index, const Mode& m) {
     if (m.shape[i].imag() != 0) complex = true;
   }
   j["shape"] = re;
-  if (complex) j["shape_imag"] = im;
+  if (complex) {
+    j["shape_imag"] = im;
+    std::vector<double> amplitude, phase;
+    for (Eigen::Index i = 0; i < m.shape.size(); ++i) {
+      amplitude.push_back(std::abs(m.shape[i]));
+      phase.push_back(std::arg(m.shape[i]) * 180 / std::numbers::pi);
+    }
+    j["shape_amplitude"] = amplitude;
+    j["shape_phase_deg"] = phase;
+  }
   return j;
 }
 

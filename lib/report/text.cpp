@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <ostream>
 
@@ -150,7 +151,8 @@ void print_analysis(std::ostream& out, const Report& report) {
   // Shapes: only for small systems, where a table is readable.
   const std::size_t shown = std::min<std::size_t>(r.modes.size(), 8);
   if (shown > 0 && n <= 12) {
-    out << "\nMode shapes (real part" << (first_order ? "" : ", M-normalized") << ")\n";
+    out << "\nMode shapes " << (first_order ? "(amplitude@phase in degrees; largest component 1@0)" : "(M-normalized)")
+        << '\n';
     out << fmt::format("  {:<{}}", "coordinate", std::max<std::size_t>(w, 10));
     for (std::size_t k = 0; k < shown; ++k) out << fmt::format("  {:>12}", fmt::format("mode {}", k + 1));
     out << '\n';
@@ -158,9 +160,12 @@ void print_analysis(std::ostream& out, const Report& report) {
       out << fmt::format("  {:<{}}", coordinate_name(report, i), std::max<std::size_t>(w, 10));
       for (std::size_t k = 0; k < shown; ++k) {
         const auto& s = r.modes[k].shape;
-        const double v = static_cast<Eigen::Index>(i) < s.size() ? s[static_cast<Eigen::Index>(i)].real()
-                                                                  : std::nan("");
-        out << fmt::format("  {:>12}", num(v, 6));
+        const std::complex<double> v = static_cast<Eigen::Index>(i) < s.size() ? s[static_cast<Eigen::Index>(i)]
+                                                                               : std::complex<double>(std::nan(""), 0);
+        if (first_order)
+          out << fmt::format("  {:>12}", num(std::abs(v), 4) + "@" + num(std::arg(v) * 180 / std::numbers::pi, 4));
+        else
+          out << fmt::format("  {:>12}", num(v.real(), 6));
       }
       out << '\n';
     }

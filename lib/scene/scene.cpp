@@ -447,8 +447,8 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
 
   Reader reader(file_name, text);
   const Section top(reader, root, "", "the top level of the scene");
-  top.check_keys({"title", "gravity", "parameters", "body", "chain", "spring", "load"},
-                 {"frame_rotation", "particle", "constraint", "coordinates", "point", "potential", "lattice"});
+  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "spring", "load"},
+                 {"particle", "constraint", "coordinates", "point", "potential", "lattice"});
 
   const toml::table* parameters = nullptr;
   if (const toml::node* node = top.find("parameters")) {
@@ -465,6 +465,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   SystemDescription& d = scene.description;
   d.title = top.string("title", scene_detail::file_stem(file_name));
   d.gravity = top.vector3("gravity", Vec3(0, 0, -9.81));
+  d.frame_rotation = top.vector3("frame_rotation", Vec3::Zero());  // rad/s, about the world origin
 
   std::vector<BodyEntry> entries;
   const auto bodies = tables_of(reader, root, "body");

@@ -5,7 +5,7 @@
 // evaluate, at generalized coordinates q (n of them) and velocities q̇,
 //
 //   M(q)        mass matrix (n×n, symmetric positive semidefinite)      [kg·m², kg·m, kg]
-//   V(q)        potential energy (gravity, springs, dead loads)           [J]
+//   V(q)        potential energy (gravity, springs, dead loads; − T₀ in a rotating frame)  [J]
 //   Q(q, q̇)     non-conservative generalized forces (dampers, followers)  [N·m or N]
 //
 // and their exact derivatives. All evaluation is by free functions taking the
@@ -27,6 +27,25 @@
 // costs O(n·depth) for a Hessian instead of O(n²·depth) for nested forward
 // mode through the whole tree. Tests check it against nested forward AD through
 // the same templated model and against central differences.
+//
+// Rotating frame. A scene may be written in a frame that rotates steadily at
+// Ω = SystemDescription::frame_rotation (rad/s, constant, about the world
+// origin, components in the scene frame). The inertial velocity of a body point
+// is then ẋ + Ω × x, every body's inertial twist is Σ_k ξ_k q̇_k + ξ_Ω with
+// ξ_Ω = (Ω, 0), and T = ½q̇ᵀMq̇ + q̇ᵀg(q) + T₀(q) (DESIGN.md §1) with
+//   g_k(q) = ξ_kᵀ Ic(b(k)) ξ_Ω                                   frame_coupling()
+//   T₀(q)  = ½ Σ_b ξ_Ωᵀ I6_b ξ_Ω = ½ Σ_b [m_b |Ω × x_b|² + Ωᵀ R_b I_b R_bᵀ Ω]   [J]
+// In a rotating system the potential V(q) below is V_eff = V − T₀ throughout:
+// potential(), its gradient and Hessian, energy() (then ½q̇ᵀMq̇ + V − T₀, the
+// Jacobi integral, conserved for a conservative scene), and therefore
+// equilibria (∇V_eff = Q) and K = ∇∇V_eff − ∂Q/∂q. The equations of motion
+// are M q̈ + C q̇ + G q̇ + ∇V_eff = Q with the gyroscopic matrix
+//   G_ij = ∂g_i/∂q_j − ∂g_j/∂q_i                                 gyroscopic_matrix()
+// (skew-symmetric, units of M/s). DESIGN.md writes G = (∂g/∂q)ᵀ − ∂g/∂q with
+// (∂g/∂q)_ij = ∂g_j/∂q_i (gradient layout); it is the same matrix. Example:
+// a particle on two slides x, y in a plane rotating at Ω about z has
+// g = mΩ(−y, x) and G = 2mΩ[[0, −1], [1, 0]], i.e. m ẍ − 2mΩ ẏ + … = 0 (the
+// Coriolis force −2m Ω × ẋ).
 //
 // Conventions (DESIGN.md §1): coordinates are joint values relative to the
 // parent body (hinge angle in rad, slide in m, ball: rotation vector relative to
@@ -134,6 +153,9 @@ struct SystemDescription {
   std::vector<Spring> springs;
   std::vector<DeadLoad> loads;
   std::vector<FollowerLoad> followers;
+  // Angular velocity (rad/s, scene-frame components) of the frame the scene is
+  // written in, constant, about the world origin; zero: an inertial frame.
+  Vec3 frame_rotation = Vec3::Zero();
 };
 
 // The constant model. Construction validates (throws std::invalid_argument on
@@ -151,6 +173,8 @@ class System {
   const std::vector<DeadLoad>& loads() const { return d_.loads; }
   const std::vector<FollowerLoad>& followers() const { return d_.followers; }
   bool has_follower_loads() const { return !d_.followers.empty(); }
+  const Vec3& frame_rotation() const { return d_.frame_rotation; }  // Ω, rad/s
+  bool rotating() const { return !d_.frame_rotation.isZero(0.0); }   // Ω ≠ 0
   const std::vector<Coordinate>& coordinates() const { return coords_; }
   std::vector<std::string> coordinate_names() const;
 
@@ -196,7 +220,7 @@ class Workspace {
   KinematicsCache* cache_;
 };
 
-// --- potential energy --------------------------------------------------------
+// --- potential energy (V_eff = V − T₀ in a rotating frame) ---------------------
 double potential(const System& s, Workspace& w, const VectorX& q);                     // V, J
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
@@ -209,7 +233,8 @@ double force_scale(const System& s, Workspace& w, const VectorX& q);
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);  // ½q̇ᵀMq̇, J
-double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);    // T + V, J
+// T + V, J; in a rotating frame ½q̇ᵀMq̇ + V − T₀ (the Jacobi integral).
+double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
 // Damping matrix D(q) (n×n, symmetric PSD): the dampers' forces are Q = −D q̇.
 MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q);
 // Non-conservative generalized forces Q(q, q̇), n (dampers, follower loads).
@@ -225,7 +250,13 @@ std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& w, cons
 std::vector<MatrixX> christoffel(const System& s, Workspace& w, const VectorX& q);
 // Coriolis matrix C_ij = Σ_k Γ_ijk q̇_k (n×n); Ṁ − 2C is skew-symmetric.
 MatrixX coriolis(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
-// Accelerations q̈ = M⁻¹(Q − C q̇ − ∇V). Throws NumericalError if M is singular.
+// Rotating frame: g(q) (n; kg·m²/s for angles, kg·m/s for lengths), zero when
+// the frame does not rotate.
+VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q);
+// Gyroscopic matrix G_ij = ∂g_i/∂q_j − ∂g_j/∂q_i (n×n, skew-symmetric; zero
+// when the frame does not rotate). Exact (AD through the templated g).
+MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q);
+// Accelerations q̈ = M⁻¹(Q − C q̇ − G q̇ − ∇V). Throws NumericalError if M is singular.
 VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
 
 // World pose of every body at q: rotation (body → world) and frame origin.

@@ -75,7 +75,10 @@ std::string describe_stability(const ModalResult& result);
 // damping_ratio,stability,error_estimate"; one row per mode per equilibrium,
 // equilibrium and mode numbered from 1.
 void write_modes_csv(std::ostream& out, const Report& report);
-// Header "equilibrium,mode,coordinate,value"; value = real part of the shape.
+// Header "equilibrium,mode,coordinate,value,amplitude,phase_deg": value is the
+// real part of the shape component, amplitude its modulus and phase_deg its
+// argument in degrees (complex shapes of first-order problems are scaled so
+// that the largest component is 1 at phase 0).
 void write_shapes_csv(std::ostream& out, const Report& report);
 // Header "equilibrium,stability,morse_index,potential,residual,<coordinate names>…".
 void write_equilibria_csv(std::ostream& out, const Report& report);
