@@ -304,6 +304,11 @@ CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a,
   bool secant = ind != Indicator::none && std::isfinite(fa) && std::isfinite(fb) && fa * fb < 0;
   if (ind != Indicator::none && !secant) c.indicator = describe(Indicator::none);
 
+  double undecided_lo = std::numeric_limits<double>::infinity(), undecided_hi = -undecided_lo;
+  double undecided_error = 0;  // largest error estimate of an undecided trial's zero mode, in indicator units
+  // The latest trials on either side whose class was decided: they give the
+  // indicator's slope across the change.
+  double decided_a = a, decided_fa = fa, decided_b = b, decided_fb = fb;
   int last = 0;  // −1: a was replaced last, +1: b
   int since_halving = 0;
   double checkpoint = std::abs(b - a);
@@ -348,8 +353,23 @@ CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a,
       notes.push_back("between " + axis.name + " = " + short_text(a) + " and " + short_text(b) + " the class is also " +
                       to_string(sx) + " (at " + short_text(x) + "): refine the grid to separate the changes");
     }
-    const bool on_b = on_b_side(sx);
+    bool on_b = on_b_side(sx);
     double fx = ex.f;
+    if (sx != c.before && sx != c.after) {
+      // The class cannot tell (typically a mode that is zero within its error
+      // estimate, in a band around the change whose width is that error over
+      // the indicator's slope): the continuous indicator's sign decides, and
+      // the reported error will cover every such undecided trial.
+      undecided_lo = std::min(undecided_lo, x);
+      undecided_hi = std::max(undecided_hi, x);
+      for (const Mode& m : ex.result.modes)
+        if (m.kind == ModeKind::zero)  // ω² units: λ's error, or |δs|² for a first-order s near 0
+          undecided_error = std::max(undecided_error, ex.symmetric ? m.error_estimate : m.error_estimate * m.error_estimate);
+      if (secant && std::isfinite(fx) && fx != 0) on_b = (fx > 0) == (fb > 0);
+    } else if (std::isfinite(fx)) {
+      (on_b ? decided_b : decided_a) = x;
+      (on_b ? decided_fb : decided_fa) = fx;
+    }
     if (secant) {
       if (!std::isfinite(fx)) {
         secant = false;
@@ -381,6 +401,14 @@ CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a,
   c.value = 0.5 * (a + b);
   c.error = 0.5 * std::abs(b - a);
   c.refined = std::abs(b - a) <= tolerance();
+  if (undecided_lo <= undecided_hi) {
+    // The class could not confirm the side of these trials: the change lies
+    // somewhere in the band where a mode is zero within its error estimate,
+    // whose half width is that estimate over the indicator's slope.
+    c.error = std::max({c.error, std::abs(undecided_lo - c.value), std::abs(undecided_hi - c.value)});
+    const double slope = std::abs(decided_fb - decided_fa) / std::abs(decided_b - decided_a);
+    if (secant && slope > 0 && std::isfinite(slope)) c.error = std::max(c.error, undecided_error / slope);
+  }
   if (!c.refined && c.evaluations >= options.max_evaluations)
     notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) + " was not refined to the tolerance within " +
                     std::to_string(options.max_evaluations) + " evaluations");
