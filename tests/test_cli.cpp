@@ -11,6 +11,8 @@
 // relative therefore leaves four orders of margin for round-off while still
 // catching any modelling error (a wrong mass or length changes ω by ≥ 1e-3).
 #include <gtest/gtest.h>
+
+#include "csv_fields.hpp"
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Eigenvalues>
@@ -57,31 +59,7 @@ std::string quote(const std::string& s) {
 
 using Row = std::map<std::string, std::string>;
 
-// Splits one CSV record (RFC 4180, no embedded line breaks).
-std::vector<std::string> fields(const std::string& line) {
-  std::vector<std::string> out(1);
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        out.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        out.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      out.emplace_back();
-    } else {
-      out.back() += c;
-    }
-  }
-  return out;
-}
+using modal::test::fields;
 
 struct Csv {
   std::vector<std::string> header;

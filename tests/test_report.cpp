@@ -5,6 +5,8 @@
 #include "modal/scene.hpp"
 
 #include <gtest/gtest.h>
+
+#include "csv_fields.hpp"
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -33,31 +35,7 @@ std::vector<std::string> lines(const std::string& text) {
   return out;
 }
 
-// Splits one CSV record (RFC 4180, no embedded line breaks).
-std::vector<std::string> fields(const std::string& line) {
-  std::vector<std::string> out(1);
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        out.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        out.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      out.emplace_back();
-    } else {
-      out.back() += c;
-    }
-  }
-  return out;
-}
+using modal::test::fields;
 
 Mode symmetric_mode(double lambda, ModeKind kind, Eigen::VectorXd shape) {
   Mode m;
