@@ -1,14 +1,13 @@
 // Independent references shared by the tests of the core: nested forward AD
-// through the templated potential, AD Jacobians of the bodies, and a GSL rk8pd
-// integration of the equations of motion that measures energy drift.
+// through the templated potential, AD Jacobians of the bodies, and the energy
+// drift of a modal::simulate integration of the equations of motion.
 #pragma once
 
 #include "modal/core.hpp"
+#include "modal/simulate.hpp"
 
 #include "core/model.hpp"
 
-#include <gsl/gsl_errno.h>
-#include <gsl/gsl_odeiv2.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -90,48 +89,19 @@ inline BodyJacobians body_jacobians(const System& s, const VectorX& q) {
   return J;
 }
 
-// Integrates q̈ = accelerations(q, q̇) with GSL's rk8pd (Prince–Dormand 8(9)) at
+// Integrates the equations of motion with modal::simulate (GSL rk8pd) at
 // tolerance 1e-13 over `duration`, and returns the largest |energy − E₀| / |E₀|
 // seen at 200 evenly spaced times (energy(): T + V, or the Jacobi integral
 // ½q̇ᵀMq̇ + V − T₀ in a rotating frame).
-struct Integration {
-  const System* system;
-  Workspace* ws;
-};
-inline int integration_rhs(double, const double y[], double dydt[], void* p) {
-  auto* in = static_cast<Integration*>(p);
-  const int n = in->system->size();
-  const VectorX q = Eigen::Map<const VectorX>(y, n), qd = Eigen::Map<const VectorX>(y + n, n);
-  const VectorX qdd = accelerations(*in->system, *in->ws, q, qd);
-  for (int i = 0; i < n; ++i) {
-    dydt[i] = qd[i];
-    dydt[n + i] = qdd[i];
-  }
-  return GSL_SUCCESS;
-}
-
-inline double energy_drift(const System& s, VectorX q, VectorX qd, double duration) {
-  Workspace w(s);
-  Integration in{&s, &w};
-  const auto n = static_cast<std::size_t>(s.size());
-  gsl_odeiv2_system sys{integration_rhs, nullptr, 2 * n, &in};
-  gsl_odeiv2_driver* drv = gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-3, 1e-13, 1e-13);
-  std::vector<double> y(2 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    y[i] = q[static_cast<Eigen::Index>(i)];
-    y[n + i] = qd[static_cast<Eigen::Index>(i)];
-  }
-  const double e0 = energy(s, w, q, qd);
-  double t = 0, worst = 0;
-  for (int step = 1; step <= 200; ++step) {
-    const int status = gsl_odeiv2_driver_apply(drv, &t, duration * step / 200, y.data());
-    EXPECT_EQ(status, GSL_SUCCESS);
-    q = Eigen::Map<VectorX>(y.data(), s.size());
-    qd = Eigen::Map<VectorX>(y.data() + n, s.size());
-    worst = std::max(worst, std::abs(energy(s, w, q, qd) - e0));
-  }
-  gsl_odeiv2_driver_free(drv);
-  return worst / std::abs(e0);
+inline double energy_drift(const System& s, const VectorX& q, const VectorX& qd, double duration) {
+  SimulationOptions o;
+  o.duration = duration;
+  o.interval = duration / 200;
+  o.tolerance = 1e-13;
+  const Trajectory tr = simulate(s, q, qd, o);
+  double worst = 0;
+  for (const double e : tr.energy) worst = std::max(worst, std::abs(e - tr.energy.front()));
+  return worst / std::abs(tr.energy.front());
 }
 
 // ∇V and ∇∇V against central differences at a random state. Step h = 1e-5:

@@ -13,12 +13,11 @@
 #include <gtest/gtest.h>
 
 #include "csv_fields.hpp"
+#include "program.hpp"
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Eigenvalues>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -39,23 +38,8 @@ namespace fs = std::filesystem;
 
 const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
 
-struct Outcome {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using modal::test::Outcome;
+using modal::test::slurp;
 
 using Row = std::map<std::string, std::string>;
 
@@ -90,33 +74,9 @@ double number(const Row& row, const std::string& column) {
   return std::strtod(it->second.c_str(), nullptr);
 }
 
-class Cli : public ::testing::Test {
+class Cli : public modal::test::ProgramTest {
  protected:
-  fs::path dir;
-
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir = fs::temp_directory_path() /
-          ("modal_cli_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override {
-    if (!HasFailure()) fs::remove_all(dir);
-  }
-
-  Outcome run(const std::vector<std::string>& args) const {
-    std::string cmd = quote(MODAL_BINARY);
-    for (const auto& a : args) cmd += " " + quote(a);
-    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-    cmd += " >" + quote(out.string()) + " 2>" + quote(err.string());
-    const int raw = std::system(cmd.c_str());
-    Outcome r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-  }
+  Cli() : ProgramTest("modal_cli_") {}
 
   std::string write(const std::string& name, const std::string& text) const {
     const fs::path p = dir / name;

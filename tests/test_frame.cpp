@@ -263,7 +263,7 @@ TEST(Frame, SphericalPendulumSpinningAboutTheVertical) {
 
 // --- R7: bead on a hoop ---------------------------------------------------------
 
-std::string model_path() { return std::string(MODAL_SOURCE_DIR) + "/models/bead_on_hoop.toml"; }
+std::string model_path() { return std::string(MODAL_SOURCE_DIR) + "/models/bead_on_hoop_frame.toml"; }
 
 // --set Omega=… with every digit of the value.
 std::vector<ParameterOverride> spin(double Omega) {

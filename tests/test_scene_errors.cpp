@@ -48,8 +48,8 @@ TEST(scene_errors, UnknownKeys) {
 }
 
 TEST(scene_errors, KeysOfLaterVersions) {
-  check_error("coordinates = [1]\n" + pendulum,
-              {1, 1, "coordinates", "'coordinates' is not supported by this version of modal"});
+  check_error("[[constraint]]\ntype = \"point\"\n" + pendulum,
+              {1, 3, "constraint", "'constraint' is not supported by this version of modal"});
   check_error(pendulum + "[[particle]]\nname = \"q\"\n", {5, 3, "particle", "'particle' is not supported by this version of modal"});
   check_error(pendulum + "potential = \"x^2\"\n", {5, 1, "body[1].potential", "unknown key 'potential' in [[body]]"});
 }
@@ -165,6 +165,53 @@ TEST(scene_errors, SpringsAndLoads) {
                          "[[spring]]\na = \"colum.tip\"\nb = \"world\"\nstiffness = 1\n",
               {11, 5, "spring[1].a", "unknown chain 'colum' in 'colum.tip' (did you mean 'column'?)"});
   check_error(pendulum + "[[load]]\nbody = \"world\"\nforce = [0, 0, -1]\n", {6, 8, "load[1].body", "must name a body, not the world"});
+}
+
+// Expression-defined systems ([coordinates], [[point]], potential).
+const std::string map_pendulum =  // lines 1-8
+    "[parameters]\nl = 1\n[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\n"
+    "position = [\"l*sin(phi)\", 0, \"-l*cos(phi)\"]\ninertia = [0, 0, 0, 0, 0, 0]\n";
+
+TEST(scene_errors, MapExpressionsAndNames) {
+  EXPECT_NO_THROW((void)modal::parse_scene(map_pendulum, "good.toml"));
+  // The column points at the offending character inside the position string.
+  check_error("[parameters]\nl = 1\n[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\n"
+              "position = [\"l*sin(phi)\", 0, \"-l*cos(ph)\"]\n",
+              {7, 38, "point[1].position[3]", "in \"-l*cos(ph)\" at 8: unknown name 'ph' (did you mean 'phi'"});
+  check_error("[parameters]\nl = 1\n[coordinates]\nl = 0.1\n[[point]]\nmass = 1\nposition = [\"l\", 0, 0]\n",
+              {4, 5, "coordinates.l", "the coordinate name 'l' is also a parameter"});
+  check_error("[coordinates]\nt = 0.1\n[[point]]\nmass = 1\nposition = [\"t\", 0, 0]\n",
+              {2, 5, "coordinates.t", "the coordinate name 't' is reserved"});
+  check_error("[parameters]\nt = 0.5\n[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\nposition = [\"cos(t)\", 0, 0]\n",
+              {2, 5, "parameters.t", "in an expression-defined system t is the time: rename the parameter 't'"});
+}
+
+TEST(scene_errors, MapPoints) {
+  check_error("[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\n", {3, 1, "point[1].position", "missing required key 'position' in [[point]]"});
+  check_error("[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\nposition = [\"sin(phi)\", 0]\n",
+              {5, 12, "point[1].position", "expected an array of 3 numbers or expressions"});
+  check_error("[coordinates]\nphi = 0.1\n[[point]]\nmass = -1\nposition = [\"sin(phi)\", 0, 0]\n",
+              {4, 8, "point[1].mass", "must be non-negative, got -1"});
+  check_error(map_pendulum.substr(0, map_pendulum.rfind("inertia")) + "orientation = [{ axis = [0, 0, 1], angle = \"phi\" }]\n",
+              {8, 15, "point[1].orientation", "an orientation only matters with an inertia"});
+  check_error("[[point]]\nmass = 1\nposition = [0, 0, -1]\n",
+              {1, 1, "coordinates", "an expression-defined system needs a [coordinates] table"});
+}
+
+TEST(scene_errors, MapCoordinates) {
+  check_error("coordinates = [1]\n" + pendulum, {1, 15, "coordinates", "expected a table ([coordinates]), got an array"});
+  check_error("[coordinates]\nphi = { initial = 0.1, kind = \"angel\" }\n[[point]]\nmass = 1\nposition = [\"sin(phi)\", 0, 0]\n",
+              {2, 31, "coordinates.phi.kind", "must be \"angle\" or \"length\", got \"angel\""});
+  check_error("[coordinates]\nphi = 0.1\npsi = { rate = 2, momentum = 1 }\n[[point]]\nmass = 1\n"
+              "position = [\"sin(phi)\", 0, 0]\n",
+              {3, 30, "coordinates.psi.momentum", "its steady rate or its momentum, not both"});
+}
+
+TEST(scene_errors, MapAndBodiesDoNotMix) {
+  check_error(map_pendulum + "[[body]]\nname = \"p\"\njoint = \"hinge\"\n",
+              {9, 1, "body", "a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies"});
+  check_error("frame_rotation = [0, 0, 1]\n" + map_pendulum,
+              {1, 18, "frame_rotation", "a map writes a moving frame with the time t"});
 }
 
 TEST(scene_errors, Overrides) {

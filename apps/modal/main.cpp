@@ -8,6 +8,7 @@
 #include "modal/modes.hpp"
 #include "modal/report.hpp"
 #include "modal/scene.hpp"
+#include "modal/simulate.hpp"
 #include "modal/sweep.hpp"
 
 #include <CLI/CLI.hpp>
@@ -16,6 +17,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -87,11 +89,12 @@ std::string format_point(const std::vector<std::string>& names, const modal::Vec
   return out;
 }
 
-// "q1,q2,..." → n numbers, or InputError saying what is expected.
-modal::VectorX parse_at(const std::string& text, const modal::System& sys) {
+// "q1,q2,..." given to `option` (--at, --velocity) → n numbers, or InputError
+// saying what is expected.
+modal::VectorX parse_point(const std::string& option, const std::string& text, const modal::System& sys) {
   const auto names = sys.coordinate_names();
   const std::string expected =
-      fmt::format("--at expects {} comma-separated number{} ({})", names.size(),
+      fmt::format("{} expects {} comma-separated number{} ({})", option, names.size(),
                   names.size() == 1 ? "" : "s", join_names(names));
   std::vector<double> values;
   std::stringstream in(text);
@@ -148,7 +151,7 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
   clock.lap("parse+build");
 
   const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration())
-                                    : equilibrium_at(sys, parse_at(*at, sys));
+                                    : equilibrium_at(sys, parse_point("--at", *at, sys));
   clock.lap("equilibrium");
   const modal::LinearModel lin = modal::linearize(sys, eq.q);
   clock.lap("linearize");
@@ -181,9 +184,19 @@ int run_equilibria(const SceneOptions& so, int starts, const std::string& csv, c
   if (starts >= 0) eo.starts = starts;
   const std::vector<modal::Equilibrium> all = modal::find_equilibria(sys, eo);
   modal::Report report = modal::make_report(sys, scene.file, scene.parameters);
-  for (const modal::Equilibrium& e : all)
-    report.equilibria.push_back({e, modal::solve_modes(modal::linearize(sys, e.q))});
+  std::vector<std::string> unanalyzed;  // equilibria found whose linear model does not exist
+  for (const modal::Equilibrium& e : all) {
+    try {
+      report.equilibria.push_back({e, modal::solve_modes(modal::linearize(sys, e.q))});
+    } catch (const modal::NumericalError& error) {
+      std::string at;
+      for (Eigen::Index i = 0; i < e.q.size(); ++i)
+        at += (i > 0 ? ", " : "") + sys.coordinates()[static_cast<std::size_t>(i)].name + " = " + std::to_string(e.q[i]);
+      unanalyzed.push_back("an equilibrium at " + at + " was found but cannot be analyzed: " + error.what());
+    }
+  }
   modal::print_equilibria(std::cout, report);
+  for (const std::string& note : unanalyzed) std::cerr << "modal: " << note << '\n';
   if (!csv.empty()) modal::write_file(csv, modal::write_equilibria_csv, report);
   if (!json.empty()) modal::write_text_file(json, modal::equilibria_json(report));
   return ok;
@@ -430,6 +443,74 @@ int run_sweep(const SceneOptions& so, const std::vector<std::string>& varies, co
   return ok;
 }
 
+// --- simulate ------------------------------------------------------------------
+
+struct SimulateArgs {
+  double duration = 0, tolerance = modal::SimulationOptions{}.tolerance;
+  std::optional<double> interval;  // s; none: duration / 1000
+  std::optional<std::string> at, velocity;
+  std::string csv;
+};
+
+void print_simulation_summary(std::ostream& err, const modal::Trajectory& tr, const modal::SimulationOptions& o) {
+  err << fmt::format("simulate: {:g} s, {} steps ({} rejected, {} evaluations), {} samples, tolerance {:g}\n",
+                     tr.time.back(), tr.steps, tr.rejected_steps, tr.evaluations, tr.size(), o.tolerance);
+  if (tr.conservative) {
+    err << fmt::format("simulate: energy E0 = {:.10g} J conserved to a relative error of {:.2g} "
+                       "(max |E - E0| / {:.6g} J)\n",
+                       tr.energy.front(), tr.max_energy_error, tr.energy_scale);
+    return;
+  }
+  err << fmt::format("simulate: energy is not conserved (dampers or follower loads): E went from {:.10g} J to "
+                     "{:.10g} J, the work of the non-conservative forces is W = {:.10g} J\n",
+                     tr.energy.front(), tr.energy.back(), tr.work.back());
+  err << fmt::format("simulate: energy balance E - E0 - W = 0 held to a relative error of {:.2g} "
+                     "(max |E - E0 - W| / {:.6g} J)\n",
+                     tr.max_energy_error, tr.energy_scale);
+}
+
+int run_simulate(const SceneOptions& so, const SimulateArgs& a) {
+  const modal::Scene scene = load(so);
+  const modal::System sys = modal::build_system(scene);
+  const modal::VectorX q0 = a.at ? parse_point("--at", *a.at, sys) : sys.initial_configuration();
+  const modal::VectorX qd0 =
+      a.velocity ? parse_point("--velocity", *a.velocity, sys) : modal::VectorX::Zero(sys.size());
+  modal::SimulationOptions o;
+  o.duration = a.duration;
+  o.interval = a.interval.value_or(0.0);
+  o.tolerance = a.tolerance;
+  if (!std::isfinite(o.duration) || o.duration <= 0)
+    throw InputError(fmt::format("--duration must be a finite number > 0 (seconds), got {:g}", o.duration));
+  if (a.interval && !(std::isfinite(*a.interval) && *a.interval > 0))
+    throw InputError(fmt::format("--interval must be a finite number > 0 (seconds), got {:g}", *a.interval));
+  if (!(o.tolerance > 0 && o.tolerance < 1))
+    throw InputError(fmt::format("--tolerance must lie in (0, 1), got {:g}", o.tolerance));
+  if (!a.csv.empty()) {  // fail before a long integration, not after it
+    std::ofstream probe(a.csv, std::ios::binary);
+    if (!probe) throw modal::ReportError(a.csv + ": cannot open the file for writing");
+  }
+  modal::Trajectory tr;
+  try {
+    tr = modal::simulate(sys, q0, qd0, o);
+  } catch (const std::invalid_argument& e) {
+    if (!a.csv.empty()) std::remove(a.csv.c_str());  // no empty file left behind
+    throw InputError(e.what());
+  } catch (...) {
+    if (!a.csv.empty()) std::remove(a.csv.c_str());
+    throw;
+  }
+  if (a.csv.empty()) {
+    modal::write_trajectory_csv(std::cout, tr);
+    std::cout.flush();
+  } else {
+    std::ostringstream text;
+    modal::write_trajectory_csv(text, tr);
+    modal::write_text_file(a.csv, text.str());
+  }
+  print_simulation_summary(std::cerr, tr, o);
+  return ok;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -494,6 +575,33 @@ int main(int argc, char** argv) {
   CLI::App* check = app.add_subcommand("check", "validate the scene and print a summary");
   add_scene_options(check, check_scene);
 
+  SceneOptions simulate_scene;
+  SimulateArgs simulate_args;
+  std::string simulate_at, simulate_velocity;
+  double simulate_interval = 0;
+  CLI::App* simulate = app.add_subcommand(
+      "simulate",
+      "integrate the nonlinear equations of motion from the initial configuration (or --at) and write the "
+      "trajectory with its energy as CSV");
+  add_scene_options(simulate, simulate_scene);
+  simulate->add_option("--duration", simulate_args.duration, "end time of the motion, s")
+      ->type_name("T")
+      ->required();
+  CLI::Option* simulate_at_option = simulate->add_option(
+      "--at", simulate_at, "initial configuration q1,q2,... (taken as given; default: the scene's initial values)");
+  CLI::Option* simulate_velocity_option =
+      simulate->add_option("--velocity", simulate_velocity, "initial velocities v1,v2,... (default: 0)");
+  CLI::Option* simulate_interval_option =
+      simulate->add_option("--interval", simulate_interval, "spacing of the output samples, s (default: T/1000)")
+          ->type_name("DT");
+  simulate
+      ->add_option("--tolerance", simulate_args.tolerance,
+                   fmt::format("error bound per integration step, relative and absolute (default: {:g})",
+                               modal::SimulationOptions{}.tolerance))
+      ->type_name("TOL");
+  simulate->add_option("--csv", simulate_args.csv, "write the trajectory to FILE instead of standard output")
+      ->type_name("FILE");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -509,6 +617,12 @@ int main(int argc, char** argv) {
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene);
     if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes);
+    if (*simulate) {
+      if (simulate_at_option->count()) simulate_args.at = simulate_at;
+      if (simulate_velocity_option->count()) simulate_args.velocity = simulate_velocity;
+      if (simulate_interval_option->count()) simulate_args.interval = simulate_interval;
+      return run_simulate(simulate_scene, simulate_args);
+    }
     return usage;
   } catch (const modal::SceneError& e) {
     std::cerr << e.what() << '\n';

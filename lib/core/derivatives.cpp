@@ -30,6 +30,8 @@
 // (ω_k × f)·∂x/∂q_j, comes from the point Jacobian of the load's path.
 #include "modal/core.hpp"
 
+#include "core/map.hpp"
+#include "core/map_eval.hpp"
 #include "core/model.hpp"
 
 #include <Eigen/Cholesky>
@@ -348,10 +350,19 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
 }  // namespace
 
 double potential(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "potential");
+    return map_eval::potential(s, q);
+  }
   return model::potential(s, kinematics(s, w, q), q.data());
 }
 
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "potential_gradient");
+    map_eval::gradient(s, q, w.gradient);
+    return w.gradient;
+  }
   const TreeState<double>& st = kinematics(s, w, q);
   accumulate(s, w, false, [](auto&&...) {});
   VectorX& g = w.gradient;
@@ -366,6 +377,11 @@ const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& 
 }
 
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "potential_hessian");
+    map_eval::hessian(s, q, w.hessian);
+    return w.hessian;
+  }
   const TreeState<double>& st = kinematics(s, w, q);
   MatrixX& H = w.hessian;
   H.setZero(s.size(), s.size());
@@ -394,6 +410,10 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
 }
 
 double force_scale(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "force_scale");
+    return map_eval::force_scale(s, q);
+  }
   const TreeState<double>& st = kinematics(s, w, q);
   double scale = 0;
   const auto& bodies = s.bodies();
@@ -435,6 +455,11 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
 }
 
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "mass_matrix");
+    map_eval::mass_matrix(s, q, w.mass);
+    return w.mass;
+  }
   model::mass_matrix(s, kinematics(s, w, q), w.mass);
   return w.mass;
 }
@@ -540,13 +565,19 @@ void kinetic_directional(const System& s, const VectorX& q, const std::vector<Ve
     for (int d = 0; d < B && first + static_cast<std::size_t>(d) < dirs.size(); ++d)
       qd[i].d[static_cast<std::size_t>(d)] = dirs[first + static_cast<std::size_t>(d)][i];
   }
-  TreeState<D> st;
-  model::forward_kinematics(s, qd.data(), st);
-  const model::Inertias<D> Ic = model::composite_inertias(s, st);
   model::MX<D> M;
   model::VX<D> g;
-  if (dM != nullptr) model::mass_matrix(s, st, Ic, M);
-  if (dg != nullptr) model::frame_coupling(s, st, Ic, g);
+  if (s.is_map()) {
+    kmap::Reduced<D> r = kmap::reduced<D>(s, qd.data(), dM != nullptr, dg != nullptr, false);
+    M = std::move(r.M);
+    g = std::move(r.g);
+  } else {
+    TreeState<D> st;
+    model::forward_kinematics(s, qd.data(), st);
+    const model::Inertias<D> Ic = model::composite_inertias(s, st);
+    if (dM != nullptr) model::mass_matrix(s, st, Ic, M);
+    if (dg != nullptr) model::frame_coupling(s, st, Ic, g);
+  }
   for (int d = 0; d < B && first + static_cast<std::size_t>(d) < dirs.size(); ++d) {
     const std::size_t o = first + static_cast<std::size_t>(d);
     const auto dd = static_cast<std::size_t>(d);
@@ -591,9 +622,9 @@ std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& /*w*/, 
 }
 
 VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q) {
-  if (!s.rotating()) {
+  if (!s.has_frame_coupling() || s.is_map()) {
     check_size(s, q, "frame_coupling");
-    return VectorX::Zero(s.size());
+    return map_eval::frame_coupling(s, q);
   }
   VectorX g;
   model::frame_coupling(s, kinematics(s, w, q), g);
@@ -603,7 +634,7 @@ VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q) {
 MatrixX gyroscopic_matrix(const System& s, Workspace& /*w*/, const VectorX& q) {
   check_size(s, q, "gyroscopic_matrix");
   const int n = s.size();
-  if (!s.rotating()) return MatrixX::Zero(n, n);
+  if (!s.has_frame_coupling()) return MatrixX::Zero(n, n);
   std::vector<VectorX> dg;  // dg[k] = ∂g/∂q_k
   kinetic_along(s, q, unit_directions(n), nullptr, &dg);
   MatrixX J(n, n);  // J_ik = ∂g_i/∂q_k
@@ -641,10 +672,10 @@ VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const Vec
   for (int k = 0; k < n; ++k) dirs.push_back(VectorX::Unit(n, k));
   std::vector<MatrixX> dM;
   std::vector<VectorX> dg;
-  kinetic_along(s, q, dirs, &dM, s.rotating() ? &dg : nullptr);
+  kinetic_along(s, q, dirs, &dM, s.has_frame_coupling() ? &dg : nullptr);
   VectorX cqd = dM[0] * qd;
   for (int k = 0; k < n; ++k) cqd[k] -= 0.5 * qd.dot(dM[static_cast<std::size_t>(k + 1)] * qd);
-  if (s.rotating()) {
+  if (s.has_frame_coupling()) {
     cqd += dg[0];
     for (int k = 0; k < n; ++k) cqd[k] -= dg[static_cast<std::size_t>(k + 1)].dot(qd);
   }

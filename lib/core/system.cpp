@@ -140,6 +140,7 @@ System::System(SystemDescription description) : d_(std::move(description)) {
   for (const DeadLoad& l : d_.loads) scale = std::max(scale, point_at_zero(l.at).norm());
   for (const FollowerLoad& l : d_.followers) scale = std::max(scale, point_at_zero(l.at).norm());
   length_scale_ = std::max(scale, 1e-3);
+  if (is_map()) build_map();
 }
 
 std::vector<std::string> System::coordinate_names() const {

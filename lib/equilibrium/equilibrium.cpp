@@ -186,7 +186,7 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
     if (!finite(r)) break;
     const double rnorm = r.norm();
     if (p.relative_residual(q, rnorm) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
-    const MatrixX js = scale.asDiagonal() * p.jacobian(q) * scale.asDiagonal();  // ∂(r)/∂(q/scale)
+    const MatrixX js = p.jacobian(q) * scale.asDiagonal();  // ∂r/∂(q/scale)
     if (!js.allFinite()) break;
     const VectorX rs = r;                                                          // residual in force units
     const MatrixX a = js.transpose() * js;

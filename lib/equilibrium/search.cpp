@@ -160,7 +160,16 @@ namespace {
 // one equilibrium of a continuous family, reported once.
 VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   const std::vector<Pose> poses = body_poses(s, w, q);
-  std::vector<Vec3> pts;
+  // A map's points (and body axes); its potential expression and Routh terms
+  // may see any coordinate, so the coordinates join as for joint springs.
+  std::vector<Vec3> pts = map_point_positions(s, q);
+  if (s.is_map()) {
+    const VectorX c = canonical_coordinates(s, q);
+    for (int i = 0; i < s.size(); ++i) {
+      const bool length = s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length;
+      pts.emplace_back(length ? c[i] : s.length_scale() * c[i], 0.0, 0.0);
+    }
+  }
   auto at = [&](const Attachment& a) {
     if (a.body < 0) return;  // fixed in the world: the same for every configuration
     const Pose& p = poses[static_cast<std::size_t>(a.body)];

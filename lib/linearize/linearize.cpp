@@ -1,7 +1,7 @@
 // lib/linearize/linearize.cpp — the linear model M δq̈ + (D + G) δq̇ + K δq = 0
 // about an equilibrium q̄ of a System (DESIGN.md §1).
 //
-// With the core's present scope (a fixed or steadily rotating frame, dead and
+// With the core's present scope (a fixed or steadily moving frame, dead and
 // follower loads, dampers, no constraints) the terms are
 //   M = M(q̄), K = ∇∇V(q̄) − ∂Q/∂q(q̄, 0), D = damping_matrix(q̄) (dampers: Q = −D q̇),
 //   G = gyroscopic_matrix(q̄) (rotating frame; else 0),
@@ -46,6 +46,7 @@ void require_finite(const MatrixX& A, const char* what, const std::vector<std::s
 
 MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 
+
 }  // namespace
 
 LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions& options) {
@@ -55,8 +56,17 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
                                 " coordinates, the system " + std::to_string(n));
   if (!q.allFinite()) throw std::invalid_argument("linearize: the configuration has non-finite coordinates");
 
+  // A steady motion given by the rates of ignorable coordinates is analyzed as
+  // the free motion at the conserved momenta it has (Routh's reduction): the
+  // same equilibrium, with the stiffness of the free system.
+  if (s.is_map() && !s.ignorable_coordinates().empty()) {
+    const auto given = s.map().coordinates[static_cast<std::size_t>(s.ignorable_coordinates().front())].ignorable->given;
+    if (given == Ignorable::Given::rate) return linearize(with_steady_momenta(s, q), q, options);
+  }
+
   LinearModel model;
   model.q = q;
+  model.steady = steady_motion(s, q);
   model.coordinates = s.coordinate_names();
   Workspace ws(s);
 
@@ -106,12 +116,15 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   }
   model.G = MatrixX::Zero(n, n);
   model.has_gyroscopic = false;
-  if (s.rotating()) {
+  if (s.has_frame_coupling()) {
     const MatrixX G = gyroscopic_matrix(s, ws, q);
     require_finite(G, "gyroscopic matrix G", model.coordinates);
     const MatrixX skew = 0.5 * (G - G.transpose());
-    // Zero up to rounding relative to its natural size |Ω|·‖M‖.
-    const double size = s.frame_rotation().norm() * model.M.cwiseAbs().maxCoeff();
+    // Zero up to rounding relative to its natural size: |Ω|·‖M‖ in a rotating
+    // frame, else (a moving map, Routh's reduction) √(‖M‖‖K‖), M times the
+    // modal rate scale.
+    const double mass = model.M.cwiseAbs().maxCoeff();
+    const double size = s.frame_rotation().norm() * mass + std::sqrt(mass * model.K.cwiseAbs().maxCoeff());
     if (skew.cwiseAbs().maxCoeff() > 1e-14 * size) {
       model.G = skew;
       model.has_gyroscopic = true;

@@ -136,6 +136,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass)
                      : detail::solve_first_order(M, model.K, C, mass);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
+  result.steady = model.steady;
 
   // Classify with every mode, then keep the lowest ones asked for.
   result.stability = classify(result.modes);

@@ -100,6 +100,12 @@ void write_equilibria_csv(std::ostream& out, const Report& report) {
     n = std::max(n, static_cast<std::size_t>(a.equilibrium.q.size()));
   out << "equilibrium,stability,morse_index,potential,residual";
   for (std::size_t i = 0; i < n; ++i) out << ',' << csv_field(coordinate_name(report, i));
+  // Steady motions: the rate and momentum of each ignorable coordinate.
+  std::vector<std::string> ignorable;
+  for (const auto& a : report.equilibria)
+    for (const SteadyRate& sr : a.result.steady)
+      if (std::find(ignorable.begin(), ignorable.end(), sr.coordinate) == ignorable.end()) ignorable.push_back(sr.coordinate);
+  for (const std::string& c : ignorable) out << ',' << csv_field(c + "_rate") << ',' << csv_field(c + "_momentum");
   out << '\n';
   for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
     const AnalyzedEquilibrium& a = report.equilibria[e];
@@ -110,6 +116,14 @@ void write_equilibria_csv(std::ostream& out, const Report& report) {
       out << ',';
       if (i < static_cast<std::size_t>(a.equilibrium.q.size()))
         out << csv_number(a.equilibrium.q[static_cast<Eigen::Index>(i)]);
+    }
+    for (const std::string& c : ignorable) {
+      const auto it = std::find_if(a.result.steady.begin(), a.result.steady.end(),
+                                   [&](const SteadyRate& sr) { return sr.coordinate == c; });
+      if (it != a.result.steady.end())
+        out << ',' << csv_number(it->rate) << ',' << csv_number(it->momentum);
+      else
+        out << ",,";
     }
     out << '\n';
   }

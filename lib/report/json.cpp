@@ -84,6 +84,12 @@ void add_result(Json& j, const ModalResult& r) {
   j["modes"] = modes;
   j["solver"] = r.solver;
   j["notes"] = r.notes;
+  if (!r.steady.empty()) {
+    Json steady = Json::array();
+    for (const SteadyRate& sr : r.steady)
+      steady.push_back({{"coordinate", sr.coordinate}, {"rate", sr.rate}, {"momentum", sr.momentum}});
+    j["steady_motion"] = steady;
+  }
 }
 
 }  // namespace

@@ -117,6 +117,11 @@ void print_analysis(std::ostream& out, const Report& report) {
   out << fmt::format("  {:<{}} = {:>22} J\n", "V", w, num(e.potential, 15));
   out << fmt::format("  relative residual {} (|grad V - Q| = {}, {} Newton iteration{})\n",
                      sci(e.residual), sci(e.residual_norm), e.iterations, e.iterations == 1 ? "" : "s");
+  if (!r.steady.empty()) {
+    out << "  steady motion (ignorable coordinates; the others analyzed at these momenta by Routh's reduction):\n";
+    for (const SteadyRate& sr : r.steady)
+      out << fmt::format("    {}' = {} /s, momentum {}\n", sr.coordinate, num(sr.rate, 12), num(sr.momentum, 12));
+  }
 
   out << "\nStability: " << describe_stability(r) << '\n';
 
@@ -215,6 +220,40 @@ void print_equilibria(std::ostream& out, const Report& report) {
     }
 }
 
+namespace {
+
+// `modal check` of a kinematic map: coordinates (with what the core decided
+// about their kind and periodicity, and the ignorable ones), points, potential.
+void print_map_summary(std::ostream& out, const System& system) {
+  const KinematicMap& m = system.map();
+  out << fmt::format("\nKinematic map: {} coordinate{}, {} point{}{}\n", m.coordinates.size(),
+                     m.coordinates.size() == 1 ? "" : "s", m.points.size(), m.points.size() == 1 ? "" : "s",
+                     system.map_time_dependent() ? ", moving steadily with t" : "");
+  out << fmt::format("\nCoordinates ({} analyzed)\n", system.size());
+  for (const Coordinate& c : system.coordinates())
+    out << fmt::format("  {:<16}  {:<8}  {:<12}  initial {}\n", c.name, to_string(c.kind),
+                       c.periodic ? "periodic" : "not periodic", num(c.initial, 12));
+  for (const int i : system.ignorable_coordinates()) {
+    const MapCoordinate& c = m.coordinates[static_cast<std::size_t>(i)];
+    const bool rate = c.ignorable->given == Ignorable::Given::rate;
+    out << fmt::format("  {:<16}  ignorable: {} {} (Routh's reduction)\n", c.name, rate ? "steady rate" : "momentum",
+                       num(c.ignorable->value, 12));
+  }
+  double total_mass = 0;
+  out << fmt::format("\nPoints ({})\n", m.points.size());
+  for (const MapMass& p : m.points) {
+    total_mass += p.mass;
+    out << fmt::format("  {:<16}  mass {} kg{}\n    position [{}, {}, {}]\n", p.name, num(p.mass, 10),
+                       p.inertia.isZero(0.0) ? "" : ", rigid body", p.position[0].text(), p.position[1].text(),
+                       p.position[2].text());
+  }
+  if (!m.potential.text().empty()) out << fmt::format("\nPotential: {}\n", m.potential.text());
+  out << fmt::format("\nTotal mass: {} kg\n", num(total_mass, 12));
+  out << fmt::format("Gravity: {} m/s^2\n", vec(system.gravity()));
+}
+
+}  // namespace
+
 void print_summary(std::ostream& out, const std::string& scene_file,
                    const std::vector<std::pair<std::string, double>>& parameters,
                    const System& system) {
@@ -224,6 +263,10 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   out << fmt::format("\nParameters ({})\n", parameters.size());
   for (const auto& [name, value] : parameters) out << fmt::format("  {:<16} = {}\n", name, num(value, 15));
 
+  if (system.is_map()) {
+    print_map_summary(out, system);
+    return;
+  }
   const auto& bodies = system.bodies();
   auto body_name = [&](int index) -> std::string {
     return index < 0 ? std::string("world") : bodies[static_cast<std::size_t>(index)].name;

@@ -1,9 +1,12 @@
 // Typed, located reading of scene values (reader.hpp).
 #include "scene/reader.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 namespace modal::scene_detail {
@@ -217,6 +220,35 @@ std::string Section::required_string(std::string_view name) const {
 bool Section::boolean(std::string_view name, bool fallback) const {
   const toml::node* node = find(name);
   return node != nullptr ? reader_.boolean(*node, key(name)) : fallback;
+}
+
+namespace {
+// A computed value for messages, to 6 significant digits.
+std::string approximate_value(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  return buffer;
+}
+}  // namespace
+
+// inertia = [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, body frame (kg·m²);
+// a physical tensor is positive semidefinite with principal moments obeying
+// the triangle inequality.
+Mat3 read_inertia(const Section& s) {
+  const VectorX v = s.numbers("inertia", VectorX::Zero(6));
+  Mat3 inertia;
+  inertia << v[0], v[3], v[4],
+             v[3], v[1], v[5],
+             v[4], v[5], v[2];
+  const Vec3 moments = Eigen::SelfAdjointEigenSolver<Mat3>(inertia, Eigen::EigenvaluesOnly).eigenvalues();  // ascending
+  const double tolerance = 1e-12 * moments.cwiseAbs().maxCoeff();
+  const std::string listed = approximate_value(moments[0]) + ", " + approximate_value(moments[1]) + ", " + approximate_value(moments[2]);
+  if (moments[0] < -tolerance)
+    s.fail("inertia", "the inertia tensor is not positive semidefinite (principal moments " + listed + " kg·m²)");
+  if (moments[2] > moments[0] + moments[1] + tolerance)
+    s.fail("inertia", "the principal moments " + listed +
+                          " kg·m² violate the triangle inequality: the largest exceeds the sum of the other two");
+  return inertia;
 }
 
 }  // namespace modal::scene_detail

@@ -115,6 +115,14 @@ class Section {
   std::string path_, kind_;
 };
 
+// `inertia` of a table: [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of
+// mass, body frame (kg·m², default 0), checked to be a physical tensor.
+Mat3 read_inertia(const Section& s);
+
+// [coordinates], [[point]] and `potential` of the root (an expression-defined
+// system, DESIGN.md §3) into d.map; false when the scene has none of them.
+bool read_map(const Reader& reader, const toml::table& root, SystemDescription& d);
+
 // Resolves [parameters] (may be null) with the command-line overrides:
 // definitions in any order, expressions over other parameters, cycles and
 // undefined names reported with their location.

@@ -3,7 +3,8 @@
 // Reading goes section by section: [parameters] first (every other number may
 // use them), then [[body]] and [[chain]] (chains expand into hinge bodies), the
 // bodies ordered so that parents precede children, then [[spring]] and [[load]]
-// (which refer to bodies by name). Every check that System's constructor makes
+// (which refer to bodies by name). A scene with [coordinates] is a kinematic
+// map instead (lib/scene/map.cpp). Every check that System's constructor makes
 // is made here first, with a located message, so that building never throws.
 #include "modal/scene.hpp"
 
@@ -94,37 +95,11 @@ struct BodyEntry {
   std::tuple<int, int, int> order;          // file position of the table, then link number
 };
 
-// A computed value for messages, to 6 significant digits.
-std::string approximate(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
 
 // Joint values of size n (hinge/slide: one number; ball, free: an array).
 VectorX joint_values(const Section& s, std::string_view key, int n) {
   if (n == 1) return VectorX::Constant(1, s.number(key, 0.0));
   return s.numbers(key, VectorX::Zero(n));
-}
-
-// inertia = [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, body frame (kg·m²);
-// a physical tensor is positive semidefinite with principal moments obeying
-// the triangle inequality.
-Mat3 read_inertia(const Section& s) {
-  const VectorX v = s.numbers("inertia", VectorX::Zero(6));
-  Mat3 inertia;
-  inertia << v[0], v[3], v[4],
-             v[3], v[1], v[5],
-             v[4], v[5], v[2];
-  const Vec3 moments = Eigen::SelfAdjointEigenSolver<Mat3>(inertia, Eigen::EigenvaluesOnly).eigenvalues();  // ascending
-  const double tolerance = 1e-12 * moments.cwiseAbs().maxCoeff();
-  const std::string listed = approximate(moments[0]) + ", " + approximate(moments[1]) + ", " + approximate(moments[2]);
-  if (moments[0] < -tolerance)
-    s.fail("inertia", "the inertia tensor is not positive semidefinite (principal moments " + listed + " kg·m²)");
-  if (moments[2] > moments[0] + moments[1] + tolerance)
-    s.fail("inertia", "the principal moments " + listed +
-                          " kg·m² violate the triangle inequality: the largest exceeds the sum of the other two");
-  return inertia;
 }
 
 BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
@@ -159,7 +134,7 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   b.origin = s.vector3("origin", Vec3::Zero());
   b.mass = s.number("mass", 0.0, Range::nonnegative);
   b.com = s.vector3("com", Vec3::Zero());
-  b.inertia = read_inertia(s);
+  b.inertia = scene_detail::read_inertia(s);
   b.stiffness = s.number("stiffness", 0.0, Range::nonnegative);
   b.damping = s.number("damping", 0.0, Range::nonnegative);
   const int n = joint_coordinate_count(b.joint);
@@ -447,8 +422,9 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
 
   Reader reader(file_name, text);
   const Section top(reader, root, "", "the top level of the scene");
-  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "spring", "load"},
-                 {"particle", "constraint", "coordinates", "point", "potential", "lattice"});
+  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "spring", "load",
+                  "coordinates", "point", "potential"},
+                 {"particle", "constraint", "lattice"});
 
   const toml::table* parameters = nullptr;
   if (const toml::node* node = top.find("parameters")) {
@@ -467,6 +443,23 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   d.gravity = top.vector3("gravity", Vec3(0, 0, -9.81));
   d.frame_rotation = top.vector3("frame_rotation", Vec3::Zero());  // rad/s, about the world origin
 
+  if (scene_detail::read_map(reader, root, d)) {
+    for (const char* key : {"body", "chain", "spring", "load", "frame_rotation"})
+      if (const toml::node* node = root.get(key))
+        reader.fail(*node, key,
+                    std::string("a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies; '") +
+                        key + "' belongs to the second" +
+                        (std::string(key) == "frame_rotation" ? " (a map writes a moving frame with the time t)" : ""));
+    try {
+      const System check(d);  // steadiness, ignorable coordinates, definedness at the initial configuration
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(reader.location(*root.get("coordinates")), "coordinates", e.what());
+    } catch (const NumericalError& e) {
+      throw SceneError(reader.location(*root.get("coordinates")), "coordinates", e.what());
+    }
+    return scene;
+  }
+
   std::vector<BodyEntry> entries;
   const auto bodies = tables_of(reader, root, "body");
   for (std::size_t i = 0; i < bodies.size(); ++i) entries.push_back(read_body(reader, *bodies[i], i));
@@ -478,7 +471,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
     for (BodyEntry& e : links) entries.push_back(std::move(e));
   }
   if (entries.empty())
-    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]] or a [[chain]]");
+    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]] or a [[chain]] (or write it as a kinematic map: [coordinates] and [[point]])");
   std::stable_sort(entries.begin(), entries.end(),
                    [](const BodyEntry& x, const BodyEntry& y) { return x.order < y.order; });
   order_bodies(reader, entries, d, scene.body_locations);

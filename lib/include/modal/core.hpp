@@ -1,7 +1,9 @@
 // modal/core.hpp — the Lagrangian core.
 //
 // A System is the constant model of a tree of rigid bodies joined by joints,
-// with springs, joint springs and dampers, dead and follower loads: everything needed to
+// with springs, joint springs and dampers, dead and follower loads, or of a
+// kinematic map (point masses and rigid bodies placed by expressions in the
+// coordinates and time, see KinematicMap below): everything needed to
 // evaluate, at generalized coordinates q (n of them) and velocities q̇,
 //
 //   M(q)        mass matrix (n×n, symmetric positive semidefinite)      [kg·m², kg·m, kg]
@@ -53,8 +55,12 @@
 // coincide with the parent frame moved to the joint origin at q = 0.
 #pragma once
 
+#include "modal/expression.hpp"
+
 #include <Eigen/Core>
 
+#include <array>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -146,6 +152,69 @@ struct FollowerLoad {
   Vec3 force = Vec3::Zero();  // N, body frame
 };
 
+// --- kinematic maps (expression-defined systems) -----------------------------
+//
+// Instead of a tree of bodies, a system may be written the classic way: choose
+// generalized coordinates z (n_z of them) and write where every mass is,
+// x = x(z, t), with time t (s). Expressions (modal/expression.hpp) are over the
+// variables [z_0 … z_{n_z−1}, t, constants…] in that order; `constants` holds
+// the values of the trailing variables (the scene's parameters). With
+// v = Σ_k ∂x/∂z_k ż_k + ∂x/∂t the kinetic energy is
+//   T = ½żᵀM(z)ż + żᵀg(z) + T₀(z),
+//   M = Σ m S_kᵀS_l + W_kᵀ I_w W_l,  g_k = Σ m S_k·∂ₜx + W_kᵀ I_w ω_t,  T₀ = ½Σ m|∂ₜx|² + ½ω_tᵀ I_w ω_t
+// with S_k = ∂x/∂z_k, W_k = vee(∂R/∂z_k Rᵀ) the angular Jacobian of a rigid
+// point's orientation R (ω_t from ∂R/∂t), I_w = R I Rᵀ. All are exact by
+// forward AD through the expressions, evaluated at t = 0; the map must be
+// steady (M, g, T₀, V independent of t), which System's constructor checks.
+// V = Σ −m gravity·x + potential(z).
+struct MapRotation {  // a rotation by `angle` (rad) about the fixed unit `axis` (body frame so far)
+  Vec3 axis = Vec3::UnitZ();
+  Expression angle;
+};
+struct MapMass {
+  std::string name;                        // for messages ("point 2" when unnamed)
+  double mass = 0;                         // kg
+  std::array<Expression, 3> position;      // centre of mass, m, scene frame
+  // Orientation R = R_1 R_2 … (each about its axis in the frame the previous ones
+  // produced); empty: R = I. Only matters with rotational inertia.
+  std::vector<MapRotation> orientation;
+  Mat3 inertia = Mat3::Zero();             // about the centre of mass, body frame, kg·m²
+};
+// A coordinate the Lagrangian does not depend on (cyclic). Its conjugate
+// momentum p = ∂L/∂ż is conserved; the other coordinates are analyzed about a
+// steady motion through Routh's reduction (see KinematicMap).
+struct Ignorable {
+  enum class Given { rate, momentum };
+  Given given = Given::rate;
+  double value = 0;  // rate ż (rad/s or m/s) or momentum p (kg·m²/s or kg·m/s)
+};
+struct MapCoordinate {
+  std::string name;
+  double initial = 0;
+  // angle or length; unset: decided by System (angle when the energy is
+  // 2π-periodic in the coordinate, else length). An angle is periodic (compared
+  // modulo 2π) only when M, g, T₀ and V are 2π-periodic in it (checked).
+  std::optional<CoordinateKind> kind;
+  std::optional<Ignorable> ignorable;
+};
+// Routh's reduction. With the coordinates split into kept r and ignorable c,
+// and p the momenta of c (given, or given through the rate at a steady motion),
+// the reduced system in r has
+//   M' = M_rr − M_rc M_cc⁻¹ M_cr,   g' = g_r + M_rc M_cc⁻¹ (p − g_c),
+//   V' = V − T₀ + ½(p − g_c)ᵀ M_cc⁻¹ (p − g_c)         (the amended potential)
+// and ċ = M_cc⁻¹(p − g_c − M_cr ṙ). When rates Ω are given instead, the steady
+// motions are the equilibria of V − T₀ − Ωᵀg_c − ½ΩᵀM_ccΩ with M' = M_rr and
+// g' = g_r + M_rc Ω (the coordinate driven at the rate); `with_steady_momenta`
+// turns such a system into the free one at the momenta of a steady motion,
+// which is what linearize() analyzes.
+struct KinematicMap {
+  std::vector<MapCoordinate> coordinates;  // z, in the order of the expression variables
+  std::vector<double> constants;           // values of the variables after t
+  std::vector<MapMass> points;
+  Expression potential;                    // extra potential energy, J (default 0)
+  bool empty() const { return coordinates.empty() && points.empty(); }
+};
+
 struct SystemDescription {
   std::string title;
   Vec3 gravity{0, 0, -9.81};  // m/s²
@@ -156,7 +225,13 @@ struct SystemDescription {
   // Angular velocity (rad/s, scene-frame components) of the frame the scene is
   // written in, constant, about the world origin; zero: an inertial frame.
   Vec3 frame_rotation = Vec3::Zero();
+  // An expression-defined system (then bodies, springs, loads and
+  // frame_rotation must be empty: a system is either a tree or a map).
+  KinematicMap map;
 };
+
+class System;
+System with_steady_momenta(const System& s, const VectorX& q);
 
 // The constant model. Construction validates (throws std::invalid_argument on
 // misuse: bad parent order, non-unit axis, negative mass, …) and precomputes
@@ -175,6 +250,18 @@ class System {
   bool has_follower_loads() const { return !d_.followers.empty(); }
   const Vec3& frame_rotation() const { return d_.frame_rotation; }  // Ω, rad/s
   bool rotating() const { return !d_.frame_rotation.isZero(0.0); }   // Ω ≠ 0
+  // Expression-defined system (a kinematic map) rather than a tree of bodies.
+  bool is_map() const { return !d_.map.empty(); }
+  const KinematicMap& map() const { return d_.map; }
+  // T has the terms q̇ᵀg + T₀ (a rotating frame, a moving map, or Routh's
+  // reduction): frame_coupling and gyroscopic_matrix may be non-zero.
+  bool has_frame_coupling() const { return rotating() || moving_map_; }
+  // Map coordinates kept as generalized coordinates (index into map().coordinates), n.
+  const std::vector<int>& kept_coordinates() const { return kept_; }
+  // Ignorable map coordinates (index into map().coordinates), in declaration order.
+  const std::vector<int>& ignorable_coordinates() const { return ignorable_; }
+  // Whether a map's expressions use the time t.
+  bool map_time_dependent() const { return map_time_; }
   const std::vector<Coordinate>& coordinates() const { return coords_; }
   std::vector<std::string> coordinate_names() const;
 
@@ -197,6 +284,11 @@ class System {
   std::vector<Coordinate> coords_;
   bool has_damping_ = false;
   double length_scale_ = 1.0;
+  bool moving_map_ = false;          // a map with t, or with ignorable coordinates
+  bool map_time_ = false;
+  std::vector<int> kept_, ignorable_;
+  void build_map();
+  friend System with_steady_momenta(const System& s, const VectorX& q);
 };
 
 // Scratch memory for evaluating one System. Results returned by reference live
@@ -258,6 +350,23 @@ VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q);
 MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q);
 // Accelerations q̈ = M⁻¹(Q − C q̇ − G q̇ − ∇V). Throws NumericalError if M is singular.
 VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+
+// --- steady motions (maps with ignorable coordinates) -------------------------
+struct SteadyRate {
+  std::string coordinate;  // the ignorable coordinate's name
+  double rate = 0;         // ċ at the steady motion, rad/s or m/s
+  double momentum = 0;     // its conserved momentum p = ∂T/∂ċ
+};
+// The rates and momenta of the ignorable coordinates in the steady motion at
+// q (kept coordinates at rest). Empty for systems without ignorable coordinates.
+std::vector<SteadyRate> steady_motion(const System& s, const VectorX& q);
+// The same system with every ignorable coordinate given by its momentum in the
+// steady motion at q (a copy of s when all are already given by momentum).
+System with_steady_momenta(const System& s, const VectorX& q);
+// World positions of the points of a map system at q (centres of mass), and
+// the tips of their body axes (one length scale along each) for points with
+// rotational inertia. Empty for body systems (see body_poses).
+std::vector<Vec3> map_point_positions(const System& s, const VectorX& q);
 
 // World pose of every body at q: rotation (body → world) and frame origin.
 struct Pose {

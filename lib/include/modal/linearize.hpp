@@ -30,6 +30,9 @@ struct LinearModel {
   bool has_gyroscopic = false;
   bool circulatory = false;              // K not symmetric (follower loads)
   double residual = 0;                   // relative equilibrium residual at q
+  // Steady motion: rates and momenta of ignorable coordinates (maps analyzed
+  // through Routh's reduction); empty otherwise.
+  std::vector<SteadyRate> steady;
 
   int size() const { return static_cast<int>(q.size()); }
   // K φ = λ M φ describes the motion completely (no D, G, circulatory part).

@@ -54,6 +54,9 @@ struct ModalResult {
                             // system (an undamped rigid-body motion contributes two)
   std::string solver;       // which solver ran, e.g. "dense symmetric (Eigen, Cholesky)"
   std::vector<std::string> notes;  // diagnostics a user should read
+  // The steady motion analyzed (rates and momenta of ignorable coordinates,
+  // copied from the linear model); empty for an equilibrium proper.
+  std::vector<SteadyRate> steady;
 };
 
 // The mass matrix is singular (or not positive definite) at the point: the

@@ -6,6 +6,7 @@
 //   modal::print_analysis(std::cout, r);                  // title, equilibrium, stability, modes, notes
 //   modal::write_csv_files("out/dp", r);                  // out/dp_modes.csv, _shapes.csv, _equilibria.csv
 //   std::ofstream("out/dp.json") << modal::analysis_json(r);
+//   modal::write_trajectory_csv(std::cout, modal::simulate(sys, q0, qd0, {.duration = 10}));  // `modal simulate`
 //
 // All functions are free functions on plain values; none of them computes
 // anything but presentation. CSV numbers are written with 17 significant digits
@@ -17,6 +18,7 @@
 
 #include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
+#include "modal/simulate.hpp"
 
 #include <iosfwd>
 #include <stdexcept>
@@ -88,6 +90,12 @@ std::vector<std::string> write_csv_files(const std::string& prefix, const Report
 // Writes one file with `writer`; throws ReportError when it cannot be written.
 void write_file(const std::string& path, void (*writer)(std::ostream&, const Report&),
                 const Report& report);
+// `modal simulate`: header "time,<coordinate names>…,<coordinate name>_dot…,
+// energy,work,energy_error", one row per sample of the trajectory (time in s,
+// q, q̇, E and W in J, energy_error = (E − E0 − W) / energy_scale; see
+// modal/simulate.hpp). Coordinates are named q1 … qn when the trajectory has
+// no names.
+void write_trajectory_csv(std::ostream& out, const Trajectory& trajectory);
 
 // --- JSON ---------------------------------------------------------------------
 // `modal analyze`: {scene, title, parameters{name: value}, coordinates[names],
