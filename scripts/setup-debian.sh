@@ -15,6 +15,8 @@ packages=(
   nlohmann-json3-dev   # JSON output
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev     # benchmarks
+  libginac-dev         # benchmark only: bench_expression measures GiNaC against our expressions
+  python3-sympy        # benchmark only: the SymPy mechanics peer of bench/map_linearize.sh
 )
 
 if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi

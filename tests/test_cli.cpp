@@ -422,3 +422,54 @@ TEST_F(Cli, VersionAndHelp) {
 }
 
 }  // namespace
+
+// --- kinematic maps end to end --------------------------------------------------
+
+TEST_F(Cli, MapSteadyMotionInTheCsv) {
+  // Sleeping top at spin 80 (models/spinning_top.toml): p = C·spin = 0.32, A = A_c + m h² = 0.012,
+  // ω = [p ± √(p² − 4 A m g h)]/(2A); the steady rate and momentum of psi are in the equilibria CSV.
+  const Outcome r = run({"analyze", models + "spinning_top.toml", "--csv", prefix()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv eq = read_csv(prefix() + "_equilibria.csv");
+  ASSERT_EQ(eq.rows.size(), 1u);
+  EXPECT_EQ(eq.rows[0].at("stability"), "stable");
+  EXPECT_REL(number(eq.rows[0], "psi_rate"), 80.0, 1e-15);
+  EXPECT_REL(number(eq.rows[0], "psi_momentum"), 0.32, 1e-14);
+  const double p = 0.32, A = 0.012, mgh = 0.981;
+  const double root = std::sqrt(p * p - 4 * A * mgh);
+  const Csv modes = read_csv(prefix() + "_modes.csv");
+  ASSERT_EQ(modes.rows.size(), 2u);
+  EXPECT_REL(number(modes.rows[0], "omega"), (p - root) / (2 * A), 1e-10);
+  EXPECT_REL(number(modes.rows[1], "omega"), (p + root) / (2 * A), 1e-10);
+  EXPECT_NE(r.out.find("steady motion"), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, MapSingularMassMatrixIsDiagnosed) {
+  // Spherical angles at rest at the bottom (w = 0): the pole of the chart, exit 4 with words.
+  const Outcome r = run({"analyze", models + "spherical_pendulum_angles.toml", "--set", "w=0"});
+  EXPECT_EQ(r.status, 4);
+  EXPECT_NE(r.err.find("mass matrix is singular"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MapSweepFindsTheSleepingTopThreshold) {
+  // Restabilization at spin = 2√(A m g h)/C = 54.2494239…, ω there √(m g h / A).
+  const Outcome r = run({"sweep", models + "spinning_top.toml", "--vary", "spin=40:70:7", "--csv", prefix("S.csv")});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv critical = read_csv(prefix("S_critical.csv"));
+  ASSERT_EQ(critical.rows.size(), 1u);
+  const double expected = 2 * std::sqrt(0.012 * 0.981) / 0.004;
+  EXPECT_LE(std::abs(number(critical.rows[0], "value") - expected), 1e-8 * expected);
+  EXPECT_EQ(critical.rows[0].at("after"), "stable");
+  EXPECT_REL(number(critical.rows[0], "omega"), std::sqrt(0.981 / 0.012), 1e-5);  // merging pair: √(bracket)
+}
+
+TEST_F(Cli, MapSimulateWritesTheTrajectory) {
+  const Outcome r = run({"simulate", models + "bead_on_hoop.toml", "--duration", "2.6", "--at", "1", "--csv",
+                         prefix("T.csv")});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv t = read_csv(prefix("T.csv"));
+  ASSERT_EQ(t.header.front(), "time");
+  ASSERT_EQ(t.header[1], "theta");
+  ASSERT_FALSE(t.rows.empty());
+  for (const Row& row : t.rows) EXPECT_LE(std::abs(number(row, "energy_error")), 1e-9);
+}
