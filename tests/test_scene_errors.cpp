@@ -205,6 +205,9 @@ TEST(scene_errors, MapCoordinates) {
   check_error("[coordinates]\nphi = 0.1\npsi = { rate = 2, momentum = 1 }\n[[point]]\nmass = 1\n"
               "position = [\"sin(phi)\", 0, 0]\n",
               {3, 30, "coordinates.psi.momentum", "its steady rate or its momentum, not both"});
+  // A coordinate no expression uses moves nothing (M would have a zero row).
+  check_error("[coordinates]\nphi = 0.1\nchi = 0.2\n[[point]]\nmass = 1\nposition = [\"sin(phi)\", 0, 0]\n",
+              {3, 7, "coordinates.chi", "appears in no position, orientation or potential"});
 }
 
 TEST(scene_errors, MapAndBodiesDoNotMix) {

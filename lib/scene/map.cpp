@@ -175,6 +175,25 @@ bool read_map(const Reader& reader, const toml::table& root, SystemDescription& 
   if (potential != nullptr) m.potential = expression(reader, *potential, "potential", vars);
   if (m.points.empty())
     reader.fail(*coordinates, "point", "the system has no [[point]] masses: its kinetic energy would be zero");
+  // A coordinate that no expression uses moves nothing: M would have a zero
+  // row for it everywhere.
+  std::vector<bool> used(listed.size(), false);
+  auto mark = [&](const Expression& e) {
+    for (const int v : e.variables_used())
+      if (v < static_cast<int>(used.size())) used[static_cast<std::size_t>(v)] = true;
+  };
+  mark(m.potential);
+  for (const MapMass& p : m.points) {
+    for (const Expression& e : p.position) mark(e);
+    if (!p.inertia.isZero(0.0))
+      for (const MapRotation& r : p.orientation) mark(r.angle);
+  }
+  for (std::size_t i = 0; i < listed.size(); ++i)
+    if (!used[i])
+      reader.fail(*listed[i].second, "coordinates." + listed[i].first,
+                  "the coordinate '" + listed[i].first +
+                      "' appears in no position, orientation or potential: it moves nothing (its mass matrix row "
+                      "would be zero)");
   return true;
 }
 
