@@ -622,10 +622,9 @@ std::vector<MatrixX> mass_matrix_derivatives(const System& s, Workspace& /*w*/, 
 }
 
 VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q) {
-  if (!s.has_frame_coupling() || s.is_map()) {
-    check_size(s, q, "frame_coupling");
-    return map_eval::frame_coupling(s, q);
-  }
+  check_size(s, q, "frame_coupling");
+  if (s.is_map()) return map_eval::frame_coupling(s, q);
+  if (!s.rotating()) return VectorX::Zero(s.size());
   VectorX g;
   model::frame_coupling(s, kinematics(s, w, q), g);
   return g;

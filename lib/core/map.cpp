@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 namespace modal {
 
@@ -56,13 +55,6 @@ std::string energy_difference(const MapEnergies& a, const MapEnergies& b) {
   const double sV = std::max(a.scale_V, b.scale_V) + std::max(std::abs(a.V), std::abs(b.V)) + sT;
   if (std::abs(a.V - b.V) > tol * sV) return "the potential energy V";
   return "";
-}
-
-std::string format(double x) {
-  std::ostringstream o;
-  o.precision(6);
-  o << x;
-  return o.str();
 }
 
 }  // namespace
@@ -141,7 +133,7 @@ void System::build_map() {
         if (!what.empty())
           throw std::invalid_argument(
               "the energy of this kinematic map depends on time: " + what + " changes between t = 0 and t = " +
-              format(t) + " s. Only steadily moving frames (M, g, T0 and V independent of t) can be linearized; "
+              kmap::short_number(t, 6) + " s. Only steadily moving frames (M, g, T0 and V independent of t) can be linearized; "
               "a periodically moving system needs Floquet analysis, which modal does not do");
       }
     for (std::size_t k = 0; k < kept_.size(); ++k) {  // periodicity: an angle that repeats after 2π
@@ -162,7 +154,7 @@ void System::build_map() {
         if (!what.empty())
           throw std::invalid_argument("coordinate '" + m.coordinates[static_cast<std::size_t>(c)].name +
                                       "' is declared ignorable, but " + what + " changes when it changes by " +
-                                      format(shift) + ": an ignorable coordinate must appear in no term of T and V");
+                                      kmap::short_number(shift, 6) + ": an ignorable coordinate must appear in no term of T and V");
       }
   }
 }

@@ -154,9 +154,9 @@ Kinetic<S> kinetic(const System& s, const std::vector<S>& vars, const std::vecto
 
 // Solves A X = B for a small symmetric positive definite A (LDLᵀ without
 // pivoting, any scalar). Throws NumericalError when A is not positive definite.
-inline std::string short_number(double x) {
+inline std::string short_number(double x, int digits = 3) {
   char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.3g", x);
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, x);
   return buffer;
 }
 

@@ -163,13 +163,15 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   // A map's points (and body axes); its potential expression and Routh terms
   // may see any coordinate, so the coordinates join as for joint springs.
   std::vector<Vec3> pts = map_point_positions(s, q);
-  if (s.is_map()) {
-    const VectorX c = canonical_coordinates(s, q);
-    for (int i = 0; i < s.size(); ++i) {
-      const bool length = s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length;
-      pts.emplace_back(length ? c[i] : s.length_scale() * c[i], 0.0, 0.0);
-    }
-  }
+  // A coordinate the energy sees directly joins as its value scaled to a
+  // length comparable with L (not modulo 2π unless periodic).
+  const VectorX c = canonical_coordinates(s, q);
+  auto coordinate = [&](int i) {
+    const CoordinateKind kind = s.coordinates()[static_cast<std::size_t>(i)].kind;
+    pts.emplace_back(kind == CoordinateKind::length ? c[i] : s.length_scale() * c[i], 0.0, 0.0);
+  };
+  if (s.is_map())
+    for (int i = 0; i < s.size(); ++i) coordinate(i);
   auto at = [&](const Attachment& a) {
     if (a.body < 0) return;  // fixed in the world: the same for every configuration
     const Pose& p = poses[static_cast<std::size_t>(a.body)];
@@ -196,18 +198,11 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
     at(l.at);
     if (l.force.norm() > 0) at({l.at.body, Vec3(l.at.point + s.length_scale() * l.force.normalized())});
   }
-  // A joint spring sees the joint value itself: those coordinates join the
-  // signature as values scaled to lengths comparable with L.
-  const VectorX c = canonical_coordinates(s, q);
-  const double L = s.length_scale();
+  // A joint spring sees the joint value itself (a joint with a spring is not periodic).
   for (std::size_t b = 0; b < s.bodies().size(); ++b) {
     if (s.bodies()[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) {
-      // A joint with a spring is not periodic: its value itself, not modulo 2π.
-      const CoordinateKind kind = s.coordinates()[static_cast<std::size_t>(i)].kind;
-      pts.emplace_back(kind == CoordinateKind::length ? c[i] : L * c[i], 0.0, 0.0);
-    }
+    for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) coordinate(i);
   }
   VectorX v(3 * static_cast<Eigen::Index>(pts.size()));
   for (std::size_t i = 0; i < pts.size(); ++i) v.segment<3>(3 * static_cast<Eigen::Index>(i)) = pts[i];

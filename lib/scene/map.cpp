@@ -25,10 +25,6 @@ namespace modal::scene_detail {
 
 namespace {
 
-std::string index_key(std::string_view array, std::size_t index) {
-  return std::string(array) + "[" + std::to_string(index + 1) + "]";
-}
-
 // The expression variables: coordinates, then t, then the parameters.
 struct Variables {
   std::vector<std::string> names;
@@ -43,12 +39,6 @@ Expression expression(const Reader& reader, const toml::node& node, const std::s
   } catch (const ExpressionError& e) {
     reader.fail_expression(node, key, s->get(), e.position(), e.what());
   }
-}
-
-bool is_name(std::string_view name) {
-  if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_')) return false;
-  return std::all_of(name.begin(), name.end(),
-                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
 MapCoordinate read_coordinate(const Reader& reader, const std::string& name, const toml::node& node,
@@ -153,7 +143,7 @@ bool read_map(const Reader& reader, const toml::table& root, SystemDescription& 
   for (const auto& [name, node] : listed) {
     const std::string key = "coordinates." + name;
     std::string why;
-    if (!is_name(name))
+    if (!is_identifier(name))
       why = "is not a valid name (letters, digits and _, not starting with a digit)";
     else if (Expression::is_function(name) || name == "pi" || name == "t")
       why = "is reserved (a function, pi, or the time t)";

@@ -11,11 +11,6 @@
 namespace modal::scene_detail {
 namespace {
 
-bool is_identifier(std::string_view s) {
-  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) != 0 || s[0] == '_')) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; });
-}
-
 // One parameter's definition: from the file (node) or from --set (override).
 struct Definition {
   std::string name;

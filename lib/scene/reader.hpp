@@ -31,6 +31,10 @@ enum class Range { any, nonnegative, positive };
 
 // "1.5", "-2", "nan": shortest round-trip text of a value, for messages.
 std::string format_number(double value);
+// A name expressions can use: letters, digits and _, not starting with a digit.
+bool is_identifier(std::string_view s);
+// "body[3]": the dotted key of entry `index` (0-based) of an array of tables.
+std::string index_key(std::string_view array, std::size_t index);
 // "an integer", "a string", "a table", …: a TOML node's type, for messages.
 std::string describe_type(const toml::node& node);
 // 'stem' of a path: "models/seesaw.toml" → "seesaw".

@@ -78,10 +78,6 @@ using scene_detail::format_number;
 constexpr std::array<JointType, 5> joint_types{JointType::hinge, JointType::slide, JointType::ball,
                                                 JointType::free, JointType::fixed};
 
-std::string index_key(std::string_view array, std::size_t index) {
-  return std::string(array) + "[" + std::to_string(index + 1) + "]";
-}
-
 // A body as read, before the bodies are ordered and parents resolved.
 struct BodyEntry {
   Body body;
@@ -103,7 +99,7 @@ VectorX joint_values(const Section& s, std::string_view key, int n) {
 }
 
 BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
-  const Section s(reader, table, index_key("body", index), "[[body]]");
+  const Section s(reader, table, scene_detail::index_key("body", index), "[[body]]");
   s.check_keys({"name", "parent", "joint", "axis", "origin", "mass", "com", "inertia", "stiffness", "rest",
                 "damping", "initial"});
   BodyEntry e;
@@ -149,7 +145,7 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
 // [[chain]]: `links` equal hinge bodies in series, link i's joint at the far
 // end of link i−1 (the first at `origin` in the parent).
 std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table, std::size_t index) {
-  const Section s(reader, table, index_key("chain", index), "[[chain]]");
+  const Section s(reader, table, scene_detail::index_key("chain", index), "[[chain]]");
   s.check_keys({"name", "links", "length", "mass", "mass_model", "axis", "direction", "stiffness", "damping", "rest",
                 "parent", "origin", "initial"});
   const std::string name = s.required_string("name");
@@ -365,7 +361,7 @@ std::vector<Vec3> frame_positions(const std::vector<Body>& bodies) {
 
 Spring read_spring(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
                    const std::vector<Vec3>& frames) {
-  const Section s(reader, table, index_key("spring", index), "[[spring]]");
+  const Section s(reader, table, scene_detail::index_key("spring", index), "[[spring]]");
   s.check_keys({"a", "b", "a_point", "b_point", "stiffness", "rest_length", "damping"});
   Spring spring;
   const std::string a = s.required_string("a");
@@ -389,7 +385,7 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
 // force as written is its body-frame force (the scene frame at q = 0).
 void read_load(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
                SystemDescription& d) {
-  const Section s(reader, table, index_key("load", index), "[[load]]");
+  const Section s(reader, table, scene_detail::index_key("load", index), "[[load]]");
   s.check_keys({"body", "point", "force", "follower"});
   const bool follower = s.boolean("follower", false);
   Attachment at;
