@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -392,6 +393,230 @@ follower = false
   EXPECT_EQ(d.loads[0].at.point, Vec3(0, 0, -1));
   EXPECT_EQ(d.loads[0].force, Vec3(0, 0, -10));
   EXPECT_NO_THROW(modal::build_system(s));
+}
+
+TEST(scene, Particles) {
+  const modal::Scene s = parse(R"(
+[[particle]]
+name = "free"
+position = [1, 2, 3]
+mass = 2
+
+[[body]]
+name = "arm"
+parent = "bead"
+joint = "hinge"
+mass = 1
+
+[[particle]]
+name = "pinned"
+position = [0, 0, 1]
+mass = 0.5
+fixed = true
+
+[[particle]]
+name = "bead"
+position = [4, 0, "-1/2"]
+mass = 1.5
+fixed = [false, true, false]
+
+[[particle]]
+name = "loose"
+position = [0, 0, 0]
+mass = 0
+fixed = false
+)");
+  const auto& d = s.description;
+  std::vector<std::string> names;
+  for (const auto& b : d.bodies) names.push_back(b.name);
+  // File order where the tree allows: "arm" waits for its parent "bead".
+  EXPECT_EQ(names, (std::vector<std::string>{"free", "pinned", "bead", "arm", "loose"}));
+  ASSERT_EQ(s.body_locations.size(), 5u);
+  EXPECT_EQ(s.body_locations[0].line, 2);  // [[particle]] "free"
+  EXPECT_EQ(s.body_locations[0].column, 1);
+  EXPECT_EQ(s.body_locations[2].line, 19);  // [[particle]] "bead"
+  EXPECT_EQ(s.body_locations[3].line, 7);   // [[body]] "arm"
+
+  const modal::Body& free = body(s, "free");
+  EXPECT_EQ(free.parent, -1);
+  EXPECT_EQ(free.joint, JointType::particle);
+  EXPECT_EQ(free.particle_axes, (std::array<bool, 3>{true, true, true}));
+  EXPECT_EQ(free.origin, Vec3(1, 2, 3));
+  EXPECT_DOUBLE_EQ(free.mass, 2.0);
+  EXPECT_EQ(free.com, Vec3::Zero());
+  EXPECT_EQ(free.inertia, Mat3::Zero());
+
+  const modal::Body& pinned = body(s, "pinned");  // every axis fixed: a fixed joint
+  EXPECT_EQ(pinned.joint, JointType::fixed);
+  EXPECT_EQ(pinned.origin, Vec3(0, 0, 1));
+  EXPECT_DOUBLE_EQ(pinned.mass, 0.5);
+  EXPECT_EQ(modal::joint_coordinate_count(pinned), 0);
+
+  const modal::Body& bead = body(s, "bead");
+  EXPECT_EQ(bead.joint, JointType::particle);
+  EXPECT_EQ(bead.particle_axes, (std::array<bool, 3>{true, false, true}));
+  EXPECT_EQ(bead.origin, Vec3(4, 0, -0.5));
+  EXPECT_EQ(modal::joint_coordinate_count(bead), 2);
+  EXPECT_EQ(d.bodies[static_cast<std::size_t>(body(s, "arm").parent)].name, "bead");  // a particle may be a parent
+
+  const modal::Body& loose = body(s, "loose");
+  EXPECT_EQ(loose.joint, JointType::particle);
+  EXPECT_EQ(loose.particle_axes, (std::array<bool, 3>{true, true, true}));
+  EXPECT_EQ(loose.mass, 0.0);
+
+  const modal::System system = modal::build_system(s);
+  EXPECT_EQ(system.size(), 3 + 0 + 2 + 1 + 3);
+  EXPECT_EQ(system.coordinate_names(), (std::vector<std::string>{"free.x", "free.y", "free.z", "bead.x", "bead.z", "arm",
+                                                                 "loose.x", "loose.y", "loose.z"}));
+  for (const modal::Coordinate& c : system.coordinates()) {
+    EXPECT_EQ(c.kind, c.name == "arm" ? modal::CoordinateKind::angle : modal::CoordinateKind::length) << c.name;
+  }
+  EXPECT_EQ(system.initial_configuration(), Eigen::VectorXd::Zero(9));
+}
+
+TEST(scene, SpringsBetweenParticles) {
+  const modal::Scene s = parse(R"(
+[[particle]]
+name = "p1"
+position = [0, 0, 0]
+mass = 1
+
+[[particle]]
+name = "p2"
+position = [3, 4, 0]
+mass = 1
+fixed = [false, false, true]
+
+[[spring]]
+a = "p1"
+b = "p2"
+stiffness = 10
+
+[[spring]]
+a = "p2"
+b = "world"
+b_point = [3, 4, 2]
+stiffness = 5
+damping = 1
+)");
+  const auto& d = s.description;
+  ASSERT_EQ(d.springs.size(), 2u);
+  EXPECT_EQ(d.springs[0].a.body, 0);
+  EXPECT_EQ(d.springs[0].b.body, 1);
+  EXPECT_EQ(d.springs[0].a.point, Vec3::Zero());  // the particle itself
+  EXPECT_EQ(d.springs[0].b.point, Vec3::Zero());
+  EXPECT_DOUBLE_EQ(d.springs[0].rest_length, 5.0);  // as written
+  EXPECT_EQ(d.springs[1].a.body, 1);
+  EXPECT_EQ(d.springs[1].b.body, -1);
+  EXPECT_EQ(d.springs[1].b.point, Vec3(3, 4, 2));
+  EXPECT_DOUBLE_EQ(d.springs[1].rest_length, 2.0);
+
+  const modal::System system = modal::build_system(s);
+  EXPECT_EQ(system.size(), 5);
+  // Springs at their rest lengths: only gravity acts, on the free z of p1.
+  modal::Workspace w(system);
+  Eigen::VectorXd expected = Eigen::VectorXd::Zero(5);
+  expected[2] = 9.81;
+  EXPECT_NEAR((modal::potential_gradient(system, w, Eigen::VectorXd::Zero(5)) - expected).norm(), 0.0, 1e-12);
+}
+
+TEST(scene, Constraints) {
+  const modal::Scene s = parse(R"(
+[parameters]
+l = 1
+
+[[body]]
+name = "crank"
+joint = "hinge"
+mass = 1
+com = [1, 0, 0]
+
+[[particle]]
+name = "p"
+position = [1, 0, 1]
+mass = 1
+
+[[chain]]
+name = "c"
+links = 2
+length = 1
+mass = 1
+
+[[constraint]]
+type = "point"
+a = "crank"
+a_point = [1, 0, 0]
+b = "world"
+b_point = [1, 0, 0]
+
+[[constraint]]
+type = "distance"
+name = "rod"
+a = "crank"
+a_point = [1, 0, 0]
+b = "p"
+
+[[constraint]]
+type = "distance"
+a = "p"
+b = "world"
+length = "2*l"
+
+[[constraint]]
+type = "point"
+name = "tip"
+a = "world"
+a_point = [0, 0, -1]
+b = "c.tip"
+b_point = [0, 0, -0.5]
+)");
+  const auto& d = s.description;
+  ASSERT_EQ(d.constraints.size(), 4u);
+  using Type = modal::Constraint::Type;
+  const modal::Constraint& pin = d.constraints[0];
+  EXPECT_EQ(pin.type, Type::point);
+  EXPECT_EQ(pin.name, "constraint1");  // default: its position among the [[constraint]] tables
+  EXPECT_EQ(pin.a.body, 0);
+  EXPECT_EQ(pin.a.point, Vec3(1, 0, 0));
+  EXPECT_EQ(pin.b.body, -1);
+  EXPECT_EQ(pin.b.point, Vec3(1, 0, 0));
+  EXPECT_EQ(pin.length, 0.0);
+
+  const modal::Constraint& rod = d.constraints[1];
+  EXPECT_EQ(rod.type, Type::distance);
+  EXPECT_EQ(rod.name, "rod");
+  EXPECT_EQ(rod.a.body, 0);
+  EXPECT_EQ(rod.b.body, 1);
+  EXPECT_EQ(rod.b.point, Vec3::Zero());
+  EXPECT_DOUBLE_EQ(rod.length, 1.0);  // default: |(1, 0, 0) − (1, 0, 1)| as written
+
+  const modal::Constraint& tether = d.constraints[2];
+  EXPECT_EQ(tether.name, "constraint3");
+  EXPECT_EQ(tether.a.body, 1);
+  EXPECT_EQ(tether.b.body, -1);
+  EXPECT_EQ(tether.b.point, Vec3::Zero());
+  EXPECT_DOUBLE_EQ(tether.length, 2.0);
+
+  const modal::Constraint& tip = d.constraints[3];
+  EXPECT_EQ(tip.name, "tip");
+  EXPECT_EQ(tip.a.body, -1);
+  EXPECT_EQ(tip.a.point, Vec3(0, 0, -1));
+  EXPECT_EQ(d.bodies[static_cast<std::size_t>(tip.b.body)].name, "c2");  // "<chain>.tip"
+  EXPECT_EQ(tip.b.point, Vec3(0, 0, -0.5));
+
+  const modal::System system = modal::build_system(s);
+  EXPECT_EQ(system.size(), 1 + 3 + 2);
+  EXPECT_EQ(system.constraint_equations(), 3 + 1 + 1 + 3);
+  EXPECT_EQ(system.constraint_equation_names(),
+            (std::vector<std::string>{"constraint1.x", "constraint1.y", "constraint1.z", "rod", "constraint3", "tip.x",
+                                      "tip.y", "tip.z"}));
+  // As written, every constraint but the tether (|p| = √2, length 2) holds.
+  modal::Workspace w(system);
+  const Eigen::VectorXd c = modal::constraint_values(system, w, Eigen::VectorXd::Zero(system.size()));
+  ASSERT_EQ(c.size(), 8);
+  Eigen::VectorXd expected = Eigen::VectorXd::Zero(8);
+  expected[4] = std::sqrt(2.0) - 2;
+  EXPECT_NEAR((c - expected).norm(), 0.0, 1e-12);
 }
 
 TEST(scene, LoadSceneReadsFilesWithOverrides) {

@@ -48,9 +48,9 @@ TEST(scene_errors, UnknownKeys) {
 }
 
 TEST(scene_errors, KeysOfLaterVersions) {
-  check_error("[[constraint]]\ntype = \"point\"\n" + pendulum,
-              {1, 3, "constraint", "'constraint' is not supported by this version of modal"});
-  check_error(pendulum + "[[particle]]\nname = \"q\"\n", {5, 3, "particle", "'particle' is not supported by this version of modal"});
+  check_error("[[lattice]]\nsize = [2, 2, 1]\n" + pendulum,
+              {1, 3, "lattice", "'lattice' is not supported by this version of modal"});
+  check_error(pendulum + "[[lattice]]\nspacing = 1\n", {5, 3, "lattice", "'lattice' is not supported by this version of modal"});
   check_error(pendulum + "potential = \"x^2\"\n", {5, 1, "body[1].potential", "unknown key 'potential' in [[body]]"});
 }
 
@@ -167,6 +167,83 @@ TEST(scene_errors, SpringsAndLoads) {
   check_error(pendulum + "[[load]]\nbody = \"world\"\nforce = [0, 0, -1]\n", {6, 8, "load[1].body", "must name a body, not the world"});
 }
 
+// A hinge body "p" at the origin and a particle "q" at (1, 0, 0), lines 1-8.
+const std::string body_and_particle = pendulum + "[[particle]]\nname = \"q\"\nposition = [1, 0, 0]\nmass = 1\n";
+
+TEST(scene_errors, Particles) {
+  EXPECT_NO_THROW((void)modal::parse_scene(body_and_particle, "good.toml"));
+  const std::string particle = "[[particle]]\nname = \"q\"\nposition = [0, 0, 0]\n";  // lines 5-7 after the pendulum
+  check_error(pendulum + particle + "mass = -1\n", {8, 8, "particle[1].mass", "must be non-negative, got -1"});
+  check_error(pendulum + "[[particle]]\nname = \"q\"\nmass = 1\n",
+              {5, 1, "particle[1].position", "missing required key 'position' in [[particle]]"});
+  check_error(pendulum + particle, {5, 1, "particle[1].mass", "missing required key 'mass' in [[particle]]"});
+  check_error(pendulum + particle + "mass = 1\nfixed = [true, false]\n",
+              {9, 9, "particle[1].fixed", "expected true, false or an array of 3 booleans [x, y, z], got 2 elements"});
+  check_error(pendulum + particle + "mass = 1\nfixed = \"z\"\n",
+              {9, 9, "particle[1].fixed", "expected true, false or an array of 3 booleans [x, y, z], got a string"});
+  check_error(pendulum + particle + "mass = 1\nfixed = [true, 1, false]\n",
+              {9, 16, "particle[1].fixed[2]", "expected true or false, got an integer"});
+  check_error(pendulum + particle + "mass = 1\ninitial = [0, 0, 0]\n",
+              {9, 1, "particle[1].initial", "unknown key 'initial' in [[particle]]"});
+  check_error("[[particle]]\nname = \"world\"\nposition = [0, 0, 0]\nmass = 1\n",
+              {2, 8, "particle[1].name", "'world' is reserved"});
+}
+
+TEST(scene_errors, ParticleAndBodyNames) {
+  check_error(pendulum + "[[particle]]\nname = \"p\"\nposition = [0, 0, 0]\nmass = 1\n",
+              {6, 8, "particle[1].name", "duplicate particle name 'p': already used by the [[body]] at line 1"});
+  check_error("[[particle]]\nname = \"p\"\nposition = [0, 0, 0]\nmass = 1\n" + pendulum,
+              {6, 8, "body[1].name", "duplicate body name 'p': already used by the [[particle]] at line 1"});
+  check_error(body_and_particle + "[[particle]]\nname = \"q\"\nposition = [0, 0, 1]\nmass = 1\n",
+              {10, 8, "particle[2].name", "duplicate particle name 'q': already used by the [[particle]] at line 5"});
+  const std::string chain = "[[chain]]\nname = \"r\"\nlinks = 1\nlength = 1\nmass = 1\n";  // generates "r1"
+  check_error(body_and_particle + chain + "[[particle]]\nname = \"r1\"\nposition = [0, 0, 0]\nmass = 1\n",
+              {15, 8, "particle[2].name", "duplicate particle name 'r1': already used by chain 'r' at line 9"});
+  check_error("[[particle]]\nname = \"r1\"\nposition = [0, 0, 0]\nmass = 1\n" + chain,
+              {6, 8, "chain[1].name", "chain 'r' generates the body name 'r1', which is already used by the [[particle]] at line 1"});
+}
+
+TEST(scene_errors, ParticleEndsArePoints) {
+  check_error(body_and_particle + "[[spring]]\na = \"q\"\na_point = [0, 0, 1]\nb = \"world\"\nstiffness = 1\n",
+              {11, 11, "spring[1].a_point", "a particle is a point: 'a_point' is not used for particle 'q'"});
+  check_error(body_and_particle + "[[spring]]\na = \"p\"\na_point = [0, 0, 1]\nb = \"q\"\nb_point = [1, 0, 0]\nstiffness = 1\n",
+              {13, 11, "spring[1].b_point", "a particle is a point: 'b_point' is not used for particle 'q'"});
+  check_error(body_and_particle + "[[constraint]]\ntype = \"point\"\na = \"p\"\nb = \"q\"\nb_point = [0, 0, 0]\n",
+              {13, 11, "constraint[1].b_point", "a particle is a point: 'b_point' is not used for particle 'q'"});
+}
+
+TEST(scene_errors, Constraints) {
+  const std::string constraint = body_and_particle + "[[constraint]]\n";  // line 9
+  check_error(constraint + "type = \"pint\"\na = \"p\"\nb = \"q\"\n",
+              {10, 8, "constraint[1].type",
+               "unknown constraint type 'pint'; expected \"point\" (two points coincide) or \"distance\" (two points "
+               "keep their distance) (did you mean 'point'?)"});
+  check_error(constraint + "a = \"p\"\nb = \"q\"\n", {9, 1, "constraint[1].type", "missing required key 'type' in [[constraint]]"});
+  check_error(constraint + "type = \"point\"\nb = \"q\"\n", {9, 1, "constraint[1].a", "missing required key 'a' in [[constraint]]"});
+  check_error(constraint + "type = \"point\"\na = \"p\"\nb = \"qq\"\n",
+              {12, 5, "constraint[1].b", "unknown body 'qq' (did you mean 'q'?)"});
+  check_error(constraint + "type = \"point\"\na = \"world\"\nb = \"world\"\n",
+              {12, 5, "constraint[1].b", "both ends of the constraint are the world"});
+  check_error(constraint + "type = \"distance\"\na = \"p\"\nb = \"p\"\nb_point = [0, 0, 1]\n",
+              {12, 5, "constraint[1].b", "a constraint must join two different bodies; both ends are 'p'"});
+  check_error(constraint + "type = \"point\"\na = \"p\"\nb = \"q\"\nlength = 1\n",
+              {13, 10, "constraint[1].length", "'length' is not used by a point constraint"});
+  check_error(constraint + "type = \"distance\"\na = \"p\"\nb = \"q\"\nlength = 0\n",
+              {13, 10, "constraint[1].length", "must be positive, got 0"});
+  // The default length, the distance as written, is 0: q is at (1, 0, 0).
+  check_error(constraint + "type = \"distance\"\na = \"q\"\nb = \"world\"\nb_point = [1, 0, 0]\n",
+              {9, 1, "constraint[1].length", "its default length would be 0; give a positive 'length'"});
+  check_error(constraint + "type = \"distance\"\nname = \"rod\"\na = \"p\"\nb = \"q\"\n"   // lines 10-13
+                           "[[constraint]]\ntype = \"point\"\nname = \"rod\"\na = \"p\"\nb = \"q\"\n",  // lines 14-18
+              {16, 8, "constraint[2].name", "duplicate constraint name 'rod': already used by the [[constraint]] at line 11"});
+  // A default name counts too (at the table that gets it).
+  check_error(constraint + "type = \"point\"\nname = \"constraint2\"\na = \"p\"\nb = \"q\"\n"
+                           "[[constraint]]\ntype = \"point\"\na = \"p\"\nb = \"q\"\n",
+              {14, 1, "constraint[2].name", "duplicate constraint name 'constraint2': already used by the [[constraint]] at line 11"});
+  check_error(constraint + "type = \"point\"\na = \"p\"\nb = \"q\"\nb_pont = [0, 0, 0]\n",
+              {13, 1, "constraint[1].b_pont", "unknown key 'b_pont' in [[constraint]] (did you mean 'b_point'"});
+}
+
 // Expression-defined systems ([coordinates], [[point]], potential).
 const std::string map_pendulum =  // lines 1-8
     "[parameters]\nl = 1\n[coordinates]\nphi = 0.1\n[[point]]\nmass = 1\n"
@@ -213,6 +290,11 @@ TEST(scene_errors, MapCoordinates) {
 TEST(scene_errors, MapAndBodiesDoNotMix) {
   check_error(map_pendulum + "[[body]]\nname = \"p\"\njoint = \"hinge\"\n",
               {9, 1, "body", "a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies"});
+  check_error(map_pendulum + "[[particle]]\nname = \"q\"\nposition = [0, 0, 0]\nmass = 1\n",
+              {9, 1, "particle", "a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies; "
+                                 "'particle' belongs to the second"});
+  check_error(map_pendulum + "[[constraint]]\ntype = \"distance\"\na = \"world\"\nb = \"x\"\nlength = 1\n",
+              {9, 1, "constraint", "'constraint' belongs to the second"});
   check_error("frame_rotation = [0, 0, 1]\n" + map_pendulum,
               {1, 18, "frame_rotation", "a map writes a moving frame with the time t"});
 }

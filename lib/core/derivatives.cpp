@@ -347,6 +347,22 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
   }
 }
 
+// H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
+template <std::size_t N, class Block>
+void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
+                       MatrixX& H) {
+  std::array<PointJacobian, N> J;
+  for (std::size_t u = 0; u < N; ++u) J[u] = site_jacobian(s, st, sites[u]);
+  for (std::size_t u = 0; u < N; ++u)
+    for (std::size_t v = 0; v < N; ++v) {
+      const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
+      for (std::size_t i = 0; i < J[u].index.size(); ++i) {
+        const Vec3 left = block.transpose() * J[u].column[i];
+        for (std::size_t j = 0; j < J[v].index.size(); ++j) H(J[u].index[i], J[v].index[j]) += left.dot(J[v].column[j]);
+      }
+    }
+}
+
 }  // namespace
 
 double potential(const System& s, Workspace& w, const VectorX& q) {
@@ -385,21 +401,7 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
   const TreeState<double>& st = kinematics(s, w, q);
   MatrixX& H = w.hessian;
   H.setZero(s.size(), s.size());
-  // Elements' local Hessians (3N×3N in their N sites): Jᵀ H_e J.
-  auto local_hessian = [&](const auto& sites, const auto& He) {
-    constexpr std::size_t N = std::tuple_size_v<std::decay_t<decltype(sites)>>;
-    std::array<PointJacobian, N> J;
-    for (std::size_t u = 0; u < N; ++u) J[u] = site_jacobian(s, st, sites[u]);
-    for (std::size_t u = 0; u < N; ++u)
-      for (std::size_t v = 0; v < N; ++v) {
-        const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
-        for (std::size_t i = 0; i < J[u].index.size(); ++i) {
-          const Vec3 left = block.transpose() * J[u].column[i];
-          for (std::size_t j = 0; j < J[v].index.size(); ++j) H(J[u].index[i], J[v].index[j]) += left.dot(J[v].column[j]);
-        }
-      }
-  };
-  accumulate(s, w, true, local_hessian);
+  accumulate(s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, H); });
   tree_hessian(s, st, w.cache(), q, H);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -683,6 +685,110 @@ VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const Vec
   if (llt.info() != Eigen::Success)
     throw NumericalError("the mass matrix is not positive definite at this configuration: accelerations are undefined");
   return llt.solve(rhs);
+}
+
+// --- constraints ------------------------------------------------------------------
+//
+// c_i(q) depends on q through the world points x_a, x_b of its attachments, so
+// ∇c_i = J_aᵀ ∂c/∂x_a + J_bᵀ ∂c/∂x_b (point Jacobians), and Σ s_i ∇∇c_i is the
+// Hessian of the scalar sᵀc(q): an element energy like a spring's, whose
+// cotangents at x_a, x_b go through the same tree accumulation (tree_hessian)
+// and whose local Hessian (zero for a point constraint, linear in the points;
+// s (I − uuᵀ)/|d| for a distance) adds Jᵀ H_e J.
+
+namespace {
+
+// The end points of a constraint at the current kinematics; a distance
+// constraint needs them apart (its direction is undefined otherwise).
+std::pair<Vec3, Vec3> constraint_ends(const TreeState<double>& st, const Constraint& k) {
+  const Vec3 xa = model::world_point(st, k.a), xb = model::world_point(st, k.b);
+  if (k.type == Constraint::Type::distance && (xa - xb).norm() == 0.0)
+    throw NumericalError("the distance constraint '" + k.name +
+                         "' has coincident end points here: its direction (and its force) is undefined");
+  return {xa, xb};
+}
+
+}  // namespace
+
+VectorX constraint_values(const System& s, Workspace& w, const VectorX& q) {
+  VectorX c(s.constraint_equations());
+  if (c.size() == 0) return c;
+  const TreeState<double>& st = kinematics(s, w, q);
+  Eigen::Index row = 0;
+  for (const Constraint& k : s.constraints()) {
+    const auto [xa, xb] = constraint_ends(st, k);
+    if (k.type == Constraint::Type::point) {
+      c.segment<3>(row) = xa - xb;
+    } else {
+      c[row] = (xa - xb).norm() - k.length;
+    }
+    row += k.equations();
+  }
+  return c;
+}
+
+MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q) {
+  MatrixX A = MatrixX::Zero(s.constraint_equations(), s.size());
+  if (A.rows() == 0) {
+    check_size(s, q, "constraint_jacobian");
+    return A;
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  Eigen::Index row = 0;
+  for (const Constraint& k : s.constraints()) {
+    const auto [xa, xb] = constraint_ends(st, k);
+    const PointJacobian Ja = point_jacobian(s, st, k.a, xa), Jb = point_jacobian(s, st, k.b, xb);
+    auto add = [&](const PointJacobian& J, double sign) {
+      for (std::size_t i = 0; i < J.index.size(); ++i) {
+        if (k.type == Constraint::Type::point)
+          A.block<3, 1>(row, J.index[i]) += sign * J.column[i];
+        else
+          A(row, J.index[i]) += sign * (xa - xb).normalized().dot(J.column[i]);
+      }
+    };
+    add(Ja, 1.0);
+    add(Jb, -1.0);
+    row += k.equations();
+  }
+  return A;
+}
+
+MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers) {
+  const int n = s.size();
+  if (multipliers.size() != s.constraint_equations())
+    throw std::invalid_argument("constraint_hessian: expected " + std::to_string(s.constraint_equations()) +
+                                " multipliers, got " + std::to_string(multipliers.size()));
+  MatrixX H = MatrixX::Zero(n, n);
+  if (multipliers.size() == 0) {
+    check_size(s, q, "constraint_hessian");
+    return H;
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  auto local_hessian = [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, H); };
+  accumulate_sums(s, w, true, [&](auto&& deposit) {
+    Eigen::Index row = 0;
+    for (const Constraint& k : s.constraints()) {
+      const auto [xa, xb] = constraint_ends(st, k);
+      if (k.type == Constraint::Type::point) {  // sᵀ(x_a − x_b): cotangents ±s, no local Hessian
+        const Vec3 f = multipliers.segment<3>(row);
+        deposit(Site{k.a.body, xa, false}, f);
+        deposit(Site{k.b.body, xb, false}, Vec3(-f));
+      } else {  // s (|x_a − x_b| − length)
+        const double sk = multipliers[row];
+        auto energy = [&](const auto& x) {
+          using S = std::decay_t<decltype(x[0])>;
+          using std::sqrt;
+          const model::V3<S> d(x[0] - x[3], x[1] - x[4], x[2] - x[5]);
+          return sk * (sqrt(d.squaredNorm()) - k.length);
+        };
+        const std::array<Site, 2> ends{Site{k.a.body, xa, false}, Site{k.b.body, xb, false}};
+        deposit_element<2>(ends, energy, deposit, local_hessian, true);
+      }
+      row += k.equations();
+    }
+  });
+  tree_hessian(s, st, w.cache(), q, H);
+  return 0.5 * (H + H.transpose());
 }
 
 std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q) {

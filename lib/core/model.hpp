@@ -132,6 +132,21 @@ template <class S> void forward_kinematics(const System& sys, const S* q, TreeSt
         st.vel[k] = axis;
         break;
       }
+      case JointType::particle: {
+        st.rotation[b] = Rp;
+        V3<S> x = pp + Rp * origin;
+        std::size_t i = k;
+        for (int a = 0; a < 3; ++a) {
+          if (!body.particle_axes[static_cast<std::size_t>(a)]) continue;
+          const V3<S> axis = Rp.col(a);
+          x += axis * q[i];
+          st.omega[i] = V3<S>::Zero();
+          st.vel[i] = axis;
+          ++i;
+        }
+        st.position[b] = x;
+        break;
+      }
       case JointType::ball:
       case JointType::free: {
         std::size_t r = k;  // first rotation-vector coordinate

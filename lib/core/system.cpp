@@ -16,8 +16,14 @@ int joint_coordinate_count(JointType t) {
     case JointType::ball: return 3;
     case JointType::free: return 6;
     case JointType::fixed: return 0;
+    case JointType::particle: return 3;
   }
   return 0;
+}
+
+int joint_coordinate_count(const Body& body) {
+  if (body.joint != JointType::particle) return joint_coordinate_count(body.joint);
+  return static_cast<int>(std::count(body.particle_axes.begin(), body.particle_axes.end(), true));
 }
 
 const char* to_string(JointType t) {
@@ -27,6 +33,7 @@ const char* to_string(JointType t) {
     case JointType::ball: return "ball";
     case JointType::free: return "free";
     case JointType::fixed: return "fixed";
+    case JointType::particle: return "particle";
   }
   return "?";
 }
@@ -68,7 +75,7 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     require(std::isfinite(body.damping) && body.damping >= 0, who + "damping must be non-negative");
     if (body.joint == JointType::hinge || body.joint == JointType::slide)
       require(std::abs(body.axis.norm() - 1.0) < 1e-12, who + "axis must be a unit vector");
-    const int nq = joint_coordinate_count(body.joint);
+    const int nq = joint_coordinate_count(body);
     if (body.rest.size() == 0) body.rest = VectorX::Zero(nq);
     if (body.initial.size() == 0) body.initial = VectorX::Zero(nq);
     require(body.rest.size() == nq && body.initial.size() == nq, who + "rest/initial size does not match the joint");
@@ -98,6 +105,13 @@ System::System(SystemDescription description) : d_(std::move(description)) {
         add(".ry", CoordinateKind::rotation, 4);
         add(".rz", CoordinateKind::rotation, 5);
         break;
+      case JointType::particle: {
+        static constexpr const char* axes[3] = {".x", ".y", ".z"};
+        int i = 0;
+        for (int a = 0; a < 3; ++a)
+          if (body.particle_axes[static_cast<std::size_t>(a)]) add(axes[a], CoordinateKind::length, i++);
+        break;
+      }
       case JointType::fixed: break;
     }
   }
@@ -123,6 +137,18 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     require(l.at.body >= 0, "a follower load must act on a body");
     require(finite(l.force), "follower load force is not finite");
   }
+  for (std::size_t c = 0; c < d_.constraints.size(); ++c) {
+    const Constraint& k = d_.constraints[c];
+    const std::string who = "constraint '" + k.name + "'";
+    check_attachment(k.a, who);
+    check_attachment(k.b, who);
+    require(k.a.body >= 0 || k.b.body >= 0, who + ": both ends are fixed in the world");
+    if (k.type == Constraint::Type::distance)
+      require(std::isfinite(k.length) && k.length > 0, who + ": the distance must be positive");
+    m_ += k.equations();
+    for (int i = 0; i < k.equations(); ++i) equation_owner_.push_back(static_cast<int>(c));
+  }
+  require(!(is_map() && !d_.constraints.empty()), "constraints join bodies and particles; a kinematic map has none");
 
   // Length scale: farthest joint, centre of mass or attachment from the origin at q = 0.
   std::vector<Vec3> origin_at_zero(nb);
@@ -139,6 +165,8 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     scale = std::max({scale, point_at_zero(s.a).norm(), point_at_zero(s.b).norm(), s.rest_length});
   for (const DeadLoad& l : d_.loads) scale = std::max(scale, point_at_zero(l.at).norm());
   for (const FollowerLoad& l : d_.followers) scale = std::max(scale, point_at_zero(l.at).norm());
+  for (const Constraint& k : d_.constraints)
+    scale = std::max({scale, point_at_zero(k.a).norm(), point_at_zero(k.b).norm(), k.length});
   length_scale_ = std::max(scale, 1e-3);
   if (is_map()) build_map();
 }
@@ -147,6 +175,18 @@ std::vector<std::string> System::coordinate_names() const {
   std::vector<std::string> names;
   names.reserve(coords_.size());
   for (const auto& c : coords_) names.push_back(c.name);
+  return names;
+}
+
+std::vector<std::string> System::constraint_equation_names() const {
+  std::vector<std::string> names;
+  for (const Constraint& k : d_.constraints) {
+    if (k.type == Constraint::Type::distance) {
+      names.push_back(k.name);
+    } else {
+      for (const char* axis : {".x", ".y", ".z"}) names.push_back(k.name + axis);
+    }
+  }
   return names;
 }
 

@@ -257,6 +257,7 @@ VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q) {
 
 std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q, const EquilibriumOptions& options) {
   if (q.size() != s.size()) throw std::invalid_argument("polish_equilibrium: q has the wrong size");
+  if (s.has_constraints()) return polish_constrained(s, q, options);
   Problem p(s);
   Polished r = polish(p, q, options);
   if (!r.converged) return std::nullopt;
@@ -282,6 +283,7 @@ void require_finite_energy(const System& s, const VectorX& q) {
 Equilibrium find_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
   require_finite_energy(s, start);
+  if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
   Problem p(s);
   const VectorX local = levenberg_marquardt(p, start, options);
   Polished pol = polish(p, local, options);
@@ -307,6 +309,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
 
 std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptions& options) {
   require_finite_energy(s, s.initial_configuration());
+  if (s.has_constraints()) return find_constrained_equilibria(s, options);
   Problem p(s);
   SearchResult all = search(p, options);
   if (all.found.empty()) throw NumericalError(no_equilibrium_message(p, all.best_failure, all.starts));

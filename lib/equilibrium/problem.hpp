@@ -70,6 +70,15 @@ struct SearchResult {
 };
 SearchResult search(Problem& p, const EquilibriumOptions& options);
 
+// The deterministic starts of the multi-start search (search.cpp header).
+std::vector<VectorX> starting_points(const System& s, int halton_count);
+
+// Constrained systems (constrained.cpp): the nearest equilibrium from a
+// start, the multi-start search, and one Newton polish on the KKT system.
+Equilibrium find_constrained_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options);
+std::vector<Equilibrium> find_constrained_equilibria(const System& s, const EquilibriumOptions& options);
+std::optional<Equilibrium> polish_constrained(const System& s, const VectorX& q, const EquilibriumOptions& options);
+
 // Keeps the candidate with the smaller residual among those closer than
 // configuration_distance 1e-6 (angles modulo 2π), then sorts by potential and
 // coordinates.

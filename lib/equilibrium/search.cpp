@@ -59,6 +59,8 @@ bool starts_rotation_vector(const System& s, int i) {
          (i == 0 || c[k - 1].kind != CoordinateKind::rotation || c[k - 1].body != c[k].body);
 }
 
+}  // namespace
+
 std::vector<VectorX> starting_points(const System& s, int halton_count) {
   const int n = s.size();
   const VectorX q0 = s.initial_configuration();
@@ -95,6 +97,8 @@ std::vector<VectorX> starting_points(const System& s, int halton_count) {
   }
   return starts;
 }
+
+namespace {
 
 struct Objective {
   Problem* p = nullptr;

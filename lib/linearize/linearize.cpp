@@ -2,7 +2,7 @@
 // about an equilibrium q̄ of a System (DESIGN.md §1).
 //
 // With the core's present scope (a fixed or steadily moving frame, dead and
-// follower loads, dampers, no constraints) the terms are
+// follower loads, dampers; constraints projected at the end, see the header) the terms are
 //   M = M(q̄), K = ∇∇V(q̄) − ∂Q/∂q(q̄, 0), D = damping_matrix(q̄) (dampers: Q = −D q̇),
 //   G = gyroscopic_matrix(q̄) (rotating frame; else 0),
 // where V is V_eff = V − T₀ in a rotating frame (the core's potential). K is
@@ -13,6 +13,7 @@
 // follower loads do); its relative residual is ‖∇V − Q‖₂ / force_scale(q̄).
 #include "modal/linearize.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -46,6 +47,46 @@ void require_finite(const MatrixX& A, const char* what, const std::vector<std::s
 
 MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 
+// Constraints at q: checks c(q) = 0 (NotAnEquilibrium otherwise), decides the
+// independent equations, and returns the least-squares multipliers s (m; 0 on
+// redundant equations) of ∇c_I s_I = ∇V − Q. Fills the model's constraint
+// forces, redundant equations and violation.
+VectorX constraint_multipliers(const System& s, Workspace& ws, const VectorX& q, const VectorX& force,
+                               double tolerance, LinearModel& model, ConstraintBasis& basis) {
+  const VectorX c = constraint_values(s, ws, q);
+  const MatrixX A = constraint_jacobian(s, ws, q);
+  const std::vector<std::string> equations = s.constraint_equation_names();
+  model.constraint_violation = c.norm();
+  if (!(model.constraint_violation <= tolerance * s.length_scale())) {
+    Eigen::Index worst = 0;
+    c.cwiseAbs().maxCoeff(&worst);
+    std::ostringstream out;
+    out << "this configuration does not satisfy the constraints: ‖c‖ = " << format_number(model.constraint_violation, 3)
+        << " m, above the tolerance " << format_number(tolerance, 3) << " × the length scale "
+        << format_number(s.length_scale(), 3) << " m; the equation '" << equations[static_cast<std::size_t>(worst)]
+        << "' is violated by " << format_number(c[worst], 4)
+        << " m. Find an equilibrium first (`modal equilibria`, or modal::find_equilibria) and linearize there";
+    throw NotAnEquilibrium(out.str());
+  }
+  basis = constraint_basis(A);
+  const VectorX mult = fit_multipliers(A, basis, force);
+  for (const int i : basis.redundant) model.redundant_equations.push_back(equations[static_cast<std::size_t>(i)]);
+  Eigen::Index row = 0;
+  for (std::size_t k = 0; k < s.constraints().size(); ++k) {
+    const Constraint& con = s.constraints()[k];
+    ConstraintForce f;
+    f.name = con.name;
+    f.type = con.type;
+    f.multipliers = mult.segment(row, con.equations());
+    for (int i = 0; i < con.equations(); ++i)
+      if (std::find(basis.redundant.begin(), basis.redundant.end(), static_cast<int>(row) + i) != basis.redundant.end())
+        f.redundant = true;
+    model.constraint_forces.push_back(std::move(f));
+    row += con.equations();
+  }
+  return mult;
+}
+
 
 }  // namespace
 
@@ -70,11 +111,17 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   model.coordinates = s.coordinate_names();
   Workspace ws(s);
 
-  // Equilibrium check: ‖∇V − Q(q, 0)‖ relative to the scale of the forces acting.
+  // Equilibrium check: ‖∇V − Q(q, 0) (− ∇c s)‖ relative to the scale of the forces acting.
   VectorX gradient = potential_gradient(s, ws, q);
   if (s.has_follower_loads()) gradient -= generalized_forces(s, ws, q, VectorX::Zero(n));
   if (!gradient.allFinite())
     throw NumericalError("linearize: the potential gradient ∇V is not finite at this configuration");
+  ConstraintBasis constraints;
+  VectorX multipliers;
+  if (s.has_constraints()) {
+    multipliers = constraint_multipliers(s, ws, q, gradient, options.tolerance, model, constraints);
+    gradient -= constraint_jacobian(s, ws, q).transpose() * multipliers;
+  }
   const double scale = force_scale(s, ws, q);
   const double norm = gradient.norm();
   model.residual = norm == 0 ? 0.0 : (scale > 0 ? norm / scale : std::numeric_limits<double>::infinity());
@@ -84,21 +131,31 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     const auto& coordinate = s.coordinates()[static_cast<std::size_t>(worst)];
     std::ostringstream out;
     out << "this configuration is not an equilibrium: the relative residual "
-        << (s.has_follower_loads() ? "‖∇V − Q‖" : "‖∇V‖") << "/(force scale) is "
+        << (s.has_follower_loads() ? "‖∇V − Q" : "‖∇V") << (s.has_constraints() ? " − ∇c s‖" : "‖") << "/(force scale) is "
         << format_number(model.residual, 3) << ", above the tolerance " << format_number(options.tolerance, 3)
         << "; the largest unbalanced generalized force is " << format_number(-gradient(worst), 4) << " "
         << force_unit(coordinate.kind) << " acting on the coordinate '" << coordinate.name
         << "'. Find an equilibrium first (`modal equilibria`, or modal::find_equilibria) and linearize there";
     throw NotAnEquilibrium(out.str());
   }
+  // The multiplier term of the constrained stiffness, −Σ sᵢ∇∇cᵢ (symmetric).
+  MatrixX multiplier_term;
+  if (s.has_constraints()) {
+    multiplier_term = constraint_hessian(s, ws, q, multipliers);
+    require_finite(multiplier_term, "multiplier term Σ sᵢ∇∇cᵢ", model.coordinates);
+  }
+  auto stiffness = [&](MatrixX K) {
+    if (s.has_constraints()) K -= multiplier_term;
+    return K;
+  };
 
   model.circulatory = s.has_follower_loads();
   if (model.circulatory) {
-    const MatrixX K = potential_hessian(s, ws, q) - generalized_force_jacobian(s, ws, q);
+    const MatrixX K = stiffness(potential_hessian(s, ws, q) - generalized_force_jacobian(s, ws, q));
     require_finite(K, "stiffness matrix K = ∇∇V − ∂Q/∂q", model.coordinates);
     model.K = K;  // not symmetric: its skew part is the circulatory stiffness
   } else {
-    const MatrixX K = potential_hessian(s, ws, q);
+    const MatrixX K = stiffness(potential_hessian(s, ws, q));
     require_finite(K, "stiffness matrix K = ∇∇V", model.coordinates);
     model.K = symmetric_part(K);
   }
@@ -129,6 +186,16 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
       model.G = skew;
       model.has_gyroscopic = true;
     }
+  }
+  if (s.has_constraints()) {  // onto the manifold: X → NᵀXN
+    const MatrixX& N = constraints.null_space;
+    model.basis = N;
+    model.M = symmetric_part(N.transpose() * model.M * N);
+    model.K = N.transpose() * model.K * N;
+    if (!model.circulatory) model.K = symmetric_part(model.K);
+    model.D = symmetric_part(N.transpose() * model.D * N);
+    model.G = N.transpose() * model.G * N;
+    model.G = 0.5 * (model.G - model.G.transpose());
   }
   return model;
 }

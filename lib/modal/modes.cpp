@@ -41,10 +41,30 @@ MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 
 // The model's coordinate names, or q1 … qn when it has none.
 std::vector<std::string> coordinate_labels(const LinearModel& model, Eigen::Index n) {
-  if (static_cast<Eigen::Index>(model.coordinates.size()) == n) return model.coordinates;
+  if (!model.constrained() && static_cast<Eigen::Index>(model.coordinates.size()) == n) return model.coordinates;
   std::vector<std::string> names;
-  for (Eigen::Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
+  for (Eigen::Index i = 0; i < n; ++i)
+    names.push_back(model.constrained() ? "direction " + std::to_string(i + 1) + " of the constraint manifold"
+                                        : "q" + std::to_string(i + 1));
   return names;
+}
+
+// Constrained models: shapes from the manifold's coordinates to all
+// coordinates (N φ; M-normalization carries over since NᵀMN is the reduced M),
+// real shapes signed again so that their largest component is positive.
+void map_shapes_back(const LinearModel& model, bool real, std::vector<Mode>& modes) {
+  if (!model.constrained()) return;
+  if (model.basis.cols() != model.M.rows())
+    throw std::invalid_argument("solve_modes: the constraint basis has " + std::to_string(model.basis.cols()) +
+                                " columns, the reduced model " + std::to_string(model.M.rows()) + " coordinates");
+  for (Mode& m : modes) {
+    if (m.shape.size() == 0) continue;
+    m.shape = model.basis.cast<std::complex<double>>() * m.shape;
+    if (!real) continue;
+    Eigen::Index big = 0;
+    m.shape.cwiseAbs().maxCoeff(&big);
+    if (m.shape[big].real() < 0) m.shape = -m.shape;
+  }
 }
 
 // D + G, or the n×n zero matrix when the model has neither. Empty (0×0)
@@ -111,7 +131,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
                                 std::to_string(model.K.cols()) + ")");
   if (n == 0) {
     ModalResult empty;
-    empty.solver = "none (no coordinates)";
+    empty.solver = model.constrained() ? "none (the constraints leave no degree of freedom)" : "none (no coordinates)";
     return empty;
   }
   require_finite(model.M, "mass matrix M");
@@ -137,6 +157,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
                      : detail::solve_first_order(M, model.K, C, mass);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
+  map_shapes_back(model, symmetric, result.modes);
 
   // Classify with every mode, then keep the lowest ones asked for.
   result.stability = classify(result.modes);

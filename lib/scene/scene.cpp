@@ -1,11 +1,15 @@
 // Scene files (DESIGN.md §3, version 1) to validated SystemDescriptions.
 //
 // Reading goes section by section: [parameters] first (every other number may
-// use them), then [[body]] and [[chain]] (chains expand into hinge bodies), the
-// bodies ordered so that parents precede children, then [[spring]] and [[load]]
-// (which refer to bodies by name). A scene with [coordinates] is a kinematic
-// map instead (lib/scene/map.cpp). Every check that System's constructor makes
-// is made here first, with a located message, so that building never throws.
+// use them), then [[body]], [[chain]] (chains expand into hinge bodies) and
+// [[particle]] (point masses on a particle joint to the world, or a fixed joint
+// when all three axes are fixed), the bodies ordered so that parents precede
+// children and otherwise kept in file order, then [[spring]], [[load]] and
+// [[constraint]] (loop closures: two points coincide, or keep their distance),
+// which refer to bodies and particles by name. A scene with [coordinates] is a
+// kinematic map instead (lib/scene/map.cpp) and has none of these. Every check
+// that System's constructor makes is made here first, with a located message,
+// so that building never throws.
 #include "modal/scene.hpp"
 
 #include "scene/reader.hpp"
@@ -23,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <queue>
+#include <set>
 #include <sstream>
 #include <tuple>
 
@@ -86,8 +91,9 @@ struct BodyEntry {
   std::string parent_key;
   const toml::node* name_node = nullptr;    // where the name is given
   std::string name_key;
-  std::string chain;                        // the generating chain's name, "" for [[body]]
-  SourceLocation location;                  // the [[body]] or [[chain]] table
+  std::string chain;                        // the generating chain's name, "" for [[body]] and [[particle]]
+  bool particle = false;                    // read from a [[particle]]
+  SourceLocation location;                  // the [[body]], [[chain]] or [[particle]] table
   std::tuple<int, int, int> order;          // file position of the table, then link number
 };
 
@@ -98,17 +104,23 @@ VectorX joint_values(const Section& s, std::string_view key, int n) {
   return s.numbers(key, VectorX::Zero(n));
 }
 
+// An entry with its `name` read and checked (non-empty, not "world").
+BodyEntry named_entry(const Section& s, const std::string& what) {
+  BodyEntry e;
+  e.body.name = s.required_string("name");
+  e.name_node = s.find("name");
+  e.name_key = s.key("name");
+  if (e.body.name.empty()) s.fail("name", "a " + what + " name must not be empty");
+  if (e.body.name == "world") s.fail("name", "'world' is reserved for the fixed frame; choose another name");
+  return e;
+}
+
 BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
   const Section s(reader, table, scene_detail::index_key("body", index), "[[body]]");
   s.check_keys({"name", "parent", "joint", "axis", "origin", "mass", "com", "inertia", "stiffness", "rest",
                 "damping", "initial"});
-  BodyEntry e;
+  BodyEntry e = named_entry(s, "body");
   Body& b = e.body;
-  b.name = s.required_string("name");
-  e.name_node = s.find("name");
-  e.name_key = s.key("name");
-  if (b.name.empty()) s.fail("name", "a body name must not be empty");
-  if (b.name == "world") s.fail("name", "'world' is reserved for the fixed frame; choose another name");
 
   const std::string joint = s.required_string("joint");
   const auto type = std::find_if(joint_types.begin(), joint_types.end(), [&](JointType t) { return to_string(t) == joint; });
@@ -217,6 +229,42 @@ std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table
   return entries;
 }
 
+// [[particle]]: a point mass at `position` on a particle joint to the world
+// (coordinates: displacements along the world x, y, z axes that are not
+// `fixed`), or on a fixed joint when every axis is fixed.
+BodyEntry read_particle(const Reader& reader, const toml::table& table, std::size_t index) {
+  const Section s(reader, table, scene_detail::index_key("particle", index), "[[particle]]");
+  s.check_keys({"name", "position", "mass", "fixed"});
+  BodyEntry e = named_entry(s, "particle");
+  Body& b = e.body;
+  b.origin = s.required_vector3("position");
+  b.mass = s.required_number("mass", Range::nonnegative);
+
+  std::array<bool, 3> fixed{false, false, false};
+  if (const toml::node* node = s.find("fixed")) {
+    const std::string key = s.key("fixed");
+    if (node->is_boolean()) {
+      fixed.fill(reader.boolean(*node, key));
+    } else {
+      const std::string expected = "expected true, false or an array of 3 booleans [x, y, z]";
+      const auto* array = node->as_array();
+      if (array == nullptr) reader.fail(*node, key, expected + ", got " + scene_detail::describe_type(*node));
+      if (array->size() != 3) reader.fail(*node, key, expected + ", got " + std::to_string(array->size()) + " elements");
+      for (std::size_t a = 0; a < 3; ++a) fixed[a] = reader.boolean((*array)[a], key + "[" + std::to_string(a + 1) + "]");
+    }
+  }
+  for (std::size_t a = 0; a < 3; ++a) b.particle_axes[a] = !fixed[a];
+  b.joint = std::find(fixed.begin(), fixed.end(), false) == fixed.end() ? JointType::fixed : JointType::particle;
+  const int n = joint_coordinate_count(b);
+  b.rest = VectorX::Zero(n);
+  b.initial = VectorX::Zero(n);
+
+  e.particle = true;
+  e.location = s.location();
+  e.order = {e.location.line, e.location.column, 0};
+  return e;
+}
+
 [[noreturn]] void fail_entry(const Reader& reader, const BodyEntry& e, const toml::node* node, const std::string& key,
                              const std::string& reason) {
   if (node != nullptr) reader.fail(*node, key, reason);
@@ -235,10 +283,12 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemD
     const auto [it, inserted] = by_name.emplace(e.body.name, i);
     if (!inserted) {
       const BodyEntry& first = entries[it->second];
-      const std::string user = (first.chain.empty() ? "the [[body]]" : "chain '" + first.chain + "'") +
-                               " at line " + std::to_string(first.location.line);
+      const std::string user =
+          (!first.chain.empty() ? "chain '" + first.chain + "'" : first.particle ? "the [[particle]]" : "the [[body]]") +
+          " at line " + std::to_string(first.location.line);
       const std::string reason =
-          e.chain.empty() ? "duplicate body name '" + e.body.name + "': already used by " + user
+          e.chain.empty() ? std::string(e.particle ? "duplicate particle name '" : "duplicate body name '") +
+                                e.body.name + "': already used by " + user
                           : "chain '" + e.chain + "' generates the body name '" + e.body.name +
                                 "', which is already used by " + user;
       fail_entry(reader, e, e.name_node, e.name_key, reason);
@@ -308,18 +358,24 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemD
   }
 }
 
-// A body index by name ("world" is −1) for springs and loads. "<chain>.tip"
-// names the last link of the chain called <chain>, whatever its length (a body
-// whose own name is exactly that takes precedence).
+// A body index by name ("world" is −1) for springs, loads and constraints;
+// particles are bodies. "<chain>.tip" names the last link of the chain called
+// <chain>, whatever its length (a body whose own name is exactly that takes
+// precedence).
 class BodyNames {
  public:
-  BodyNames(const std::vector<Body>& bodies, std::map<std::string, std::string> chain_tips)
+  BodyNames(const std::vector<Body>& bodies, std::map<std::string, std::string> chain_tips,
+            const std::set<std::string>& particles)
       : tips_(std::move(chain_tips)) {
     for (std::size_t i = 0; i < bodies.size(); ++i) {
       index_.emplace(bodies[i].name, static_cast<int>(i));
       names_.push_back(bodies[i].name);
+      particle_.push_back(particles.contains(bodies[i].name));
     }
   }
+  const std::string& name(int index) const { return names_[static_cast<std::size_t>(index)]; }
+  // Whether body `index` (≥ 0) was written as a [[particle]] (possibly fixed).
+  bool particle(int index) const { return particle_[static_cast<std::size_t>(index)]; }
   int find(const Section& s, std::string_view key, const std::string& name, bool allow_world) const {
     if (name == "world") {
       if (!allow_world) s.fail(key, "must name a body, not the world");
@@ -347,8 +403,23 @@ class BodyNames {
  private:
   std::map<std::string, int> index_;
   std::vector<std::string> names_;
+  std::vector<bool> particle_;               // by body index
   std::map<std::string, std::string> tips_;  // chain name → its last body's name
 };
+
+// The point `key` (a_point, b_point) of an end attached to body `body`: in the
+// body frame (world coordinates for the world, −1), default zero. A particle is
+// itself the point, so giving one for a particle is an error.
+Vec3 end_point(const Section& s, std::string_view key, int body, const BodyNames& names) {
+  if (body >= 0 && names.particle(body) && s.has(key))
+    s.fail(key, "a particle is a point: '" + std::string(key) + "' is not used for particle '" + names.name(body) + "'");
+  return s.vector3(key, Vec3::Zero());
+}
+
+// World position of an attachment at q = 0.
+Vec3 written_position(const Attachment& at, const std::vector<Vec3>& frames) {
+  return at.body < 0 ? at.point : Vec3(frames[static_cast<std::size_t>(at.body)] + at.point);
+}
 
 // World position of each body frame at q = 0 (frames are translated copies of
 // their parent's, so positions add up along the path).
@@ -369,16 +440,68 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
   spring.a.body = names.find(s, "a", a, true);
   spring.b.body = names.find(s, "b", b, true);
   if (a == b) s.fail("b", "a spring must join two different bodies; both ends are '" + a + "'");
-  spring.a.point = s.vector3("a_point", Vec3::Zero());
-  spring.b.point = s.vector3("b_point", Vec3::Zero());
+  spring.a.point = end_point(s, "a_point", spring.a.body, names);
+  spring.b.point = end_point(s, "b_point", spring.b.body, names);
   spring.stiffness = s.required_number("stiffness", Range::positive);
   spring.damping = s.number("damping", 0.0, Range::nonnegative);
-  auto world = [&](const Attachment& at) {
-    return at.body < 0 ? at.point : Vec3(frames[static_cast<std::size_t>(at.body)] + at.point);
-  };
-  spring.rest_length = s.has("rest_length") ? s.number("rest_length", 0.0, Range::nonnegative)
-                                            : (world(spring.a) - world(spring.b)).norm();
+  spring.rest_length = s.has("rest_length")
+                           ? s.number("rest_length", 0.0, Range::nonnegative)
+                           : (written_position(spring.a, frames) - written_position(spring.b, frames)).norm();
   return spring;
+}
+
+// [[constraint]]: a loop closure between a point of a and a point of b, which
+// coincide ("point") or keep their distance ("distance", by default the
+// distance as written). `index` is the table's 0-based position; `used` the
+// names of the constraints read so far (names must be unique).
+Constraint read_constraint(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
+                           const std::vector<Vec3>& frames, std::map<std::string, int>& used) {
+  const Section s(reader, table, scene_detail::index_key("constraint", index), "[[constraint]]");
+  s.check_keys({"type", "name", "a", "b", "a_point", "b_point", "length"});
+  Constraint c;
+  const std::string type = s.required_string("type");
+  if (type == "point") {
+    c.type = Constraint::Type::point;
+  } else if (type == "distance") {
+    c.type = Constraint::Type::distance;
+  } else {
+    s.fail("type", "unknown constraint type '" + type + "'; expected \"point\" (two points coincide) or \"distance\" "
+                   "(two points keep their distance)" + did_you_mean(type, {"point", "distance"}));
+  }
+
+  c.name = s.string("name", "constraint" + std::to_string(index + 1));
+  if (c.name.empty()) s.fail("name", "a constraint name must not be empty");
+  const int line = s.has("name") ? reader.location(*s.find("name")).line : s.location().line;
+  const auto [previous, inserted] = used.emplace(c.name, line);
+  if (!inserted)
+    s.fail("name", "duplicate constraint name '" + c.name + "': already used by the [[constraint]] at line " +
+                       std::to_string(previous->second));
+
+  const std::string a = s.required_string("a");
+  const std::string b = s.required_string("b");
+  c.a.body = names.find(s, "a", a, true);
+  c.b.body = names.find(s, "b", b, true);
+  if (c.a.body < 0 && c.b.body < 0)
+    s.fail("b", "both ends of the constraint are the world; at least one must be a body or a particle");
+  if (c.a.body == c.b.body)
+    s.fail("b", "a constraint must join two different bodies; both ends are '" + names.name(c.b.body) + "'");
+  c.a.point = end_point(s, "a_point", c.a.body, names);
+  c.b.point = end_point(s, "b_point", c.b.body, names);
+
+  if (c.type == Constraint::Type::point) {
+    if (s.has("length")) s.fail("length", "'length' is not used by a point constraint (its points coincide)");
+  } else if (s.has("length")) {
+    c.length = s.number("length", 0.0, Range::positive);
+  } else {
+    const Vec3 xa = written_position(c.a, frames);
+    const Vec3 xb = written_position(c.b, frames);
+    c.length = (xa - xb).norm();
+    if (!(c.length > 1e-12 * std::max(xa.norm(), xb.norm())))
+      throw SceneError(s.location(), s.key("length"),
+                       "the two points of the distance constraint coincide as written, so its default length would "
+                       "be 0; give a positive 'length'");
+  }
+  return c;
 }
 
 // A [[load]]: a dead load, or with `follower = true` a follower load whose
@@ -418,9 +541,9 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
 
   Reader reader(file_name, text);
   const Section top(reader, root, "", "the top level of the scene");
-  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "spring", "load",
-                  "coordinates", "point", "potential"},
-                 {"particle", "constraint", "lattice"});
+  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "particle", "spring", "load",
+                  "constraint", "coordinates", "point", "potential"},
+                 {"lattice"});
 
   const toml::table* parameters = nullptr;
   if (const toml::node* node = top.find("parameters")) {
@@ -440,7 +563,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   d.frame_rotation = top.vector3("frame_rotation", Vec3::Zero());  // rad/s, about the world origin
 
   if (scene_detail::read_map(reader, root, d)) {
-    for (const char* key : {"body", "chain", "spring", "load", "frame_rotation"})
+    for (const char* key : {"body", "chain", "particle", "spring", "load", "constraint", "frame_rotation"})
       if (const toml::node* node = root.get(key))
         reader.fail(*node, key,
                     std::string("a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies; '") +
@@ -466,18 +589,28 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
     chain_tips[links.back().chain] = links.back().body.name;
     for (BodyEntry& e : links) entries.push_back(std::move(e));
   }
+  const auto particles = tables_of(reader, root, "particle");
+  std::set<std::string> particle_names;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    entries.push_back(read_particle(reader, *particles[i], i));
+    particle_names.insert(entries.back().body.name);
+  }
   if (entries.empty())
-    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]] or a [[chain]] (or write it as a kinematic map: [coordinates] and [[point]])");
+    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]], a [[chain]] or a [[particle]] (or write it as a kinematic map: [coordinates] and [[point]])");
   std::stable_sort(entries.begin(), entries.end(),
                    [](const BodyEntry& x, const BodyEntry& y) { return x.order < y.order; });
   order_bodies(reader, entries, d, scene.body_locations);
 
-  const BodyNames names(d.bodies, chain_tips);
+  const BodyNames names(d.bodies, chain_tips, particle_names);
   const std::vector<Vec3> frames = frame_positions(d.bodies);
   const auto springs = tables_of(reader, root, "spring");
   for (std::size_t i = 0; i < springs.size(); ++i) d.springs.push_back(read_spring(reader, *springs[i], i, names, frames));
   const auto loads = tables_of(reader, root, "load");
   for (std::size_t i = 0; i < loads.size(); ++i) read_load(reader, *loads[i], i, names, d);
+  const auto constraints = tables_of(reader, root, "constraint");
+  std::map<std::string, int> constraint_names;  // name → line where it is given
+  for (std::size_t i = 0; i < constraints.size(); ++i)
+    d.constraints.push_back(read_constraint(reader, *constraints[i], i, names, frames, constraint_names));
   return scene;
 }
 

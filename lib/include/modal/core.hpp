@@ -80,11 +80,14 @@ class NumericalError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class JointType { hinge, slide, ball, free, fixed };
-// Number of generalized coordinates of a joint: hinge, slide 1; ball 3; free 6; fixed 0.
+// particle: a point mass translating along the parent's x, y and z axes (the
+// scene's [[particle]]; Body::particle_axes says which of them move).
+enum class JointType { hinge, slide, ball, free, fixed, particle };
+// Number of generalized coordinates of a joint: hinge, slide 1; ball 3; free 6;
+// fixed 0; particle 3 (fewer when axes are fixed: see joint_coordinate_count(Body)).
 int joint_coordinate_count(JointType type);
 
-// The scene-file word for a joint type: "hinge", "slide", "ball", "free", "fixed".
+// The scene-file word for a joint type: "hinge", "slide", "ball", "free", "fixed", "particle".
 const char* to_string(JointType type);
 
 // What a coordinate measures; decides wrapping and search ranges.
@@ -127,7 +130,13 @@ struct Body {
   double damping = 0;            // joint damper, N·m·s/rad or N·s/m
   VectorX rest;                  // joint spring rest values (size = joint coordinates)
   VectorX initial;               // joint starting values (size = joint coordinates)
+  // particle joint: which parent axes (x, y, z) carry a coordinate; a fixed
+  // axis keeps the written position (`origin`) along it.
+  std::array<bool, 3> particle_axes{true, true, true};
 };
+
+// Number of generalized coordinates of a body's joint (counts a particle's free axes).
+int joint_coordinate_count(const Body& body);
 
 struct Spring {
   Attachment a, b;
@@ -150,6 +159,24 @@ struct DeadLoad {
 struct FollowerLoad {
   Attachment at;
   Vec3 force = Vec3::Zero();  // N, body frame
+};
+
+// A holonomic constraint c(q) = 0 between two points (a loop closure,
+// DESIGN.md §1 and §3):
+//   point:     c = x_a − x_b            3 equations (x, y, z), m: the points coincide
+//   distance:  c = |x_a − x_b| − length 1 equation, m: the points keep their distance
+// With multipliers s the constraint's generalized force is ∇c s (Lagrange's
+// equations of the first kind, M q̈ = f + ∇c s): the force s (N, world
+// components) acts on a at x_a and −s on b (point), or s·u on a and −s·u on b
+// with u = (x_a − x_b)/|x_a − x_b| (distance: s < 0 pulls the ends together,
+// the rod is in tension −s).
+struct Constraint {
+  enum class Type { point, distance };
+  Type type = Type::point;
+  std::string name;    // for reports: "<name>.x|y|z" (point) or "<name>" (distance)
+  Attachment a, b;
+  double length = 0;   // distance constraints, m (> 0)
+  int equations() const { return type == Type::point ? 3 : 1; }
 };
 
 // --- kinematic maps (expression-defined systems) -----------------------------
@@ -222,6 +249,7 @@ struct SystemDescription {
   std::vector<Spring> springs;
   std::vector<DeadLoad> loads;
   std::vector<FollowerLoad> followers;
+  std::vector<Constraint> constraints;  // loop closures (trees only)
   // Angular velocity (rad/s, scene-frame components) of the frame the scene is
   // written in, constant, about the world origin; zero: an inertial frame.
   Vec3 frame_rotation = Vec3::Zero();
@@ -248,6 +276,14 @@ class System {
   const std::vector<DeadLoad>& loads() const { return d_.loads; }
   const std::vector<FollowerLoad>& followers() const { return d_.followers; }
   bool has_follower_loads() const { return !d_.followers.empty(); }
+  const std::vector<Constraint>& constraints() const { return d_.constraints; }
+  bool has_constraints() const { return !d_.constraints.empty(); }
+  // Number m of constraint equations (3 per point constraint, 1 per distance).
+  int constraint_equations() const { return m_; }
+  // Names of the m equations: "<name>.x", "<name>.y", "<name>.z" or "<name>".
+  std::vector<std::string> constraint_equation_names() const;
+  // Index of the constraint that equation i (0 ≤ i < m) belongs to.
+  int constraint_of_equation(int i) const { return equation_owner_[static_cast<std::size_t>(i)]; }
   const Vec3& frame_rotation() const { return d_.frame_rotation; }  // Ω, rad/s
   bool rotating() const { return !d_.frame_rotation.isZero(0.0); }   // Ω ≠ 0
   // Expression-defined system (a kinematic map) rather than a tree of bodies.
@@ -279,6 +315,8 @@ class System {
  private:
   SystemDescription d_;
   int n_ = 0;
+  int m_ = 0;
+  std::vector<int> equation_owner_;
   std::vector<int> q_index_, nq_;
   std::vector<std::vector<int>> children_;
   std::vector<Coordinate> coords_;
@@ -367,6 +405,33 @@ System with_steady_momenta(const System& s, const VectorX& q);
 // the tips of their body axes (one length scale along each) for points with
 // rotational inertia. Empty for body systems (see body_poses).
 std::vector<Vec3> map_point_positions(const System& s, const VectorX& q);
+
+// --- holonomic constraints (System::constraints(); m equations) -------------------
+// c(q), m entries, m (see Constraint).
+VectorX constraint_values(const System& s, Workspace& w, const VectorX& q);
+// The constraint Jacobian A = ∂c/∂q (m×n; row i is ∇c_iᵀ), exact.
+MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q);
+// Σ_i s_i ∇∇c_i (n×n, symmetric) for multipliers s (m, N): the multiplier
+// term of the constrained stiffness K − Σ s_i ∇∇c_i (DESIGN.md §1), exact (the
+// same tree accumulation as ∇∇V with the constraint forces as cotangents).
+// Throws NumericalError for a distance constraint whose points coincide.
+MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers);
+
+// Rank structure of constraint equations with Jacobian A (m×n) at one
+// configuration, from a column-pivoted Householder QR of Aᵀ: an equation is
+// redundant when its gradient is a combination of the others' to within a
+// relative 1e-10 (of the largest pivot); the independent ones are kept in
+// pivot order's greedy choice (largest gradients first), then sorted.
+struct ConstraintBasis {
+  int rank = 0;                  // number of independent equations r
+  std::vector<int> independent;  // r equation indices, ascending
+  std::vector<int> redundant;    // m − r equation indices, ascending
+  MatrixX null_space;            // N, n×(n − r), orthonormal columns with A N = 0 (to rounding)
+};
+ConstraintBasis constraint_basis(const MatrixX& A);
+// Least-squares multipliers (m, N) of ∇c_I s_I = force on the independent
+// equations of `basis` (A: m×n, force: n); 0 on the redundant equations.
+VectorX fit_multipliers(const MatrixX& A, const ConstraintBasis& basis, const VectorX& force);
 
 // World pose of every body at q: rotation (body → world) and frame origin.
 struct Pose {

@@ -13,6 +13,21 @@
 // joint — is reported once, by its member nearest the initial configuration).
 // Failures throw NumericalError with a message in words (for a
 // scene that has no equilibrium, which generalized force cannot be balanced).
+//
+// With constraints c(q) = 0 (System::constraints()) an equilibrium solves
+// ∇V − Q = ∇c s, c(q) = 0 (Lagrange's equations of the first kind at rest)
+// for q and the multipliers s. The starts are first brought onto the
+// constraint manifold (Gauss–Newton, minimum-norm steps); find_equilibrium
+// then runs Newton on the KKT system from there (the nearest equilibrium,
+// whatever its stability), and the search minimizes V on the manifold with
+// NLopt's SLSQP from every start; every candidate is polished by Newton's
+// method on the full KKT system
+//   [K − Σ sᵢ∇∇cᵢ   −A_Iᵀ] [δq]     [∇V − Q − A_Iᵀ s]
+//   [A_I               0 ] [δs] = − [c_I           ]
+// over the independent equations I (constraint_basis; redundant equations
+// get s = 0 and must hold to the same tolerance). Constraints that no
+// configuration near the starts satisfies throw NumericalError naming the
+// equation violated most.
 #pragma once
 
 #include "modal/core.hpp"
@@ -23,7 +38,8 @@
 namespace modal {
 
 struct EquilibriumOptions {
-  double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q‖ / force_scale
+  double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q (− ∇c s)‖ / force_scale
+                             // (and constraint violation ‖c‖ / length_scale)
   int starts = 64;           // deterministic starts of find_equilibria (besides the
                              // initial configuration and the {0, π} corners of hinges)
   int max_iterations = 100;  // per Newton polish
@@ -35,9 +51,13 @@ struct Equilibrium {
   double residual = 0;       // relative residual ‖∇V − Q‖ / force_scale
   double residual_norm = 0;  // ‖∇V − Q‖, same units as ∇V
   int iterations = 0;        // Newton iterations of the final polish
+  // Constraint multipliers s (m, N; see Constraint for their meaning as
+  // forces); 0 for redundant equations. Empty without constraints.
+  VectorX multipliers;
+  double constraint_violation = 0;  // ‖c(q)‖, m
 };
 
-// ∇V(q) − Q(q, 0), n.
+// ∇V(q) − Q(q, 0), n (without the constraint forces ∇c s).
 VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q);
 
 // Newton's method with the exact Hessian and a line search on the residual

@@ -5,6 +5,15 @@
 //   modal::LinearModel lin = modal::linearize(sys, equilibrium.q);
 //
 // Throws NotAnEquilibrium (with the residual, in words) when q̄ is not one.
+//
+// Constraints c(q) = 0 (DESIGN.md §1): q̄ must satisfy them, and the
+// multipliers s are the least-squares solution of ∇V − Q = ∇c_I s_I on the
+// independent equations I (constraint_basis; redundant equations get s = 0
+// and are listed). With N an orthonormal basis of the null space of ∇c_Iᵀ
+// (n×n_r, n_r = n − rank) the model is the projection onto the manifold,
+//   M = NᵀM(q̄)N,  K = Nᵀ(∇∇V − ∂Q/∂q − Σ sᵢ∇∇cᵢ)N,  D = NᵀDN,  G = NᵀGN,
+// (the multiplier term gives a particle held on a circle all its stiffness),
+// and a mode φ of it moves the coordinates by N φ.
 #pragma once
 
 #include "modal/core.hpp"
@@ -17,6 +26,16 @@ namespace modal {
 class NotAnEquilibrium : public NumericalError {
  public:
   using NumericalError::NumericalError;
+};
+
+// The force one constraint exerts at the equilibrium (its multipliers).
+struct ConstraintForce {
+  std::string name;        // the constraint's name
+  Constraint::Type type = Constraint::Type::point;
+  // point: the force on end a (world components, N; b gets its opposite);
+  // distance: s (1 entry, N), positive pushing the ends apart (−s is the tension).
+  VectorX multipliers;
+  bool redundant = false;  // some of its equations were redundant (their share is not determined: set 0)
 };
 
 struct LinearModel {
@@ -33,8 +52,17 @@ struct LinearModel {
   // Steady motion: rates and momenta of ignorable coordinates (maps analyzed
   // through Routh's reduction); empty otherwise.
   std::vector<SteadyRate> steady;
+  // Constraints: M, K, D, G above are the projections onto the constraint
+  // manifold (n_r×n_r) and `basis` is N (n×n_r, orthonormal columns); a mode
+  // shape φ (n_r) moves the coordinates by N φ. Empty without constraints.
+  MatrixX basis;
+  std::vector<ConstraintForce> constraint_forces;  // one per constraint, in scene order
+  std::vector<std::string> redundant_equations;    // names of the redundant constraint equations
+  double constraint_violation = 0;                 // ‖c(q̄)‖, m
 
-  int size() const { return static_cast<int>(q.size()); }
+  int size() const { return static_cast<int>(q.size()); }              // n, all coordinates
+  int dof() const { return static_cast<int>(M.rows()); }               // degrees of freedom analyzed (n_r)
+  bool constrained() const { return basis.rows() > 0; }
   // K φ = λ M φ describes the motion completely (no D, G, circulatory part).
   bool symmetric() const { return !has_damping && !has_gyroscopic && !circulatory; }
 };
