@@ -41,38 +41,10 @@ const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
 using modal::test::Outcome;
 using modal::test::slurp;
 
-using Row = std::map<std::string, std::string>;
-
-using modal::test::fields;
-
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<Row> rows;
-};
-
-Csv read_csv(const fs::path& p) {
-  Csv csv;
-  std::ifstream in(p);
-  EXPECT_TRUE(in.good()) << "missing " << p;
-  std::string line;
-  if (!std::getline(in, line)) return csv;
-  csv.header = fields(line);
-  while (std::getline(in, line)) {
-    const auto f = fields(line);
-    EXPECT_EQ(f.size(), csv.header.size()) << p << ": " << line;
-    Row row;
-    for (std::size_t i = 0; i < f.size() && i < csv.header.size(); ++i) row[csv.header[i]] = f[i];
-    csv.rows.push_back(row);
-  }
-  return csv;
-}
-
-double number(const Row& row, const std::string& column) {
-  const auto it = row.find(column);
-  EXPECT_NE(it, row.end()) << "no column " << column;
-  if (it == row.end() || it->second.empty()) return std::nan("");
-  return std::strtod(it->second.c_str(), nullptr);
-}
+using modal::test::Csv;
+using modal::test::Row;
+using modal::test::number;
+using modal::test::read_csv;
 
 class Cli : public modal::test::ProgramTest {
  protected:
@@ -472,4 +444,117 @@ TEST_F(Cli, MapSimulateWritesTheTrajectory) {
   ASSERT_EQ(t.header[1], "theta");
   ASSERT_FALSE(t.rows.empty());
   for (const Row& row : t.rows) EXPECT_LE(std::abs(number(row, "energy_error")), 1e-9);
+}
+
+// --- constraints (loop closures; DESIGN.md §1) ----------------------------------
+
+namespace {
+
+// ω of every mode of `scene` from `modal analyze --csv`.
+std::vector<double> analyzed_omegas(const modal::test::Outcome& r, const std::string& prefix) {
+  EXPECT_EQ(r.status, 0) << r.err;
+  std::vector<double> omega;
+  for (const Row& row : read_csv(prefix + "_modes.csv").rows) omega.push_back(number(row, "omega"));
+  return omega;
+}
+
+}  // namespace
+
+TEST_F(Cli, ParticlePendulumIsSqrtGOverLExactly) {
+  for (const double l : {1.0, 2.5}) {
+    const std::string p = prefix("pp" + std::to_string(static_cast<int>(10 * l)));
+    const Outcome r = run({"analyze", models + "particle_pendulum.toml", "--set", "l=" + std::to_string(l), "--csv", p});
+    const std::vector<double> omega = analyzed_omegas(r, p);
+    ASSERT_EQ(omega.size(), 1u);
+    // The stiffness is the multiplier term alone, m g / l; ω² = g/l to rounding.
+    EXPECT_REL(omega[0], std::sqrt(9.81 / l), 4e-15);
+    const Csv eq = read_csv(p + "_equilibria.csv");
+    ASSERT_EQ(eq.rows.size(), 1u);
+    EXPECT_REL(number(eq.rows[0], "rod_force"), -9.81, 1e-14);  // tension m g
+    EXPECT_NE(r.out.find("rod  distance  tension 9.81"), std::string::npos) << r.out;
+  }
+}
+
+TEST_F(Cli, HingeTreeAndItsConstrainedTwinAgree) {
+  const std::string a = prefix("hinges"), b = prefix("free");
+  const std::vector<double> wa = analyzed_omegas(run({"analyze", models + "twin_hinges.toml", "--csv", a}), a);
+  const Outcome rb = run({"analyze", models + "twin_free.toml", "--csv", b});
+  const std::vector<double> wb = analyzed_omegas(rb, b);
+  ASSERT_EQ(wa.size(), 2u);
+  ASSERT_EQ(wb.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) EXPECT_REL(wb[i], wa[i], 1e-10);
+  // Two points per hinge axis: one redundant equation per hinge, reported.
+  EXPECT_NE(rb.out.find("2 redundant constraint equations"), std::string::npos) << rb.out;
+  // Mode shapes come back in all 12 coordinates.
+  const Csv shapes = read_csv(b + "_shapes.csv");
+  EXPECT_EQ(shapes.rows.size(), 24u);
+}
+
+TEST_F(Cli, FourBarReportsItsRedundantEquationAndSweeps) {
+  const std::string json = (dir / "fb.json").string();
+  const Outcome r = run({"analyze", models + "four_bar.toml", "--json", json});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("1 redundant constraint equation (loop.y)"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(slurp(json));
+  ASSERT_EQ(j["constraints"].size(), 1u);
+  EXPECT_TRUE(j["constraints"][0]["force"][1].is_null());  // not determined by statics
+  EXPECT_TRUE(j["constraints"][0]["force"][2].is_number());
+  EXPECT_EQ(j["redundant_equations"][0], "loop.y");
+  EXPECT_EQ(j["modes"].size(), 1u);  // 3 hinges − 2 independent equations
+  const std::string csv = (dir / "sweep.csv").string();
+  const Outcome s = run({"sweep", models + "four_bar.toml", "--vary", "theta0=-3.14159:3.14159:37", "--csv", csv});
+  ASSERT_EQ(s.status, 0) << s.err;
+  EXPECT_EQ(read_csv(csv).rows.size(), 37u);
+}
+
+TEST_F(Cli, ClosedChainSupportsCarryHalfTheWeight) {
+  const std::string csv = (dir / "eq.csv").string();
+  const Outcome r = run({"equilibria", models + "closed_chain.toml", "--csv", csv});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv eq = read_csv(csv);
+  ASSERT_GE(eq.rows.size(), 1u);
+  const Row& hanging = eq.rows.front();  // lowest potential
+  EXPECT_EQ(hanging.at("stability"), "stable");
+  // Symmetry: the right support carries m g / 2 = 14.715 N vertically.
+  EXPECT_REL(number(hanging, "right_support.z_force"), 3.0 * 9.81 / 2, 1e-12);
+  EXPECT_EQ(hanging.at("right_support.y_force"), "");  // redundant in the plane
+}
+
+TEST_F(Cli, InconsistentConstraintsExit4) {
+  const std::string scene = write("bad.toml", R"([[particle]]
+name = "p"
+position = [0, 0, -1]
+mass = 1
+
+[[constraint]]
+type = "distance"
+a = "p"
+b = "world"
+b_point = [-5, 0, 0]
+length = 1
+
+[[constraint]]
+type = "distance"
+a = "p"
+b = "world"
+b_point = [5, 0, 0]
+length = 1
+)");
+  const Outcome r = run({"analyze", scene});
+  EXPECT_EQ(r.status, 4);
+  EXPECT_NE(r.err.find("constraints cannot all be satisfied"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, CheckAndSimulateConstrainedScenes) {
+  const Outcome c = run({"check", models + "four_bar.toml"});
+  ASSERT_EQ(c.status, 0) << c.err;
+  EXPECT_NE(c.out.find("Constraints (1, 3 equations)"), std::string::npos) << c.out;
+  const std::string csv = (dir / "sim.csv").string();
+  const Outcome s = run({"simulate", models + "closed_chain.toml", "--duration", "5", "--velocity", "1,0,0,0,0,0",
+                         "--csv", csv});
+  ASSERT_EQ(s.status, 0) << s.err;
+  EXPECT_NE(s.err.find("brought onto the constraints"), std::string::npos) << s.err;
+  double worst = 0;
+  for (const Row& row : read_csv(csv).rows) worst = std::max(worst, std::abs(number(row, "energy_error")));
+  EXPECT_LT(worst, 1e-11);  // rk8pd at 1e-12 with the projections at every sample
 }

@@ -472,7 +472,21 @@ void print_simulation_summary(std::ostream& err, const modal::Trajectory& tr, co
 int run_simulate(const SceneOptions& so, const SimulateArgs& a) {
   const modal::Scene scene = load(so);
   const modal::System sys = modal::build_system(scene);
-  const modal::VectorX q0 = a.at ? parse_point("--at", *a.at, sys) : sys.initial_configuration();
+  modal::VectorX q0 = a.at ? parse_point("--at", *a.at, sys) : sys.initial_configuration();
+  if (!a.at && sys.has_constraints()) {
+    // The scene's initial values are a guess for searches; a motion must start on the constraints.
+    modal::Workspace ws(sys);
+    const modal::ConstraintProjection p = modal::project_onto_constraints(sys, ws, q0);
+    if (!(p.violation <= 1e-12 * sys.length_scale()))
+      throw modal::NumericalError(fmt::format(
+          "simulate: the initial configuration cannot be brought onto the constraints (‖c‖ = {:.3g} m remains); "
+          "give a start with --at",
+          p.violation));
+    if ((p.q - q0).norm() > 0)
+      std::cerr << "modal: the initial configuration was brought onto the constraints (moved by "
+                << fmt::format("{:.3g}", (p.q - q0).norm()) << " in coordinate units)\n";
+    q0 = p.q;
+  }
   const modal::VectorX qd0 =
       a.velocity ? parse_point("--velocity", *a.velocity, sys) : modal::VectorX::Zero(sys.size());
   modal::SimulationOptions o;

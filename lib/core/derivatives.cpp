@@ -681,10 +681,31 @@ VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const Vec
     for (int k = 0; k < n; ++k) cqd[k] -= dg[static_cast<std::size_t>(k + 1)].dot(qd);
   }
   VectorX rhs = generalized_forces(s, w, q, qd) - cqd - potential_gradient(s, w, q);
-  const Eigen::LLT<MatrixX> llt(mass_matrix(s, w, q));
+  const MatrixX M = mass_matrix(s, w, q);
+  if (!s.has_constraints()) {
+    const Eigen::LLT<MatrixX> llt(M);
+    if (llt.info() != Eigen::Success)
+      throw NumericalError("the mass matrix is not positive definite at this configuration: accelerations are undefined");
+    return llt.solve(rhs);
+  }
+  // Null-space method: q̈ = q̈_p + N z with A_I q̈_p = −q̇ᵀ∇∇c_I q̇ (minimum norm)
+  // and NᵀMN z = Nᵀ(rhs − M q̈_p); the constraint forces ∇c s drop out (Nᵀ∇c_I = 0).
+  const MatrixX A = constraint_jacobian(s, w, q);
+  const ConstraintBasis basis = constraint_basis(A);
+  const VectorX curvature = constraint_curvature(s, w, q, qd);
+  MatrixX AI(basis.rank, n);
+  VectorX gamma(basis.rank);
+  for (int i = 0; i < basis.rank; ++i) {
+    AI.row(i) = A.row(basis.independent[static_cast<std::size_t>(i)]);
+    gamma[i] = -curvature[basis.independent[static_cast<std::size_t>(i)]];
+  }
+  const VectorX particular = basis.rank > 0 ? VectorX(AI.completeOrthogonalDecomposition().solve(gamma)) : VectorX::Zero(n);
+  const MatrixX& N = basis.null_space;
+  const Eigen::LLT<MatrixX> llt(N.transpose() * M * N);
   if (llt.info() != Eigen::Success)
-    throw NumericalError("the mass matrix is not positive definite at this configuration: accelerations are undefined");
-  return llt.solve(rhs);
+    throw NumericalError("the mass matrix projected onto the constraint manifold (NᵀMN) is not positive definite at "
+                         "this configuration: accelerations are undefined");
+  return particular + N * llt.solve(N.transpose() * (rhs - M * particular));
 }
 
 // --- constraints ------------------------------------------------------------------
@@ -714,17 +735,32 @@ VectorX constraint_values(const System& s, Workspace& w, const VectorX& q) {
   VectorX c(s.constraint_equations());
   if (c.size() == 0) return c;
   const TreeState<double>& st = kinematics(s, w, q);
-  Eigen::Index row = 0;
-  for (const Constraint& k : s.constraints()) {
-    const auto [xa, xb] = constraint_ends(st, k);
-    if (k.type == Constraint::Type::point) {
-      c.segment<3>(row) = xa - xb;
-    } else {
-      c[row] = (xa - xb).norm() - k.length;
-    }
-    row += k.equations();
-  }
+  for (const Constraint& k : s.constraints()) constraint_ends(st, k);  // throws where a distance is undefined
+  model::constraint_values(s, st, c);
   return c;
+}
+
+VectorX constraint_curvature(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
+  check_size(s, qd, "constraint_curvature");
+  const VectorX c = constraint_values(s, w, q);  // sizes, and the distance constraints defined
+  if (c.size() == 0) return c;
+  // c(q + τ q̇) with second-order duals in τ: its second derivative is q̇ᵀ∇∇c q̇.
+  using D1 = Dual<double, 1>;
+  using D2 = Dual<D1, 1>;
+  std::vector<D2> x(static_cast<std::size_t>(s.size()));
+  for (int i = 0; i < s.size(); ++i) {
+    D2& xi = x[static_cast<std::size_t>(i)];
+    xi.v = D1(q[i]);
+    xi.v.d[0] = qd[i];
+    xi.d[0] = D1(qd[i]);
+  }
+  TreeState<D2> st;
+  model::forward_kinematics(s, x.data(), st);
+  model::VX<D2> cd;
+  model::constraint_values(s, st, cd);
+  VectorX out(cd.size());
+  for (Eigen::Index i = 0; i < cd.size(); ++i) out[i] = cd[i].d[0].d[0];
+  return out;
 }
 
 MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q) {

@@ -179,6 +179,21 @@ template <class S> V3<S> world_point(const TreeState<S>& st, const Attachment& a
   return st.position[b] + st.rotation[b] * cast3<S>(a.point);
 }
 
+// The constraint equations c(q) stacked (m; see Constraint).
+template <class S> void constraint_values(const System& sys, const TreeState<S>& st, VX<S>& c) {
+  using std::sqrt;
+  c.resize(sys.constraint_equations());
+  Eigen::Index row = 0;
+  for (const Constraint& k : sys.constraints()) {
+    const V3<S> d = world_point(st, k.a) - world_point(st, k.b);
+    if (k.type == Constraint::Type::point)
+      c.template segment<3>(row) = d;
+    else
+      c[row] = sqrt(d.squaredNorm()) - k.length;
+    row += k.equations();
+  }
+}
+
 // --- elements -------------------------------------------------------------------
 
 // Spring energy ½k(|xa − xb| − L)²; for L = 0 written as ½k|d|² (smooth at d = 0).

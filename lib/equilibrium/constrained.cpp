@@ -64,6 +64,7 @@ class Constrained {
       return MatrixX::Constant(n(), n(), nan);
     }
   }
+  ConstraintProjection project(const VectorX& q) { return project_onto_constraints(s_, w_, q); }
   double force_scale_at(const VectorX& q) {
     const double f = force_scale(s_, w_, q);
     return f > 0 && std::isfinite(f) ? f : 1.0;
@@ -75,49 +76,9 @@ class Constrained {
   Problem p_;
 };
 
-struct Projected {
-  VectorX q;
-  double violation = std::numeric_limits<double>::infinity();  // ‖c‖, m
-};
+using Projected = ConstraintProjection;
 
-// Gauss–Newton on c(q) = 0 from `start` (steps limited to 0.5 rad or length
-// scales, like the unconstrained local search).
-Projected project(Constrained& k, const VectorX& start) {
-  const System& s = k.system();
-  Projected out;
-  VectorX q = canonical_coordinates(s, start);
-  VectorX c = k.values(q);
-  if (!c.allFinite()) return out;
-  for (int it = 0; it < 100; ++it) {
-    const double norm = c.norm();
-    out = {q, norm};
-    if (norm <= 1e-15 * k.length()) break;
-    const MatrixX A = k.jacobian(q);
-    if (!A.allFinite()) break;
-    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(A);
-    cod.setThreshold(1e-12);
-    VectorX d = -cod.solve(c);
-    if (!d.allFinite()) break;
-    VectorX scaled = d;
-    for (int i = 0; i < s.size(); ++i)
-      if (s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length) scaled[i] /= s.length_scale();
-    if (scaled.norm() > 0.5) d *= 0.5 / scaled.norm();
-    bool accepted = false;
-    for (double t = 1; t > 1e-6; t *= 0.5) {
-      const VectorX qt = q + t * d;
-      const VectorX ct = k.values(qt);
-      if (ct.allFinite() && ct.norm() < norm) {
-        q = canonical_coordinates(s, qt);
-        c = ct;
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) break;
-  }
-  if (c.norm() < out.violation) out = {q, c.norm()};
-  return out;
-}
+Projected project(Constrained& k, const VectorX& start) { return k.project(start); }
 
 struct Point {
   VectorX q, s;          // coordinates (n), multipliers (m; 0 on redundant equations)
@@ -325,7 +286,7 @@ std::string no_equilibrium(Constrained& k, const Equilibrium& best, int starts) 
 
 struct Candidates {
   std::vector<Equilibrium> found;
-  Projected best_projection;
+  Projected best_projection{VectorX(), std::numeric_limits<double>::infinity()};
   Equilibrium best_failure;
   bool feasible = false;
   int starts = 0;

@@ -85,6 +85,22 @@ MatrixX velocity_matrix(const LinearModel& model, Eigen::Index n) {
   return C;
 }
 
+// The constraint forces and redundant equations, with a note on the latter.
+void copy_constraints(const LinearModel& model, ModalResult& result) {
+  result.constraint_forces = model.constraint_forces;
+  result.redundant_equations = model.redundant_equations;
+  const std::size_t k = model.redundant_equations.size();
+  if (k == 0) return;
+  std::string list;
+  for (std::size_t i = 0; i < k; ++i) list += (i == 0 ? "" : ", ") + model.redundant_equations[i];
+  result.notes.push_back(std::to_string(k) + " redundant constraint equation" + (k == 1 ? "" : "s") + " (" + list +
+                         "): " + (k == 1 ? "it depends" : "they depend") +
+                         " on the others at this configuration, so statics does not determine " +
+                         (k == 1 ? "its" : "their") + " share of the constraint forces (reported as not determined); "
+                         "the analysis uses the independent equations, leaving " + std::to_string(model.M.rows()) +
+                         " degree" + (model.M.rows() == 1 ? "" : "s") + " of freedom");
+}
+
 }  // namespace
 
 const char* to_string(Stability s) {
@@ -131,6 +147,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
                                 std::to_string(model.K.cols()) + ")");
   if (n == 0) {
     ModalResult empty;
+    copy_constraints(model, empty);
     empty.solver = model.constrained() ? "none (the constraints leave no degree of freedom)" : "none (no coordinates)";
     return empty;
   }
@@ -158,6 +175,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
   map_shapes_back(model, symmetric, result.modes);
+  copy_constraints(model, result);
 
   // Classify with every mode, then keep the lowest ones asked for.
   result.stability = classify(result.modes);

@@ -33,6 +33,20 @@ Report make_report(const System& system, std::string scene_file,
   return r;
 }
 
+std::vector<ConstraintEquationForce> constraint_equation_forces(const ModalResult& result) {
+  std::vector<ConstraintEquationForce> out;
+  for (const ConstraintForce& f : result.constraint_forces)
+    for (Eigen::Index i = 0; i < f.multipliers.size(); ++i) {
+      ConstraintEquationForce e;
+      e.equation = f.type == Constraint::Type::point ? f.name + "." + "xyz"[i] : f.name;
+      e.force = f.multipliers[i];
+      e.determined = std::find(result.redundant_equations.begin(), result.redundant_equations.end(), e.equation) ==
+                     result.redundant_equations.end();
+      out.push_back(std::move(e));
+    }
+  return out;
+}
+
 const char* mode_stability(ModeKind kind) {
   switch (kind) {
     case ModeKind::oscillatory: return "stable";
@@ -106,6 +120,12 @@ void write_equilibria_csv(std::ostream& out, const Report& report) {
     for (const SteadyRate& sr : a.result.steady)
       if (std::find(ignorable.begin(), ignorable.end(), sr.coordinate) == ignorable.end()) ignorable.push_back(sr.coordinate);
   for (const std::string& c : ignorable) out << ',' << csv_field(c + "_rate") << ',' << csv_field(c + "_momentum");
+  // Constraint forces: one column per equation (the same constraints at every equilibrium).
+  std::vector<std::string> equations;
+  for (const auto& a : report.equilibria)
+    if (equations.empty())
+      for (const ConstraintEquationForce& f : constraint_equation_forces(a.result)) equations.push_back(f.equation);
+  for (const std::string& c : equations) out << ',' << csv_field(c + "_force");
   out << '\n';
   for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
     const AnalyzedEquilibrium& a = report.equilibria[e];
@@ -124,6 +144,11 @@ void write_equilibria_csv(std::ostream& out, const Report& report) {
         out << ',' << csv_number(it->rate) << ',' << csv_number(it->momentum);
       else
         out << ",,";
+    }
+    const std::vector<ConstraintEquationForce> forces = constraint_equation_forces(a.result);
+    for (std::size_t i = 0; i < equations.size(); ++i) {
+      out << ',';
+      if (i < forces.size() && forces[i].determined) out << csv_number(forces[i].force);
     }
     out << '\n';
   }

@@ -90,6 +90,26 @@ void add_result(Json& j, const ModalResult& r) {
       steady.push_back({{"coordinate", sr.coordinate}, {"rate", sr.rate}, {"momentum", sr.momentum}});
     j["steady_motion"] = steady;
   }
+  if (!r.constraint_forces.empty()) {
+    const std::vector<ConstraintEquationForce> eq = constraint_equation_forces(r);
+    Json constraints = Json::array();
+    std::size_t row = 0;
+    for (const ConstraintForce& f : r.constraint_forces) {
+      Json c = {{"name", f.name}, {"type", f.type == Constraint::Type::point ? "point" : "distance"}};
+      auto value = [&](std::size_t i) { return eq[i].determined ? Json(eq[i].force) : Json(nullptr); };
+      if (f.type == Constraint::Type::point) {
+        c["force"] = Json::array({value(row), value(row + 1), value(row + 2)});
+        row += 3;
+      } else {
+        c["multiplier"] = value(row);
+        c["tension"] = eq[row].determined ? Json(-eq[row].force) : Json(nullptr);
+        row += 1;
+      }
+      constraints.push_back(c);
+    }
+    j["constraints"] = constraints;
+    j["redundant_equations"] = r.redundant_equations;
+  }
 }
 
 }  // namespace

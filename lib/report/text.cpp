@@ -115,12 +115,34 @@ void print_analysis(std::ostream& out, const Report& report) {
       out << fmt::format("  {:<{}} = {:>22} m\n", coordinate_name(report, i), w, num(v, 15));
   }
   out << fmt::format("  {:<{}} = {:>22} J\n", "V", w, num(e.potential, 15));
-  out << fmt::format("  relative residual {} (|grad V - Q| = {}, {} Newton iteration{})\n",
-                     sci(e.residual), sci(e.residual_norm), e.iterations, e.iterations == 1 ? "" : "s");
+  out << fmt::format("  relative residual {} (|grad V - Q{}| = {}, {} Newton iteration{})\n", sci(e.residual),
+                     r.constraint_forces.empty() ? "" : " - grad c s", sci(e.residual_norm), e.iterations,
+                     e.iterations == 1 ? "" : "s");
   if (!r.steady.empty()) {
     out << "  steady motion (ignorable coordinates; the others analyzed at these momenta by Routh's reduction):\n";
     for (const SteadyRate& sr : r.steady)
       out << fmt::format("    {}' = {} /s, momentum {}\n", sr.coordinate, num(sr.rate, 12), num(sr.momentum, 12));
+  }
+  if (!r.constraint_forces.empty()) {
+    // Point constraints: the force on end a (N, world components); distance: the tension.
+    const std::vector<ConstraintEquationForce> eq = constraint_equation_forces(r);
+    auto value = [&](std::size_t i) { return eq[i].determined ? num(eq[i].force, 10) : std::string("undetermined"); };
+    out << "  constraint forces (Lagrange multipliers, N):\n";
+    std::size_t cw = 0;
+    for (const ConstraintForce& f : r.constraint_forces) cw = std::max(cw, f.name.size());
+    std::size_t row = 0;
+    for (const ConstraintForce& f : r.constraint_forces) {
+      if (f.type == Constraint::Type::point) {
+        out << fmt::format("    {:<{}}  point     force on its first end (x, y, z) = ({}, {}, {})\n", f.name, cw,
+                           value(row), value(row + 1), value(row + 2));
+        row += 3;
+      } else {
+        const std::string t = eq[row].determined ? num(std::abs(eq[row].force), 10) : "undetermined";
+        out << fmt::format("    {:<{}}  distance  {} {}\n", f.name, cw,
+                           eq[row].determined && eq[row].force > 0 ? "compression" : "tension", t);
+        row += 1;
+      }
+    }
   }
 
   out << "\nStability: " << describe_stability(r) << '\n';
@@ -274,12 +296,12 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   double total_mass = 0;
   out << fmt::format("\nBodies ({})\n", bodies.size());
   if (!bodies.empty())
-    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", "name", "joint", "parent", "mass [kg]",
+    out << fmt::format("  {:<16}  {:<8}  {:<16}  {:>14}  {}\n", "name", "joint", "parent", "mass [kg]",
                        "coordinates");
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     total_mass += body.mass;
-    out << fmt::format("  {:<16}  {:<6}  {:<16}  {:>14}  {}\n", body.name, to_string(body.joint),
+    out << fmt::format("  {:<16}  {:<8}  {:<16}  {:>14}  {}\n", body.name, to_string(body.joint),
                        body_name(body.parent), num(body.mass, 10),
                        system.joint_size(static_cast<int>(b)));
   }
@@ -314,6 +336,16 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   for (const FollowerLoad& l : system.followers())
     out << fmt::format("  {} at {}: force {} N (follower load, body frame)\n", body_name(l.at.body),
                        vec(l.at.point), vec(l.force));
+
+  if (system.has_constraints()) {
+    out << fmt::format("\nConstraints ({}, {} equation{})\n", system.constraints().size(),
+                       system.constraint_equations(), system.constraint_equations() == 1 ? "" : "s");
+    for (const Constraint& c : system.constraints())
+      out << fmt::format("  {}: {} {} {} -- {} {}{}\n", c.name,
+                         c.type == Constraint::Type::point ? "point" : "distance", body_name(c.a.body), vec(c.a.point),
+                         body_name(c.b.body), vec(c.b.point),
+                         c.type == Constraint::Type::distance ? fmt::format(", length {} m", num(c.length, 12)) : "");
+  }
 
   out << fmt::format("\nTotal mass: {} kg\n", num(total_mass, 12));
   out << fmt::format("Gravity: {} m/s^2\n", vec(system.gravity()));

@@ -101,6 +101,19 @@ int right_hand_side(double, const double y[], double f[], void* params) {
   return GSL_SUCCESS;
 }
 
+// Constrained systems: q onto c(q) = 0 (project_onto_constraints) and q̇ onto
+// the tangent space, q̇ ← N Nᵀ q̇ with N the orthonormal null-space basis of A.
+// Returns whether anything moved.
+bool project_state(const System& s, Workspace& w, Eigen::Ref<VectorX> q, Eigen::Ref<VectorX> qd) {
+  const ConstraintProjection p = project_onto_constraints(s, w, q);
+  const MatrixX& N = constraint_basis(constraint_jacobian(s, w, p.q)).null_space;
+  const VectorX v = N * (N.transpose() * qd);
+  const bool moved = p.q != q || v != qd;
+  q = p.q;
+  qd = v;
+  return moved;
+}
+
 struct DriverFree {
   void operator()(gsl_odeiv2_driver* d) const { gsl_odeiv2_driver_free(d); }
 };
@@ -115,14 +128,22 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
   const std::vector<double> times = sample_times(options);
   const Eigen::Index n = s.size();
   Workspace ws(s);
+  VectorX q_start = q0, qd_start = qd0;
+  if (s.has_constraints()) {
+    const double violation = constraint_values(s, ws, q0).norm();
+    if (!(violation <= 1e-8 * s.length_scale()))
+      throw std::invalid_argument("simulate: the initial configuration does not satisfy the constraints (‖c‖ = " +
+                                  number(violation) + " m); start from an equilibrium or a point on the manifold");
+    project_state(s, ws, q_start, qd_start);
+  }
 
   Trajectory tr;
   tr.coordinates = s.coordinate_names();
   tr.conservative = !s.has_damping() && !s.has_follower_loads();
 
   // Absolute error scales per component (header comment).
-  const double e0 = energy(s, ws, q0, qd0);
-  const double t0 = kinetic_energy(s, ws, q0, qd0);
+  const double e0 = energy(s, ws, q_start, qd_start);
+  const double t0 = kinetic_energy(s, ws, q_start, qd_start);
   double work_scale = std::max({std::abs(e0), t0, std::abs(e0 - t0)});
   if (!(work_scale > 0) || !std::isfinite(work_scale)) work_scale = 1;
   std::vector<double> scale(static_cast<std::size_t>(2 * n + 1), 1.0);
@@ -145,11 +166,12 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
   if (!driver) throw NumericalError("simulate: GSL could not allocate the integrator");
 
   std::vector<double> y(static_cast<std::size_t>(2 * n + 1));
-  Eigen::Map<VectorX>(y.data(), n) = q0;
-  Eigen::Map<VectorX>(y.data() + n, n) = qd0;
+  Eigen::Map<VectorX>(y.data(), n) = q_start;
+  Eigen::Map<VectorX>(y.data() + n, n) = qd_start;
   y.back() = 0;
 
   double t = 0, max_kinetic = 0, max_work = 0;
+  long steps_before_reset = 0, rejected_before_reset = 0;  // counts of the integrator before restarts
   for (const double target : times) {
     if (target > t) {
       const int status = gsl_odeiv2_driver_apply(driver.get(), &t, target, y.data());
@@ -171,6 +193,12 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
     if (!q.allFinite() || !qd.allFinite() || !std::isfinite(y.back()))
       throw NumericalError("simulate: the integration failed at t = " + number(t) +
                            " s: the state is not finite (the motion blew up)");
+    if (s.has_constraints() &&
+        project_state(s, ws, Eigen::Map<VectorX>(y.data(), n), Eigen::Map<VectorX>(y.data() + n, n))) {
+      steps_before_reset += static_cast<long>(driver->e->count);
+      rejected_before_reset += static_cast<long>(driver->e->failed_steps);
+      gsl_odeiv2_driver_reset(driver.get());
+    }
     tr.time.push_back(target);
     tr.q.emplace_back(q);
     tr.qd.emplace_back(qd);
@@ -188,8 +216,8 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
     tr.energy_error.push_back(relative);
     tr.max_energy_error = std::max(tr.max_energy_error, std::abs(relative));
   }
-  tr.steps = static_cast<long>(driver->e->count);
-  tr.rejected_steps = static_cast<long>(driver->e->failed_steps);
+  tr.steps = steps_before_reset + static_cast<long>(driver->e->count);
+  tr.rejected_steps = rejected_before_reset + static_cast<long>(driver->e->failed_steps);
   tr.evaluations = rhs.evaluations;
   return tr;
 }

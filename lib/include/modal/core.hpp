@@ -387,6 +387,10 @@ VectorX frame_coupling(const System& s, Workspace& w, const VectorX& q);
 // when the frame does not rotate). Exact (AD through the templated g).
 MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q);
 // Accelerations q̈ = M⁻¹(Q − C q̇ − G q̇ − ∇V). Throws NumericalError if M is singular.
+// With constraints, the q̈ of Lagrange's equations of the first kind,
+// M q̈ = Q − C q̇ − G q̇ − ∇V + ∇c s with A q̈ = −q̇ᵀ∇∇c q̇ (the constraints
+// held to second order), by the null-space method on the independent
+// equations; then NᵀMN must be positive definite.
 VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
 
 // --- steady motions (maps with ignorable coordinates) -------------------------
@@ -416,6 +420,23 @@ MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q);
 // same tree accumulation as ∇∇V with the constraint forces as cotangents).
 // Throws NumericalError for a distance constraint whose points coincide.
 MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers);
+
+// q̇ᵀ∇∇c_i q̇ (m): the part of the constraint accelerations d²c/dt² = A q̈ + this
+// that does not depend on q̈. Exact (second-order forward AD along q̇ through
+// the kinematics, one pass for all equations).
+VectorX constraint_curvature(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+
+// A configuration brought onto c(q) = 0 from q by Gauss–Newton with
+// minimum-norm steps (a complete orthogonal decomposition of A, so redundant
+// equations do no harm), each limited to 0.5 rad or length scales, with
+// backtracking on ‖c‖; stops at ‖c‖ ≤ 1e-15 × length scale or when ‖c‖ stops
+// decreasing. `violation` is ‖c‖ (m) at the point returned (∞ if c is
+// undefined at q).
+struct ConstraintProjection {
+  VectorX q;
+  double violation = 0;
+};
+ConstraintProjection project_onto_constraints(const System& s, Workspace& w, const VectorX& q);
 
 // Rank structure of constraint equations with Jacobian A (m×n) at one
 // configuration, from a column-pivoted Householder QR of Aᵀ: an equation is

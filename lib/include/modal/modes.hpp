@@ -57,6 +57,10 @@ struct ModalResult {
   // The steady motion analyzed (rates and momenta of ignorable coordinates,
   // copied from the linear model); empty for an equilibrium proper.
   std::vector<SteadyRate> steady;
+  // Constraints (copied from the linear model): the constraint forces at the
+  // equilibrium and the redundant equations; empty without constraints.
+  std::vector<ConstraintForce> constraint_forces;
+  std::vector<std::string> redundant_equations;
 };
 
 // The mass matrix is singular (or not positive definite) at the point: the

@@ -72,6 +72,17 @@ std::string csv_field(std::string_view text);
 // index 1: statically unstable)" or "marginal (2 zero-frequency modes)".
 std::string describe_stability(const ModalResult& result);
 
+// One constraint equation's force at an equilibrium: the equation's name
+// ("loop.x", "rod"), its multiplier s (N; point: the force component on end a;
+// distance: positive pushing the ends apart, −s is the tension), and whether
+// statics determines it (false for a redundant equation).
+struct ConstraintEquationForce {
+  std::string equation;
+  double force = 0;
+  bool determined = true;
+};
+std::vector<ConstraintEquationForce> constraint_equation_forces(const ModalResult& result);
+
 // --- CSV (DESIGN.md §4) -----------------------------------------------------
 // Header "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,
 // damping_ratio,stability,error_estimate"; one row per mode per equilibrium,
@@ -82,7 +93,9 @@ void write_modes_csv(std::ostream& out, const Report& report);
 // argument in degrees (complex shapes of first-order problems are scaled so
 // that the largest component is 1 at phase 0).
 void write_shapes_csv(std::ostream& out, const Report& report);
-// Header "equilibrium,stability,morse_index,potential,residual,<coordinate names>…".
+// Header "equilibrium,stability,morse_index,potential,residual,<coordinate names>…",
+// then <name>_rate,<name>_momentum per ignorable coordinate (steady motions)
+// and <equation>_force per constraint equation (N; empty when redundant).
 void write_equilibria_csv(std::ostream& out, const Report& report);
 // Writes PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv; returns
 // their paths. Throws ReportError when a file cannot be written.
@@ -100,7 +113,9 @@ void write_trajectory_csv(std::ostream& out, const Trajectory& trajectory);
 // --- JSON ---------------------------------------------------------------------
 // `modal analyze`: {scene, title, parameters{name: value}, coordinates[names],
 // equilibrium{coordinates{name: value}, potential, residual, residual_norm,
-// iterations}, stability, morse_index, zero_modes, modes[{mode, omega2,
+// iterations}, stability, morse_index, zero_modes, [constraints[{name, type,
+// force (point: [x, y, z] on end a, null where not determined) | multiplier
+// and tension (distance)}], redundant_equations[names],] modes[{mode, omega2,
 // growth_rate, omega, frequency_hz, period, damping_ratio, error_estimate, kind,
 // stability, shape[real], shape_imag[only when complex]}], solver, notes}
 // for the first equilibrium of the report (indented text).

@@ -20,6 +20,15 @@
 // its defect measures the integration error. For a conservative scene W ≡ 0
 // and E is conserved.
 //
+// Constraints: q̈ solves Lagrange's equations of the first kind with the
+// constraints held to second order (accelerations(), null-space method). The
+// start must satisfy c(q0) = 0 to 1e-8 × the length scale (q0 is then
+// projected onto the manifold exactly) and q̇0 is projected onto its tangent
+// space (A q̇0 = 0: velocity components the constraints forbid are removed).
+// The drift of c and A q̇ that integration error leaves is removed at every
+// output sample by the same projections (and the integrator restarted there),
+// so it never grows beyond one sample interval's worth.
+//
 // Integrator: GSL odeiv2 driver with the explicit Runge–Kutta Prince–Dormand
 // 8(9) pair (rk8pd), adaptive steps. Each step keeps the local error estimate
 // of every state component y_i below
