@@ -107,6 +107,53 @@ TEST(constraints, InvertedParticlePendulumDiverges) {
   EXPECT_EQ(r.stability, Stability::divergence);
 }
 
+// R7 with a constraint: a particle held on a hoop (distance R from the hoop's
+// centre, y fixed) in a frame spinning at Ω about the vertical. The bottom has
+// ω² = g/R − Ω² (the centrifugal potential and the multiplier term together).
+TEST(constraints, BeadOnAHoopThroughAConstraint) {
+  const double R = 0.5, Omega = 2.0;
+  SystemDescription d;
+  d.gravity = Vec3(0, 0, -g);
+  d.frame_rotation = Vec3(0, 0, Omega);
+  d.bodies.push_back(particle("bead", Vec3(0, 0, -R), 0.3, {true, false, true}));
+  d.constraints.push_back(distance("hoop", {0, Vec3::Zero()}, {-1, Vec3::Zero()}, R));
+  const System s(d);
+  const Equilibrium e = find_equilibrium(s, s.initial_configuration());
+  const ModalResult r = solve_modes(linearize(s, e.q));
+  ASSERT_EQ(r.modes.size(), 1u);
+  EXPECT_NEAR(r.modes[0].omega2, g / R - Omega * Omega, 1e-13 * g / R);
+}
+
+// Damping through the projection: the planar particle pendulum with a
+// horizontal spring-damper at the bob, m ẍ + c ẋ + (m g/l + k) x = 0 along the
+// tangent: s = −c/2m ± i √((g/l + k/m) − (c/2m)²).
+TEST(constraints, DampedConstrainedModeMatchesTheOscillator) {
+  const double m = 0.8, l = 1.2, k = 3.0, c = 0.4, dx = 0.7;
+  SystemDescription d;
+  d.gravity = Vec3(0, 0, -g);
+  d.bodies.push_back(particle("bob", Vec3(0, 0, -l), m, {true, false, true}));
+  d.constraints.push_back(distance("rod", {0, Vec3::Zero()}, {-1, Vec3::Zero()}, l));
+  Spring sp;
+  sp.a = {0, Vec3::Zero()};
+  sp.b = {-1, Vec3(-dx, 0, -l)};
+  sp.stiffness = k;
+  sp.damping = c;
+  sp.rest_length = dx;
+  d.springs.push_back(sp);
+  const System s(d);
+  const Equilibrium e = find_equilibrium(s, s.initial_configuration());
+  const LinearModel lin = linearize(s, e.q);
+  ASSERT_TRUE(lin.has_damping);
+  const ModalResult r = solve_modes(lin);
+  ASSERT_EQ(r.modes.size(), 1u);
+  const double sigma = -c / (2 * m), w = std::sqrt(g / l + k / m - sigma * sigma);
+  EXPECT_NEAR(r.modes[0].growth_rate, sigma, 1e-12);
+  EXPECT_NEAR(r.modes[0].omega, w, 1e-12 * w);
+  EXPECT_EQ(r.stability, Stability::asymptotically_stable);
+  ASSERT_EQ(r.modes[0].shape.size(), 2);
+  EXPECT_NEAR(std::abs(r.modes[0].shape[1]), 0.0, 1e-14);  // tangent: no z at the bottom
+}
+
 // A rod hinged at the world at one end, its other end held up by a vertical
 // string: moments about the hinge give the tension m g / 2.
 TEST(constraints, ForcesMatchAHandComputation) {

@@ -48,9 +48,15 @@ TEST(scene_errors, UnknownKeys) {
 }
 
 TEST(scene_errors, KeysOfLaterVersions) {
-  check_error("[[lattice]]\nsize = [2, 2, 1]\n" + pendulum,
-              {1, 3, "lattice", "'lattice' is not supported by this version of modal"});
-  check_error(pendulum + "[[lattice]]\nspacing = 1\n", {5, 3, "lattice", "'lattice' is not supported by this version of modal"});
+  // Every key once planned for a later version is read now: [[lattice]] is a
+  // generator like any other table (its own errors are in test_network.cpp).
+  EXPECT_NO_THROW((void)modal::parse_scene("[[lattice]]\nsize = [2, 2, 1]\nspacing = 1\nmass = 1\nstiffness = 1\n" + pendulum,
+                                           "good.toml"));
+  check_error(pendulum + "[[lattice]]\nspacing = 1\n", {5, 1, "lattice[1].size", "missing required key 'size' in [[lattice]]"});
+  check_error(pendulum + "[[latice]]\nspacing = 1\n",
+              {5, 3, "latice", "unknown key 'latice' in the top level of the scene (did you mean 'lattice'?)"});
+  check_error("[lattice]\nsize = [2, 2, 1]\n", {1, 1, "lattice", "write [[lattice]], not [lattice]"});
+  check_error("network = 1\n", {1, 11, "network", "expected an array of tables ([[network]]), got an integer"});
   check_error(pendulum + "potential = \"x^2\"\n", {5, 1, "body[1].potential", "unknown key 'potential' in [[body]]"});
 }
 
@@ -295,6 +301,11 @@ TEST(scene_errors, MapAndBodiesDoNotMix) {
                                  "'particle' belongs to the second"});
   check_error(map_pendulum + "[[constraint]]\ntype = \"distance\"\na = \"world\"\nb = \"x\"\nlength = 1\n",
               {9, 1, "constraint", "'constraint' belongs to the second"});
+  check_error(map_pendulum + "[[lattice]]\nsize = [2, 2, 1]\nspacing = 1\nmass = 1\nstiffness = 1\n",
+              {9, 1, "lattice", "a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies; "
+                                "'lattice' belongs to the second"});
+  check_error(map_pendulum + "[[network]]\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\n",
+              {9, 1, "network", "'network' belongs to the second"});
   check_error("frame_rotation = [0, 0, 1]\n" + map_pendulum,
               {1, 18, "frame_rotation", "a map writes a moving frame with the time t"});
 }
@@ -334,7 +345,8 @@ TEST(scene_errors, FilesAndEmptyScenes) {
     EXPECT_NE(e.reason().find("No such file or directory"), std::string::npos) << e.what();
     EXPECT_EQ(std::string(e.what()), "/nonexistent/scene.toml: " + e.reason());
   }
-  check_error("title = \"nothing\"\n", {1, 1, "", "the scene has no bodies"});
+  check_error("title = \"nothing\"\n", {1, 1, "", "the scene has no bodies: add a [[body]], a [[chain]], a [[particle]], a "
+                                               "[[lattice]] or a [[network]]"});
   check_error("", {1, 1, "", "the scene has no bodies"});
 }
 

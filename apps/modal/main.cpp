@@ -24,6 +24,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <unistd.h>
@@ -52,10 +53,21 @@ struct Stopwatch {
     laps.emplace_back(std::move(name), std::chrono::duration<double, std::milli>(now - last).count());
     last = now;
   }
+  // A phase inside the next lap (measured by the library), shown indented under it.
+  void add(const std::string& name, double seconds) { inner.emplace_back(laps.size(), "  " + name, 1e3 * seconds); }
+  std::vector<std::tuple<std::size_t, std::string, double>> inner;
   void print(std::ostream& err) const {
-    for (const auto& [name, ms] : laps) err << fmt::format("timing: {:<12} {:>10.3f} ms\n", name, ms);
-    err << fmt::format("timing: {:<12} {:>10.3f} ms\n", "total",
+    for (std::size_t i = 0; i < laps.size(); ++i) {
+      for (const auto& [at, name, ms] : inner)
+        if (at == i) err << fmt::format("timing: {:<16} {:>12.3f} ms\n", name, ms);
+      err << fmt::format("timing: {:<16} {:>12.3f} ms\n", laps[i].first, laps[i].second);
+    }
+    err << fmt::format("timing: {:<16} {:>12.3f} ms\n", "total",
                        std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    // Peak resident memory of the process so far (Linux: VmHWM).
+    std::ifstream status("/proc/self/status");
+    for (std::string line; std::getline(status, line);)
+      if (line.rfind("VmHWM:", 0) == 0) err << "timing: peak memory    " << line.substr(6) << '\n';
   }
 };
 
@@ -143,8 +155,28 @@ modal::Equilibrium equilibrium_at(const modal::System& sys, const modal::VectorX
                                relative, nearest));
 }
 
+// `--solver`: which eigen-solver analyze uses.
+struct SolverChoice {
+  std::string solver = "auto";  // auto | dense | sparse
+  std::optional<double> shift;  // sparse: σ
+  double tolerance = 1e-10;     // sparse: Lanczos convergence tolerance
+  std::string export_dir;       // --export-matrices
+};
+
+// The documented rule: sparse for more than large_system_coordinates
+// coordinates when the sparse model describes the scene, else dense.
+bool use_sparse(const modal::System& sys, const SolverChoice& choice) {
+  if (choice.solver == "dense") return false;
+  const auto why = modal::sparse_unsupported(sys);
+  if (choice.solver == "sparse") {
+    if (why) throw InputError("--solver sparse: the sparse solver does not apply to this scene: " + *why);
+    return true;
+  }
+  return !why && sys.size() > modal::large_system_coordinates;
+}
+
 int run_analyze(const SceneOptions& so, int modes, const std::optional<std::string>& at, const std::string& csv,
-                const std::string& json, bool require_stable, bool timing) {
+                const std::string& json, bool require_stable, bool timing, const SolverChoice& choice) {
   Stopwatch clock;
   const modal::Scene scene = load(so);
   const modal::System sys = modal::build_system(scene);
@@ -153,12 +185,34 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
   const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration())
                                     : equilibrium_at(sys, parse_point("--at", *at, sys));
   clock.lap("equilibrium");
-  const modal::LinearModel lin = modal::linearize(sys, eq.q);
-  clock.lap("linearize");
-  modal::ModalOptions mo;
-  mo.modes = modes;
-  const modal::ModalResult result = modal::solve_modes(lin, mo);
-  clock.lap("eigen");
+  modal::ModalResult result;
+  if (use_sparse(sys, choice)) {
+    const modal::SparseLinearModel lin = modal::linearize_sparse(sys, eq.q);
+    clock.lap("assembly");
+    if (!choice.export_dir.empty()) {
+      modal::export_matrices(choice.export_dir, lin);
+      clock.lap("export");
+    }
+    modal::SparseModalOptions so_sparse;
+    if (modes > 0) so_sparse.modes = modes;
+    so_sparse.shift = choice.shift;
+    so_sparse.tolerance = choice.tolerance;
+    result = modal::solve_sparse_modes(lin.K, lin.M, so_sparse);
+    for (const auto& [phase, seconds] : result.timings) clock.add(phase, seconds);
+    clock.lap("eigen");
+  } else {
+    if (choice.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
+    const modal::LinearModel lin = modal::linearize(sys, eq.q);
+    clock.lap("linearize");
+    if (!choice.export_dir.empty()) {
+      modal::export_matrices(choice.export_dir, lin);
+      clock.lap("export");
+    }
+    modal::ModalOptions mo;
+    mo.modes = modes;
+    result = modal::solve_modes(lin, mo);
+    clock.lap("eigen");
+  }
 
   modal::Report report = modal::make_report(sys, scene.file, scene.parameters);
   report.equilibria.push_back({eq, result});
@@ -555,7 +609,24 @@ int main(int argc, char** argv) {
   analyze->add_option("--json", analyze_json, "write the whole result as JSON")->type_name("FILE");
   analyze->add_flag("--require-stable", require_stable,
                     "exit with status 3 if the equilibrium is unstable (divergence or flutter)");
-  analyze->add_flag("--timing", timing, "print the wall time of each stage on stderr");
+  analyze->add_flag("--timing", timing, "print the wall time of each stage and the peak memory on stderr");
+  SolverChoice solver_choice;
+  analyze->add_option("--solver", solver_choice.solver,
+                      "eigen-solver: dense (all modes), sparse (the --modes lowest, default 10, by shift-invert "
+                      "Lanczos with a sparse Cholesky), or auto: sparse above " +
+                          std::to_string(modal::large_system_coordinates) +
+                          " coordinates when the scene has no dampers, follower loads, constraints, rotating frame "
+                          "or map")
+      ->check(CLI::IsMember({"auto", "dense", "sparse"}))
+      ->capture_default_str();
+  analyze->add_option("--shift", solver_choice.shift,
+                      "sparse solver: find the modes with ω² nearest this shift (rad²/s²; default: the lowest)");
+  analyze->add_option("--tol", solver_choice.tolerance, "sparse solver: relative convergence tolerance")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  analyze->add_option("--export-matrices", solver_choice.export_dir,
+                      "write M, K (and D, G where present) at the equilibrium as Matrix Market files into DIR")
+      ->type_name("DIR");
 
   CLI::App* equilibria = app.add_subcommand(
       "equilibria", "enumerate equilibria with their stability and Morse index");
@@ -627,7 +698,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*analyze)
-      return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing);
+      return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing, solver_choice);
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene);
     if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes);

@@ -283,9 +283,10 @@ void tree_gradient(const System& s, const TreeState<double>& st, const Kinematic
   }
 }
 
-// H_jk += Σ e·∂²x/∂q_j∂q_k over the deposited cotangents (symmetric; the
-// formulas of the header comment, O(n·depth)).
-void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, MatrixX& H) {
+// add(j, k, h) for H_jk += Σ e·∂²x/∂q_j∂q_k over the deposited cotangents
+// (both triangles; the formulas of the header comment, O(n·depth)).
+template <class Add>
+void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, Add&& add) {
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
@@ -315,8 +316,9 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
       const Vec3 wk = P * st.omega[kk] - trP * st.omega[kk] + st.vel[kk].cross(F);
       auto pair = [&](int j) {
         const double h = st.omega[static_cast<std::size_t>(j)].dot(wk);
-        H(j, k) += h;
-        if (j != k) H(k, j) += h;
+        if (h == 0.0) return;  // translations (ω_j = 0): nothing, and no sparse entry
+        add(j, k, h);
+        if (j != k) add(k, j, h);
       };
       const bool rot_k = is_rotation_vector(body, k - k0);
       for (int j = k0; j <= k; ++j) {
@@ -342,15 +344,17 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
           const Vec3 dwk = dW.block<3, 3>(0, 3 * j).col(k);
           h(j, k) = dwk.dot(tc) + wk.dot(Pc * wj - trPc * wj);
         }
-      H.block<3, 3>(r0, r0) += 0.5 * (h + h.transpose());
+      const Mat3 sym = 0.5 * (h + h.transpose());
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) add(r0 + j, r0 + k, sym(j, k));
     }
   }
 }
 
 // H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
-template <std::size_t N, class Block>
+template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
-                       MatrixX& H) {
+                       Add&& add) {
   std::array<PointJacobian, N> J;
   for (std::size_t u = 0; u < N; ++u) J[u] = site_jacobian(s, st, sites[u]);
   for (std::size_t u = 0; u < N; ++u)
@@ -358,9 +362,31 @@ void add_local_hessian(const System& s, const TreeState<double>& st, const std::
       const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
       for (std::size_t i = 0; i < J[u].index.size(); ++i) {
         const Vec3 left = block.transpose() * J[u].column[i];
-        for (std::size_t j = 0; j < J[v].index.size(); ++j) H(J[u].index[i], J[v].index[j]) += left.dot(J[v].column[j]);
+        for (std::size_t j = 0; j < J[v].index.size(); ++j) add(J[u].index[i], J[v].index[j], left.dot(J[v].column[j]));
       }
     }
+}
+
+// Adders of Hessian entries: into a dense matrix, or as sparse triplets.
+auto dense_adder(MatrixX& H) {
+  return [&H](int j, int k, double v) { H(j, k) += v; };
+}
+auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
+  return [&t](int j, int k, double v) { t.emplace_back(j, k, v); };
+}
+
+// ∇∇V of a tree, entry by entry into add(j, k, v): the elements' local
+// Hessians (Jᵀ H_e J), the tree terms, and the joint springs.
+template <class Add> void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add) {
+  const TreeState<double>& st = kinematics(s, w, q);
+  accumulate(s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add); });
+  tree_hessian(s, st, w.cache(), q, add);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    if (bodies[b].stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
+  }
 }
 
 }  // namespace
@@ -398,16 +424,18 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
     map_eval::hessian(s, q, w.hessian);
     return w.hessian;
   }
-  const TreeState<double>& st = kinematics(s, w, q);
   MatrixX& H = w.hessian;
   H.setZero(s.size(), s.size());
-  accumulate(s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, H); });
-  tree_hessian(s, st, w.cache(), q, H);
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) H(k0 + i, k0 + i) += bodies[b].stiffness;
-  }
+  assemble_potential_hessian(s, w, q, dense_adder(H));
+  return H;
+}
+
+SparseMatrix sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) return potential_hessian(s, w, q).sparseView();
+  std::vector<Eigen::Triplet<double>> t;
+  assemble_potential_hessian(s, w, q, triplet_adder(t));
+  SparseMatrix H(s.size(), s.size());
+  H.setFromTriplets(t.begin(), t.end());  // sums the elements' contributions
   return H;
 }
 
@@ -475,10 +503,13 @@ double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd
   return kinetic_energy(s, w, q, qd) + potential(s, w, q);
 }
 
-MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
+namespace {
+
+// D(q) entry by entry into add(j, k, v) (both triangles): joint dampers, and
+// spring dampers c (uᵀ(J_a − J_b))ᵀ(uᵀ(J_a − J_b)), a rank-one term on the
+// coordinates that move either end.
+template <class Add> void assemble_damping(const System& s, Workspace& w, const VectorX& q, Add&& add) {
   const TreeState<double>& st = kinematics(s, w, q);
-  const int n = s.size();
-  MatrixX D = MatrixX::Zero(n, n);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
@@ -486,12 +517,14 @@ MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
     const int nq = s.joint_size(static_cast<int>(b));
     for (int i = 0; i < nq; ++i)
-      if (!is_rotation_vector(body, i)) D(k0 + i, k0 + i) += body.damping;
+      if (!is_rotation_vector(body, i)) add(k0 + i, k0 + i, body.damping);
     if (body.joint == JointType::ball || body.joint == JointType::free) {
       // The damper resists the relative angular velocity J_l(φ) φ̇.
       const int r0 = k0 + (body.joint == JointType::free ? 3 : 0);
       const Mat3 Jl = model::rotation_left_jacobian<double>(q.segment<3>(r0));
-      D.block<3, 3>(r0, r0) += body.damping * Jl.transpose() * Jl;
+      const Mat3 block = body.damping * Jl.transpose() * Jl;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) add(r0 + i, r0 + j, block(i, j));
     }
   }
   for (const Spring& sp : s.springs()) {
@@ -501,13 +534,43 @@ MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
     if (len == 0.0)
       throw NumericalError("a damped spring has coincident end points: the damper's direction is undefined");
     const Vec3 u = (xa - xb) / len;
-    VectorX row = VectorX::Zero(n);  // uᵀ (J_a − J_b)
+    std::vector<std::pair<int, double>> row;  // uᵀ (J_a − J_b), by coordinate
     const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
-    for (std::size_t i = 0; i < Ja.index.size(); ++i) row[Ja.index[i]] += u.dot(Ja.column[i]);
-    for (std::size_t i = 0; i < Jb.index.size(); ++i) row[Jb.index[i]] -= u.dot(Jb.column[i]);
-    D += sp.damping * row * row.transpose();
+    for (std::size_t i = 0; i < Ja.index.size(); ++i) row.emplace_back(Ja.index[i], u.dot(Ja.column[i]));
+    for (std::size_t i = 0; i < Jb.index.size(); ++i) row.emplace_back(Jb.index[i], -u.dot(Jb.column[i]));
+    for (const auto& [i, a] : row)
+      for (const auto& [j, b] : row) add(i, j, sp.damping * a * b);
   }
+}
+
+}  // namespace
+
+MatrixX damping_matrix(const System& s, Workspace& w, const VectorX& q) {
+  MatrixX D = MatrixX::Zero(s.size(), s.size());
+  assemble_damping(s, w, q, dense_adder(D));
   return D;
+}
+
+SparseMatrix sparse_damping_matrix(const System& s, Workspace& w, const VectorX& q) {
+  std::vector<Eigen::Triplet<double>> t;
+  assemble_damping(s, w, q, triplet_adder(t));
+  SparseMatrix D(s.size(), s.size());
+  D.setFromTriplets(t.begin(), t.end());
+  return D;
+}
+
+SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) return mass_matrix(s, w, q).sparseView();
+  const TreeState<double>& st = kinematics(s, w, q);
+  std::vector<Eigen::Triplet<double>> t;
+  model::mass_matrix_entries(s, st, model::composite_inertias(s, st), [&t](int j, int k, double v) {
+    if (v == 0.0) return;
+    t.emplace_back(j, k, v);
+    if (j != k) t.emplace_back(k, j, v);
+  });
+  SparseMatrix M(s.size(), s.size());
+  M.setFromTriplets(t.begin(), t.end());
+  return M;
 }
 
 VectorX generalized_forces(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
@@ -537,7 +600,7 @@ MatrixX generalized_force_jacobian(const System& s, Workspace& w, const VectorX&
   }
   const TreeState<double>& st = kinematics(s, w, q);
   accumulate_followers(s, w, true);
-  tree_hessian(s, st, w.cache(), q, A);
+  tree_hessian(s, st, w.cache(), q, dense_adder(A));
   for (const FollowerLoad& l : s.followers()) {
     const Vec3 x = model::world_point(st, l.at);
     const Vec3 f = follower_force(st, l);
@@ -800,7 +863,7 @@ MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, cons
     return H;
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  auto local_hessian = [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, H); };
+  auto local_hessian = [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, dense_adder(H)); };
   accumulate_sums(s, w, true, [&](auto&& deposit) {
     Eigen::Index row = 0;
     for (const Constraint& k : s.constraints()) {
@@ -823,7 +886,7 @@ MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, cons
       row += k.equations();
     }
   });
-  tree_hessian(s, st, w.cache(), q, H);
+  tree_hessian(s, st, w.cache(), q, dense_adder(H));
   return 0.5 * (H + H.transpose());
 }
 

@@ -315,12 +315,12 @@ template <class S> void frame_coupling(const System& sys, const TreeState<S>& st
   frame_coupling(sys, st, composite_inertias(sys, st), g);
 }
 
-// M(q) (n×n) by composite inertias: M_jk = ξ_jᵀ Ic(b(k)) ξ_k for j at or above k.
-template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, MX<S>& M) {
-  const int n = sys.size();
+// M(q) by composite inertias: M_jk = ξ_jᵀ Ic(b(k)) ξ_k for j at or above k,
+// handed to set(j, k, M_jk) once per pair with j at or above k (the caller
+// mirrors it); pairs off a common path are zero and never visited.
+template <class S, class Set> void mass_matrix_entries(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, Set&& set) {
   const auto& bodies = sys.bodies();
   const std::size_t nb = bodies.size();
-  M.setZero(n, n);
   for (std::size_t b = 0; b < nb; ++b) {
     const int k0 = sys.first_coordinate(static_cast<int>(b));
     for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) {
@@ -328,9 +328,7 @@ template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, c
       // coordinates of this joint up to k, then of every ancestor
       auto visit = [&](int j) {
         const auto jj = static_cast<std::size_t>(j);
-        const S mjk = st.omega[jj].dot(u.template head<3>()) + st.vel[jj].dot(u.template tail<3>());
-        M(j, k) = mjk;
-        M(k, j) = mjk;
+        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + st.vel[jj].dot(u.template tail<3>())));
       };
       for (int j = k0; j <= k; ++j) visit(j);
       for (int a = bodies[b].parent; a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
@@ -339,6 +337,15 @@ template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, c
       }
     }
   }
+}
+
+// M(q) (n×n, dense).
+template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, MX<S>& M) {
+  M.setZero(sys.size(), sys.size());
+  mass_matrix_entries(sys, st, Ic, [&M](int j, int k, const S& v) {
+    M(j, k) = v;
+    M(k, j) = v;
+  });
 }
 
 template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, MX<S>& M) {

@@ -258,6 +258,13 @@ VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q) {
 std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q, const EquilibriumOptions& options) {
   if (q.size() != s.size()) throw std::invalid_argument("polish_equilibrium: q has the wrong size");
   if (s.has_constraints()) return polish_constrained(s, q, options);
+  if (is_large_system(s)) {
+    try {
+      return find_large_equilibrium(s, q, options);
+    } catch (const NumericalError&) {
+      return std::nullopt;
+    }
+  }
   Problem p(s);
   Polished r = polish(p, q, options);
   if (!r.converged) return std::nullopt;
@@ -284,6 +291,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
   require_finite_energy(s, start);
   if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
+  if (is_large_system(s)) return find_large_equilibrium(s, start, options);
   Problem p(s);
   const VectorX local = levenberg_marquardt(p, start, options);
   Polished pol = polish(p, local, options);
@@ -310,6 +318,11 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
 std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptions& options) {
   require_finite_energy(s, s.initial_configuration());
   if (s.has_constraints()) return find_constrained_equilibria(s, options);
+  if (s.size() > large_system_coordinates)
+    throw NumericalError("the multi-start search for all equilibria is for systems of at most " +
+                         std::to_string(large_system_coordinates) + " coordinates (its Newton steps are dense); this one has " +
+                         std::to_string(s.size()) + ": use `modal analyze` (the equilibrium nearest the initial "
+                         "configuration, found with sparse matrices)");
   Problem p(s);
   SearchResult all = search(p, options);
   if (all.found.empty()) throw NumericalError(no_equilibrium_message(p, all.best_failure, all.starts));

@@ -79,6 +79,11 @@ Equilibrium find_constrained_equilibrium(const System& s, const VectorX& start, 
 std::vector<Equilibrium> find_constrained_equilibria(const System& s, const EquilibriumOptions& options);
 std::optional<Equilibrium> polish_constrained(const System& s, const VectorX& q, const EquilibriumOptions& options);
 
+// Large scenes (large.cpp): more than large_system_coordinates coordinates, a
+// conservative tree; Newton with the sparse Hessian (L-BFGS when it stalls).
+bool is_large_system(const System& s);
+Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options);
+
 // Keeps the candidate with the smaller residual among those closer than
 // configuration_distance 1e-6 (angles modulo 2π), then sorts by potential and
 // coordinates.

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -46,6 +47,26 @@ void require_finite(const MatrixX& A, const char* what, const std::vector<std::s
 }
 
 MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
+
+// The relative residual ‖r‖/force_scale of the generalized force r left
+// unbalanced at q; NotAnEquilibrium (naming the coordinate) above `tolerance`.
+double require_equilibrium(const System& s, Workspace& ws, const VectorX& q, const VectorX& r, double tolerance) {
+  const double scale = force_scale(s, ws, q);
+  const double norm = r.norm();
+  const double residual = norm == 0 ? 0.0 : (scale > 0 ? norm / scale : std::numeric_limits<double>::infinity());
+  if (residual <= tolerance) return residual;
+  Eigen::Index worst = 0;
+  r.cwiseAbs().maxCoeff(&worst);
+  const auto& coordinate = s.coordinates()[static_cast<std::size_t>(worst)];
+  std::ostringstream out;
+  out << "this configuration is not an equilibrium: the relative residual "
+      << (s.has_follower_loads() ? "‖∇V − Q" : "‖∇V") << (s.has_constraints() ? " − ∇c s‖" : "‖") << "/(force scale) is "
+      << format_number(residual, 3) << ", above the tolerance " << format_number(tolerance, 3)
+      << "; the largest unbalanced generalized force is " << format_number(-r(worst), 4) << " "
+      << force_unit(coordinate.kind) << " acting on the coordinate '" << coordinate.name
+      << "'. Find an equilibrium first (`modal equilibria`, or modal::find_equilibria) and linearize there";
+  throw NotAnEquilibrium(out.str());
+}
 
 // Constraints at q: checks c(q) = 0 (NotAnEquilibrium otherwise), decides the
 // independent equations, and returns the least-squares multipliers s (m; 0 on
@@ -122,22 +143,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     multipliers = constraint_multipliers(s, ws, q, gradient, options.tolerance, model, constraints);
     gradient -= constraint_jacobian(s, ws, q).transpose() * multipliers;
   }
-  const double scale = force_scale(s, ws, q);
-  const double norm = gradient.norm();
-  model.residual = norm == 0 ? 0.0 : (scale > 0 ? norm / scale : std::numeric_limits<double>::infinity());
-  if (!(model.residual <= options.tolerance)) {
-    Eigen::Index worst = 0;
-    gradient.cwiseAbs().maxCoeff(&worst);
-    const auto& coordinate = s.coordinates()[static_cast<std::size_t>(worst)];
-    std::ostringstream out;
-    out << "this configuration is not an equilibrium: the relative residual "
-        << (s.has_follower_loads() ? "‖∇V − Q" : "‖∇V") << (s.has_constraints() ? " − ∇c s‖" : "‖") << "/(force scale) is "
-        << format_number(model.residual, 3) << ", above the tolerance " << format_number(options.tolerance, 3)
-        << "; the largest unbalanced generalized force is " << format_number(-gradient(worst), 4) << " "
-        << force_unit(coordinate.kind) << " acting on the coordinate '" << coordinate.name
-        << "'. Find an equilibrium first (`modal equilibria`, or modal::find_equilibria) and linearize there";
-    throw NotAnEquilibrium(out.str());
-  }
+  model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   // The multiplier term of the constrained stiffness, −Σ sᵢ∇∇cᵢ (symmetric).
   MatrixX multiplier_term;
   if (s.has_constraints()) {
@@ -197,6 +203,42 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     model.G = N.transpose() * model.G * N;
     model.G = 0.5 * (model.G - model.G.transpose());
   }
+  return model;
+}
+
+std::optional<std::string> sparse_unsupported(const System& s) {
+  if (s.is_map()) return "it is a kinematic map (its matrices are dense)";
+  if (s.has_constraints()) return "it has constraints (the projection onto the constraint manifold is dense)";
+  if (s.has_follower_loads()) return "it has follower loads (K is not symmetric)";
+  if (s.has_frame_coupling()) return "it is written in a rotating frame (gyroscopic terms need the first-order solver)";
+  if (s.has_damping()) return "it has dampers (the sparse solver computes undamped modes K φ = λ M φ)";
+  return std::nullopt;
+}
+
+SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const LinearizeOptions& options) {
+  if (const auto why = sparse_unsupported(s))
+    throw std::invalid_argument("the sparse linear model does not apply to this scene: " + *why);
+  if (q.size() != s.size())
+    throw std::invalid_argument("linearize_sparse: the configuration has " + std::to_string(q.size()) +
+                                " coordinates, the system " + std::to_string(s.size()));
+  if (!q.allFinite()) throw std::invalid_argument("linearize_sparse: the configuration has non-finite coordinates");
+  SparseLinearModel model;
+  model.q = q;
+  model.coordinates = s.coordinate_names();
+  Workspace ws(s);
+  const VectorX gradient = potential_gradient(s, ws, q);
+  if (!gradient.allFinite())
+    throw NumericalError("linearize: the potential gradient ∇V is not finite at this configuration");
+  model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
+  model.K = sparse_potential_hessian(s, ws, q);
+  model.M = sparse_mass_matrix(s, ws, q);
+  for (const SparseMatrix* A : {&model.K, &model.M})
+    for (Eigen::Index k = 0; k < A->outerSize(); ++k)
+      for (SparseMatrix::InnerIterator it(*A, k); it; ++it)
+        if (!std::isfinite(it.value()))
+          throw NumericalError(std::string("linearize: the ") + (A == &model.K ? "stiffness" : "mass") +
+                               " matrix has a non-finite entry at (" + model.coordinates[static_cast<std::size_t>(it.row())] +
+                               ", " + model.coordinates[static_cast<std::size_t>(it.col())] + ")");
   return model;
 }
 

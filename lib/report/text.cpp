@@ -105,7 +105,13 @@ void print_analysis(std::ostream& out, const Report& report) {
   const std::size_t w = name_width(report, n, 8);
 
   out << "\nEquilibrium\n";
-  for (std::size_t i = 0; i < n; ++i) {
+  if (n > 40) {  // a large scene: a summary instead of every coordinate (the CSV has them all)
+    Eigen::Index big = 0;
+    const double largest = e.q.size() > 0 ? e.q.cwiseAbs().maxCoeff(&big) : 0.0;
+    out << fmt::format("  {} coordinates; the largest |q| is {} ({}); all in the CSV/JSON output\n", n,
+                       num(largest, 10), coordinate_name(report, static_cast<std::size_t>(big)));
+  }
+  for (std::size_t i = 0; i < (n > 40 ? 0 : n); ++i) {
     const double v = is_angular(report, i) ? display_angle(e.q[static_cast<Eigen::Index>(i)])
                                            : e.q[static_cast<Eigen::Index>(i)];
     if (is_angular(report, i))

@@ -127,6 +127,22 @@ Mat3 read_inertia(const Section& s);
 // system, DESIGN.md §3) into d.map; false when the scene has none of them.
 bool read_map(const Reader& reader, const toml::table& root, SystemDescription& d);
 
+// Particles (bodies on the world) and springs made by a [[lattice]] or a
+// [[network]] (network.cpp); the springs' ends index `bodies`, and parse_scene
+// shifts them when it places the block among the other bodies.
+struct Generated {
+  std::string name;                       // the generator's name, prefix of its particles' names
+  SourceLocation location;                // the table
+  const toml::node* name_node = nullptr;  // where the name is written (null: the default)
+  std::string name_key;
+  std::vector<Body> bodies;               // particle or fixed joints, parent −1
+  std::vector<Spring> springs;
+  std::string csv;                        // network: the nodes file as resolved
+  std::vector<int> lines;                 // network: each node's line in `csv`
+};
+Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index);
+Generated read_network(const Reader& reader, const toml::table& table, std::size_t index);
+
 // Resolves [parameters] (may be null) with the command-line overrides:
 // definitions in any order, expressions over other parameters, cycles and
 // undefined names reported with their location.

@@ -1,15 +1,22 @@
 // Scene files (DESIGN.md §3, version 1) to validated SystemDescriptions.
 //
 // Reading goes section by section: [parameters] first (every other number may
-// use them), then [[body]], [[chain]] (chains expand into hinge bodies) and
+// use them), then [[body]], [[chain]] (chains expand into hinge bodies),
 // [[particle]] (point masses on a particle joint to the world, or a fixed joint
-// when all three axes are fixed), the bodies ordered so that parents precede
-// children and otherwise kept in file order, then [[spring]], [[load]] and
-// [[constraint]] (loop closures: two points coincide, or keep their distance),
-// which refer to bodies and particles by name. A scene with [coordinates] is a
-// kinematic map instead (lib/scene/map.cpp) and has none of these. Every check
-// that System's constructor makes is made here first, with a located message,
-// so that building never throws.
+// when all three axes are fixed) and the generators [[lattice]] and
+// [[network]] (network.cpp: blocks of particles on the world and the springs
+// between them, from a grid or from CSV files). The bodies are ordered so that
+// parents precede children and otherwise kept in file order, a generator's
+// particles staying together where its table is; every name must be unique
+// across all of them (one hash table, so that 10⁶ generated particles cost
+// little). Then [[spring]], [[load]] and [[constraint]] (loop closures: two
+// points coincide, or keep their distance), which refer to bodies and
+// particles by name — generated ones too ("net.3.4", "tower.a3") — and last
+// the generators' springs, their ends shifted to where their block was
+// placed. A scene with [coordinates] is a kinematic map instead
+// (lib/scene/map.cpp) and has none of these. Every check that System's
+// constructor makes is made here first, with a located message, so that
+// building never throws.
 #include "modal/scene.hpp"
 
 #include "scene/reader.hpp"
@@ -27,9 +34,9 @@
 #include <functional>
 #include <map>
 #include <queue>
-#include <set>
 #include <sstream>
 #include <tuple>
+#include <unordered_map>
 
 namespace modal {
 
@@ -271,21 +278,67 @@ BodyEntry read_particle(const Reader& reader, const toml::table& table, std::siz
   throw SceneError(e.location, key, reason);
 }
 
+using scene_detail::Generated;
+
+// What the ordering places as one: a body read from a [[body]], a chain link
+// or a [[particle]] (an entry), or all the particles of a [[lattice]] or
+// [[network]] (a block: bodies on the world, kept together).
+struct Unit {
+  bool block = false;
+  std::size_t index = 0;  // into the entries or the blocks
+  std::tuple<int, int, int> order;
+};
+
+// Where a body name is defined while the bodies are ordered.
+struct NameRef {
+  std::size_t unit = 0;
+  int local = 0;  // index in a block's bodies; 0 for an entry
+};
+
+// "the [[body]] at line 3", "chain 'c' at line 5", "[[lattice]] 'net' at line
+// 7", "node 'a' of [[network]] 'tower' (data/nodes.csv line 4)".
+std::string describe_user(const std::vector<BodyEntry>& entries, const std::vector<Generated>& blocks, const Unit& u,
+                          int local) {
+  if (!u.block) {
+    const BodyEntry& e = entries[u.index];
+    return (!e.chain.empty() ? "chain '" + e.chain + "'" : e.particle ? "the [[particle]]" : "the [[body]]") +
+           " at line " + std::to_string(e.location.line);
+  }
+  const Generated& g = blocks[u.index];
+  const auto l = static_cast<std::size_t>(local);
+  if (!g.csv.empty())
+    return "node '" + g.bodies[l].name.substr(g.name.size() + 1) + "' of [[network]] '" + g.name + "' (" + g.csv +
+           " line " + std::to_string(g.lines[l]) + ")";
+  return "[[lattice]] '" + g.name + "' at line " + std::to_string(g.location.line);
+}
+
 // Orders bodies so that parents precede children, keeping file order where
 // the tree allows (among the bodies whose parent is placed, the earliest in the
-// file comes next), and resolves parent names to indices.
-void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemDescription& description,
-                  std::vector<SourceLocation>& locations) {
-  std::map<std::string, std::size_t> by_name;
-  std::vector<std::string> names;
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    const BodyEntry& e = entries[i];
-    const auto [it, inserted] = by_name.emplace(e.body.name, i);
-    if (!inserted) {
-      const BodyEntry& first = entries[it->second];
-      const std::string user =
-          (!first.chain.empty() ? "chain '" + first.chain + "'" : first.particle ? "the [[particle]]" : "the [[body]]") +
-          " at line " + std::to_string(first.location.line);
+// file comes next), and resolves parent names to indices. Names must be unique
+// across entries and blocks (one hash table, no per-body string work beyond
+// hashing). Fills the scene's bodies and their locations, `particle` (whether
+// each body is a particle) and the first body index of each block.
+void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, std::vector<Generated>& blocks,
+                  Scene& scene, std::vector<bool>& particle, std::vector<int>& block_start) {
+  std::vector<Unit> units;
+  units.reserve(entries.size() + blocks.size());
+  std::size_t total = entries.size();
+  for (std::size_t i = 0; i < entries.size(); ++i) units.push_back({false, i, entries[i].order});
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    units.push_back({true, i, {blocks[i].location.line, blocks[i].location.column, 0}});
+    total += blocks[i].bodies.size();
+  }
+  std::stable_sort(units.begin(), units.end(), [](const Unit& x, const Unit& y) { return x.order < y.order; });
+
+  std::unordered_map<std::string_view, NameRef> by_name;
+  by_name.reserve(total);
+  for (std::size_t u = 0; u < units.size(); ++u) {
+    const Unit& unit = units[u];
+    if (!unit.block) {
+      const BodyEntry& e = entries[unit.index];
+      const auto [it, inserted] = by_name.emplace(e.body.name, NameRef{u, 0});
+      if (inserted) continue;
+      const std::string user = describe_user(entries, blocks, units[it->second.unit], it->second.local);
       const std::string reason =
           e.chain.empty() ? std::string(e.particle ? "duplicate particle name '" : "duplicate body name '") +
                                 e.body.name + "': already used by " + user
@@ -293,93 +346,133 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, SystemD
                                 "', which is already used by " + user;
       fail_entry(reader, e, e.name_node, e.name_key, reason);
     }
-    names.push_back(e.body.name);
+    const Generated& g = blocks[unit.index];
+    for (std::size_t l = 0; l < g.bodies.size(); ++l) {
+      const auto [it, inserted] = by_name.emplace(g.bodies[l].name, NameRef{u, static_cast<int>(l)});
+      if (inserted) continue;
+      const std::string user = describe_user(entries, blocks, units[it->second.unit], it->second.local);
+      if (!g.csv.empty())
+        throw SceneError(SourceLocation{g.csv, g.lines[l], 1}, "name",
+                         "node '" + g.bodies[l].name.substr(g.name.size() + 1) + "' of [[network]] '" + g.name +
+                             "' is the particle '" + g.bodies[l].name + "', a name already used by " + user);
+      const std::string reason = "[[lattice]] '" + g.name + "' generates the particle name '" + g.bodies[l].name +
+                                 "', which is already used by " + user;
+      if (g.name_node != nullptr) reader.fail(*g.name_node, g.name_key, reason);
+      throw SceneError(g.location, g.name_key, reason);
+    }
   }
 
-  const std::size_t n = entries.size();
+  const std::size_t n = units.size();
   constexpr std::size_t world = static_cast<std::size_t>(-1);
-  std::vector<std::size_t> parent(n, world);
+  std::vector<NameRef> parent(n, NameRef{world, 0});
   std::vector<std::vector<std::size_t>> children(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const BodyEntry& e = entries[i];
+  for (std::size_t u = 0; u < n; ++u) {
+    if (units[u].block) continue;  // generated particles hang from the world
+    const BodyEntry& e = entries[units[u].index];
     if (e.parent == "world") continue;
     const auto it = by_name.find(e.parent);
-    if (it == by_name.end())
+    if (it == by_name.end()) {
+      std::vector<std::string> names;
+      for (const Unit& unit : units) {
+        if (!unit.block) names.push_back(entries[unit.index].body.name);
+        else for (const Body& b : blocks[unit.index].bodies) names.push_back(b.name);
+      }
       fail_entry(reader, e, e.parent_node, e.parent_key,
                  "unknown parent body '" + e.parent + "'" + did_you_mean(e.parent, names) +
                      "; a parent is \"world\" or the name of a body of this scene");
-    parent[i] = it->second;
-    children[it->second].push_back(i);
+    }
+    parent[u] = it->second;
+    children[it->second.unit].push_back(u);
   }
+  by_name.clear();  // its keys view names that are about to move
 
   std::priority_queue<std::size_t, std::vector<std::size_t>, std::greater<>> ready;
-  for (std::size_t i = 0; i < n; ++i)
-    if (parent[i] == world) ready.push(i);
-  std::vector<int> new_index(n, -1);
+  for (std::size_t u = 0; u < n; ++u)
+    if (parent[u].unit == world) ready.push(u);
+  std::vector<int> start(n, -1);  // index of the unit's first body once placed
   std::vector<std::size_t> sequence;
+  int placed = 0;
   while (!ready.empty()) {
-    const std::size_t i = ready.top();
+    const std::size_t u = ready.top();
     ready.pop();
-    new_index[i] = static_cast<int>(sequence.size());
-    sequence.push_back(i);
-    for (const std::size_t c : children[i]) ready.push(c);
+    start[u] = placed;
+    placed += units[u].block ? static_cast<int>(blocks[units[u].index].bodies.size()) : 1;
+    sequence.push_back(u);
+    for (const std::size_t c : children[u]) ready.push(c);
   }
 
   if (sequence.size() < n) {
     // Some bodies never reach the world: follow parents from one of them
-    // until a body repeats; that part is a cycle.
-    std::size_t i = static_cast<std::size_t>(std::find(new_index.begin(), new_index.end(), -1) - new_index.begin());
+    // until a body repeats; that part is a cycle (of entries: blocks are
+    // placed at once).
+    std::size_t i = static_cast<std::size_t>(std::find(start.begin(), start.end(), -1) - start.begin());
     std::vector<bool> seen(n, false);
     while (!seen[i]) {
       seen[i] = true;
-      i = parent[i];
+      i = parent[i].unit;
     }
     std::vector<std::size_t> cycle{i};
-    for (std::size_t j = parent[i]; j != i; j = parent[j]) cycle.push_back(j);
+    for (std::size_t j = parent[i].unit; j != i; j = parent[j].unit) cycle.push_back(j);
     // Report where a member names its parent, the earliest in the file.
+    auto entry = [&](std::size_t u) -> const BodyEntry& { return entries[units[u].index]; };
     std::size_t culprit = cycle.front();
     for (const std::size_t j : cycle)
-      if (entries[j].parent_node != nullptr && (entries[culprit].parent_node == nullptr || j < culprit)) culprit = j;
-    const auto start = std::find(cycle.begin(), cycle.end(), culprit);
-    std::rotate(cycle.begin(), start, cycle.end());
+      if (entry(j).parent_node != nullptr && (entry(culprit).parent_node == nullptr || j < culprit)) culprit = j;
+    const auto first = std::find(cycle.begin(), cycle.end(), culprit);
+    std::rotate(cycle.begin(), first, cycle.end());
     std::string path;
-    for (const std::size_t j : cycle) path += entries[j].body.name + " -> ";
-    path += entries[culprit].body.name;
-    const BodyEntry& e = entries[culprit];
+    for (const std::size_t j : cycle) path += entry(j).body.name + " -> ";
+    path += entry(culprit).body.name;
+    const BodyEntry& e = entry(culprit);
     fail_entry(reader, e, e.parent_node, e.parent_key,
                "bodies form a parent cycle (each followed by its parent): " + path);
   }
 
-  for (const std::size_t i : sequence) {
-    BodyEntry& e = entries[i];
-    e.body.parent = parent[i] == world ? -1 : new_index[parent[i]];
-    description.bodies.push_back(std::move(e.body));
-    locations.push_back(e.location);
+  SystemDescription& description = scene.description;
+  description.bodies.reserve(total);
+  scene.body_locations.reserve(total);
+  particle.reserve(total);
+  block_start.assign(blocks.size(), 0);
+  for (const std::size_t u : sequence) {
+    if (!units[u].block) {
+      BodyEntry& e = entries[units[u].index];
+      e.body.parent = parent[u].unit == world ? -1 : start[parent[u].unit] + parent[u].local;
+      description.bodies.push_back(std::move(e.body));
+      scene.body_locations.push_back(e.location);
+      particle.push_back(e.particle);
+      continue;
+    }
+    Generated& g = blocks[units[u].index];
+    block_start[units[u].index] = start[u];
+    for (std::size_t l = 0; l < g.bodies.size(); ++l) {
+      description.bodies.push_back(std::move(g.bodies[l]));
+      scene.body_locations.push_back(g.csv.empty() ? g.location : SourceLocation{g.csv, g.lines[l], 1});
+    }
+    particle.insert(particle.end(), g.bodies.size(), true);
   }
 }
 
 // A body index by name ("world" is −1) for springs, loads and constraints;
 // particles are bodies. "<chain>.tip" names the last link of the chain called
 // <chain>, whatever its length (a body whose own name is exactly that takes
-// precedence).
+// precedence). Keeps views of the bodies' names: the bodies must outlive it
+// unchanged. The hash table is made at the first look-up (a scene of
+// generators alone needs none).
 class BodyNames {
  public:
-  BodyNames(const std::vector<Body>& bodies, std::map<std::string, std::string> chain_tips,
-            const std::set<std::string>& particles)
-      : tips_(std::move(chain_tips)) {
-    for (std::size_t i = 0; i < bodies.size(); ++i) {
-      index_.emplace(bodies[i].name, static_cast<int>(i));
-      names_.push_back(bodies[i].name);
-      particle_.push_back(particles.contains(bodies[i].name));
-    }
-  }
-  const std::string& name(int index) const { return names_[static_cast<std::size_t>(index)]; }
-  // Whether body `index` (≥ 0) was written as a [[particle]] (possibly fixed).
+  BodyNames(const std::vector<Body>& bodies, std::map<std::string, std::string> chain_tips, std::vector<bool> particle)
+      : bodies_(bodies), particle_(std::move(particle)), tips_(std::move(chain_tips)) {}
+  const std::string& name(int index) const { return bodies_[static_cast<std::size_t>(index)].name; }
+  // Whether body `index` (≥ 0) is a particle ([[particle]], [[lattice]] or [[network]]; possibly fixed).
   bool particle(int index) const { return particle_[static_cast<std::size_t>(index)]; }
   int find(const Section& s, std::string_view key, const std::string& name, bool allow_world) const {
     if (name == "world") {
       if (!allow_world) s.fail(key, "must name a body, not the world");
       return -1;
+    }
+    if (index_.empty()) {
+      index_.reserve(bodies_.size());
+      for (std::size_t i = 0; i < bodies_.size(); ++i) index_.emplace(bodies_[i].name, static_cast<int>(i));
     }
     const auto it = index_.find(name);
     if (it != index_.end()) return it->second;
@@ -395,14 +488,16 @@ class BodyNames {
       }
       return index_.at(t->second);
     }
-    std::vector<std::string> candidates = names_;
+    std::vector<std::string> candidates;
+    candidates.reserve(bodies_.size() + 1);
+    for (const Body& b : bodies_) candidates.push_back(b.name);
     if (allow_world) candidates.emplace_back("world");
     s.fail(key, "unknown body '" + name + "'" + did_you_mean(name, candidates));
   }
 
  private:
-  std::map<std::string, int> index_;
-  std::vector<std::string> names_;
+  const std::vector<Body>& bodies_;
+  mutable std::unordered_map<std::string_view, int> index_;
   std::vector<bool> particle_;               // by body index
   std::map<std::string, std::string> tips_;  // chain name → its last body's name
 };
@@ -521,6 +616,41 @@ void read_load(const Reader& reader, const toml::table& table, std::size_t index
     d.loads.push_back({at, force});
 }
 
+// [[lattice]] and [[network]] names are unique among generators (they prefix
+// their particles' names); checked before any generator is read, so that no
+// CSV file is opened for a scene with this mistake. A name that is not a
+// string is left to the generator to report.
+void check_generator_names(const Reader& reader, const std::vector<const toml::table*>& lattices,
+                           const std::vector<const toml::table*>& networks) {
+  struct Named {
+    std::string name, kind, key;
+    const toml::node* node;
+    SourceLocation location;
+  };
+  std::vector<Named> all;
+  for (const auto& [tables, kind] : {std::pair{&lattices, "lattice"}, std::pair{&networks, "network"}})
+    for (std::size_t i = 0; i < tables->size(); ++i) {
+      const toml::table& table = *(*tables)[i];
+      const toml::node* node = table.get("name");
+      if (node != nullptr && !node->is_string()) continue;
+      all.push_back({node != nullptr ? node->as_string()->get() : std::string(kind), "[[" + std::string(kind) + "]]",
+                     scene_detail::index_key(kind, i) + ".name", node, reader.location(table)});
+    }
+  std::stable_sort(all.begin(), all.end(), [](const Named& x, const Named& y) {
+    return std::pair(x.location.line, x.location.column) < std::pair(y.location.line, y.location.column);
+  });
+  std::map<std::string, const Named*> seen;
+  for (const Named& g : all) {
+    const auto [it, inserted] = seen.emplace(g.name, &g);
+    if (inserted) continue;
+    const std::string reason = "duplicate generator name '" + g.name + "': already used by the " + it->second->kind +
+                               " at line " + std::to_string(it->second->location.line) +
+                               (g.node == nullptr ? " (the default name; give each one a 'name')" : "");
+    if (g.node != nullptr) reader.fail(*g.node, g.key, reason);
+    throw SceneError(g.location, g.key, reason);
+  }
+}
+
 // The tables of the array `key` of the root, or none.
 std::vector<const toml::table*> tables_of(const Reader& reader, const toml::table& root, std::string_view key) {
   const toml::node* node = root.get(key);
@@ -541,9 +671,8 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
 
   Reader reader(file_name, text);
   const Section top(reader, root, "", "the top level of the scene");
-  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "particle", "spring", "load",
-                  "constraint", "coordinates", "point", "potential"},
-                 {"lattice"});
+  top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "particle", "lattice", "network",
+                  "spring", "load", "constraint", "coordinates", "point", "potential"});
 
   const toml::table* parameters = nullptr;
   if (const toml::node* node = top.find("parameters")) {
@@ -563,7 +692,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   d.frame_rotation = top.vector3("frame_rotation", Vec3::Zero());  // rad/s, about the world origin
 
   if (scene_detail::read_map(reader, root, d)) {
-    for (const char* key : {"body", "chain", "particle", "spring", "load", "constraint", "frame_rotation"})
+    for (const char* key : {"body", "chain", "particle", "lattice", "network", "spring", "load", "constraint", "frame_rotation"})
       if (const toml::node* node = root.get(key))
         reader.fail(*node, key,
                     std::string("a scene is either a kinematic map ([coordinates], [[point]]) or a tree of bodies; '") +
@@ -590,21 +719,43 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
     for (BodyEntry& e : links) entries.push_back(std::move(e));
   }
   const auto particles = tables_of(reader, root, "particle");
-  std::set<std::string> particle_names;
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    entries.push_back(read_particle(reader, *particles[i], i));
-    particle_names.insert(entries.back().body.name);
-  }
-  if (entries.empty())
-    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]], a [[chain]] or a [[particle]] (or write it as a kinematic map: [coordinates] and [[point]])");
+  for (std::size_t i = 0; i < particles.size(); ++i) entries.push_back(read_particle(reader, *particles[i], i));
+  std::vector<scene_detail::Generated> blocks;  // [[lattice]] and [[network]]
+  const auto lattices = tables_of(reader, root, "lattice");
+  const auto networks = tables_of(reader, root, "network");
+  check_generator_names(reader, lattices, networks);
+  for (std::size_t i = 0; i < lattices.size(); ++i) blocks.push_back(scene_detail::read_lattice(reader, *lattices[i], i));
+  for (std::size_t i = 0; i < networks.size(); ++i) blocks.push_back(scene_detail::read_network(reader, *networks[i], i));
+  if (entries.empty() && blocks.empty())
+    throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]], a [[chain]], a [[particle]], a "
+                                                "[[lattice]] or a [[network]] (or write it as a kinematic map: "
+                                                "[coordinates] and [[point]])");
   std::stable_sort(entries.begin(), entries.end(),
                    [](const BodyEntry& x, const BodyEntry& y) { return x.order < y.order; });
-  order_bodies(reader, entries, d, scene.body_locations);
+  std::vector<bool> particle;   // by body index
+  std::vector<int> block_start;  // first body index of each block
+  order_bodies(reader, entries, blocks, scene, particle, block_start);
 
-  const BodyNames names(d.bodies, chain_tips, particle_names);
+  const BodyNames names(d.bodies, chain_tips, std::move(particle));
   const std::vector<Vec3> frames = frame_positions(d.bodies);
   const auto springs = tables_of(reader, root, "spring");
+  if (!springs.empty()) {
+    std::size_t generated_springs = 0;
+    for (const auto& g : blocks) generated_springs += g.springs.size();
+    d.springs.reserve(springs.size() + generated_springs);
+  }
   for (std::size_t i = 0; i < springs.size(); ++i) d.springs.push_back(read_spring(reader, *springs[i], i, names, frames));
+  for (std::size_t b = 0; b < blocks.size(); ++b) {  // after the [[spring]]s, ends shifted to the block's place
+    std::vector<Spring>& generated = blocks[b].springs;
+    for (Spring& spring : generated) {
+      spring.a.body += block_start[b];
+      spring.b.body += block_start[b];
+    }
+    if (d.springs.empty())
+      d.springs = std::move(generated);  // a large block's springs are not copied
+    else
+      d.springs.insert(d.springs.end(), generated.begin(), generated.end());
+  }
   const auto loads = tables_of(reader, root, "load");
   for (std::size_t i = 0; i < loads.size(); ++i) read_load(reader, *loads[i], i, names, d);
   const auto constraints = tables_of(reader, root, "constraint");

@@ -58,6 +58,7 @@
 #include "modal/expression.hpp"
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 #include <array>
 #include <optional>
@@ -71,6 +72,7 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using VectorX = Eigen::VectorXd;
 using MatrixX = Eigen::MatrixXd;
+using SparseMatrix = Eigen::SparseMatrix<double>;  // column-major, int indices
 
 // Numerical trouble that makes a result impossible or untrustworthy (singular
 // mass matrix, no equilibrium, non-convergence). The message says what failed
@@ -354,6 +356,16 @@ class Workspace {
 double potential(const System& s, Workspace& w, const VectorX& q);                     // V, J
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
+
+// The same matrices assembled sparse (n×n, both triangles; exact zeros left
+// out): the elements' local derivatives and the tree terms are added entry by
+// entry, so no dense n×n matrix is formed. For a scene of particles and
+// springs each spring adds a 6×6 block and the cost is O(elements); a deep
+// tree fills in (a chain's ∇∇V is dense) and gains nothing. Maps: the dense
+// result converted.
+SparseMatrix sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q);  // ∇∇V
+SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q);        // M(q)
+SparseMatrix sparse_damping_matrix(const System& s, Workspace& w, const VectorX& q);     // D(q)
 
 // A scale for generalized forces at q, used to make residuals relative: the sum
 // over elements of |element force| × |point Jacobian| (springs counted at 100 %

@@ -37,6 +37,13 @@
 
 namespace modal {
 
+// Above this many coordinates a conservative tree (no follower loads,
+// constraints or map) is solved without dense matrices: find_equilibrium and
+// polish_equilibrium run Newton with the sparse Hessian (CHOLMOD), falling
+// back to NLopt's L-BFGS on V when Newton stalls; find_equilibria (the
+// multi-start enumeration) refuses such systems.
+inline constexpr int large_system_coordinates = 1000;
+
 struct EquilibriumOptions {
   double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q (− ∇c s)‖ / force_scale
                              // (and constraint violation ‖c‖ / length_scale)

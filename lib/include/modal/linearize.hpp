@@ -18,6 +18,7 @@
 
 #include "modal/core.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -72,5 +73,25 @@ struct LinearizeOptions {
 };
 
 LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions& options = {});
+
+// --- large scenes: the linear model assembled sparse ---------------------------
+// K = ∇∇V(q̄) and M = M(q̄) as sparse matrices (n×n, both triangles; see
+// sparse_potential_hessian), for the sparse eigen-solver (solve_sparse_modes):
+// no dense n×n matrix is formed. Only for what K φ = λ M φ describes
+// completely: see sparse_unsupported.
+struct SparseLinearModel {
+  VectorX q;                             // the equilibrium, n
+  std::vector<std::string> coordinates;  // names, n
+  SparseMatrix M;                        // mass, n×n
+  SparseMatrix K;                        // stiffness, n×n
+  double residual = 0;                   // relative equilibrium residual at q
+  int size() const { return static_cast<int>(q.size()); }
+};
+// Why the sparse model cannot describe s (a map, constraints, follower loads,
+// a rotating frame, dampers), in words; nullopt when it can.
+std::optional<std::string> sparse_unsupported(const System& s);
+// Throws std::invalid_argument when sparse_unsupported(s), NotAnEquilibrium
+// as linearize().
+SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const LinearizeOptions& options = {});
 
 }  // namespace modal

@@ -13,7 +13,9 @@
 #include "modal/linearize.hpp"
 
 #include <complex>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace modal {
@@ -61,6 +63,9 @@ struct ModalResult {
   // equilibrium and the redundant equations; empty without constraints.
   std::vector<ConstraintForce> constraint_forces;
   std::vector<std::string> redundant_equations;
+  // Wall time of the solver's phases, seconds, in order (e.g. {"factorization",
+  // 1.2}, {"eigen-solution", 3.4}); filled by the sparse solver.
+  std::vector<std::pair<std::string, double>> timings;
 };
 
 // The mass matrix is singular (or not positive definite) at the point: the
@@ -82,6 +87,28 @@ struct ModalOptions {
 // (non-finite entries, no convergence), std::invalid_argument (sizes, M not
 // symmetric).
 ModalResult solve_modes(const LinearModel& model, const ModalOptions& options = {});
+
+// --- sparse: the k lowest modes of large symmetric problems -----------------------
+struct SparseModalOptions {
+  int modes = 10;                // k, the number of lowest eigenvalues wanted (≥ 1)
+  std::optional<double> shift;   // σ (rad²/s²); unset: below the spectrum (see solve_sparse_modes)
+  double tolerance = 1e-10;      // relative convergence tolerance of the Lanczos iteration
+  int max_iterations = 1000;     // restarts of the Lanczos iteration
+};
+
+// The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k
+// lowest), for K (n×n, symmetric, both triangles stored) and M (n×n, symmetric
+// positive definite), both sparse. Shift-invert Lanczos (Spectra's
+// SymGEigsShiftSolver) with the operator (K − σM)⁻¹ applied by a sparse
+// Cholesky (CHOLMOD) or, when K − σM is indefinite, an LDLᵀ factorization.
+// The inertia of K − σM counts the eigenvalues below σ, so that zero and
+// negative modes are never lost: morse_index is the number of negative
+// eigenvalues (all of them, whether or not among the k returned), and the
+// stability class uses it. Modes are M-normalized, ascending in λ, with
+// error_estimate the rigorous residual bound ‖Kφ − λMφ‖_{M⁻¹} (ΦᵀMΦ = I).
+// Throws SingularMassMatrix (M not positive definite), NumericalError (no
+// convergence, a factorization failure), std::invalid_argument (sizes, k).
+ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, const SparseModalOptions& options = {});
 
 // Stability class (DESIGN.md §1) of a complete set of modes, from their kinds:
 // divergence if any mode is divergent, else flutter if any flutters, else

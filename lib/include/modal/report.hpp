@@ -110,6 +110,19 @@ void write_file(const std::string& path, void (*writer)(std::ostream&, const Rep
 // no names.
 void write_trajectory_csv(std::ostream& out, const Trajectory& trajectory);
 
+// --- Matrix Market -------------------------------------------------------------
+// A in Matrix Market coordinate format, real, 1-based indices, values in the
+// shortest text that reads back to the same double: "symmetric" storing the
+// lower triangle when `symmetric`, else "general". `comment` goes on a %-line.
+// Throws ReportError when the file cannot be written.
+void write_matrix_market(const std::string& path, const SparseMatrix& A, bool symmetric, const std::string& comment);
+// `--export-matrices DIR`: DIR/M.mtx and DIR/K.mtx, and DIR/D.mtx, DIR/G.mtx
+// where the model has them, of the model as analyzed (constrained: the
+// matrices on the constraint manifold, with DIR/N.mtx the basis mapping them
+// to the coordinates); the directory is created. Returns the paths written.
+std::vector<std::string> export_matrices(const std::string& dir, const LinearModel& model);
+std::vector<std::string> export_matrices(const std::string& dir, const SparseLinearModel& model);
+
 // --- JSON ---------------------------------------------------------------------
 // `modal analyze`: {scene, title, parameters{name: value}, coordinates[names],
 // equilibrium{coordinates{name: value}, potential, residual, residual_norm,

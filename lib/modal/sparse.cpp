@@ -1,0 +1,817 @@
+// lib/modal/sparse.cpp — solve_sparse_modes(): the k lowest (or the k nearest
+// a shift) modes of a large sparse symmetric-definite pencil K φ = λ M φ.
+//
+// Method. Shift-invert Lanczos: for a shift σ the operator
+// OP = (K − σM)⁻¹ M is self-adjoint in the M-inner product and has the
+// eigenvalues ν = 1/(λ − σ), so the λ nearest σ are the ν of largest modulus,
+// which a restarted Lanczos iteration finds in a few dozen applications of OP.
+// Spectra's SymGEigsShiftSolver runs the iteration (in the M-inner product, so
+// its Ritz vectors are M-orthonormal); OP is applied by a sparse factorization
+// of K − σM computed once per shift with CHOLMOD, which chooses by the fill:
+// a supernodal LLᵀ (BLAS-3; exists only when K − σM is positive definite) or a
+// simplicial LDLᵀ (very sparse factors such as chains; exists for indefinite
+// matrices too, unless a pivot is exactly zero). When the supernodal LLᵀ fails
+// (K − σM indefinite) the simplicial LDLᵀ is used. LDLᵀ has no pivoting: for
+// an indefinite K − σM its solves get one step of iterative refinement. M is
+// factored once by CHOLMOD (not positive definite → SingularMassMatrix) for
+// the error estimates. Symbolic analyses (orderings) are computed once and
+// reused for every shift (K and M are put on one sparsity pattern).
+//
+// Inertia (Sylvester's law). K − σM is congruent to diag(λ_i − σ), so the
+// number of negative pivots of any LDLᵀ factorization of it (P(K − σM)Pᵀ =
+// LDLᵀ) is the number of eigenvalues below σ, and a successful Cholesky
+// factorization says there are none. That count is what guarantees that no
+// negative or zero mode is lost, whatever the Lanczos iteration does.
+//
+// Shift rule (options.shift unset: the k lowest modes). Scale
+// s = max_i K_ii/M_ii (the largest "diagonal frequency²"; if not positive,
+// max_i |K_ii|/M_ii, then max|K_ij|/max M_ii, then 1) and ζ = 1e-8·s. The
+// default shift is σ₀ = −ζ: far enough below 0 (eight orders of magnitude above
+// the rounding level ε·s of a zero eigenvalue) that rigid-body modes leave
+// K − σ₀M positive definite, close enough that the zero and low modes are the
+// dominant ν. The inertia m at σ₀ is the number of eigenvalues below −ζ: the
+// Morse index.
+//   m = 0: one Lanczos run at σ₀ returns the k lowest (K − σ₀M definite).
+//   m > 0 (a divergent equilibrium): with k > m, a run at σ₀ (LDLᵀ) for the
+//     k nearest σ₀, which hold at most m negative eigenvalues and therefore
+//     the k − m lowest non-negative ones; if it also found all m negative ones
+//     that is the answer. Otherwise (and always when k ≤ m) a second shift
+//     σ_L below the whole spectrum is found from the inertia alone (Cholesky
+//     succeeds ⇔ no eigenvalue below): start from a Gershgorin bound of
+//     D^{-1/2}KD^{-1/2}, D = diag M (rigorous for a diagonal M, a guess
+//     otherwise), move down by factors of 4 until K − σM is definite, then up
+//     (factors of 8, then bisection) until σ_L is within a quarter of its
+//     distance to σ₀ below the lowest eigenvalue λ₁, which makes λ₁ the
+//     dominant ν by at least a factor of 4 over every non-negative λ. A run at
+//     σ_L for min(k, m) eigenvalues gives the most negative ones; they must all
+//     lie below σ₀ and, when k ≥ m, number exactly m (else NumericalError):
+//     the converged count below σ₀ must equal the inertia count.
+// morse_index = m plus the returned modes in [−ζ, 0) that are negative beyond
+// their error estimate (so it is the count of all negative eigenvalues below
+// −ζ, returned or not, and never hides a resolved negative λ above it).
+// With options.shift = σ the k modes nearest σ are returned; the inertia at σ
+// (eigenvalues below σ) is reported in a note and the Morse index still comes
+// from the inertia at σ₀. A shift at which the LDLᵀ factorization breaks down
+// (a zero pivot: σ is an eigenvalue, or an unlucky pivot order) is moved by
+// 1e-6·max(|σ|, s), with a note.
+//
+// Convergence: options.tolerance and options.max_iterations (restarts) are
+// Spectra's: a Ritz value θ of OP is accepted when its residual estimate is
+// below tolerance·|θ|, so ‖Kφ − λMφ‖ ends near tolerance·‖K − σM‖·‖φ‖ and λ,
+// quadratic in the residual, is far more accurate than that.
+//
+// Small problems (n ≤ 200) and k ≥ n − 1 (Spectra needs k < n − 1 … n) are
+// solved densely (detail::solve_symmetric) and the k wanted modes kept.
+//
+// Each mode: φ M-normalized (φᵀMφ = 1), largest |component| positive;
+// λ = φᵀKφ, the Rayleigh quotient of the converged Ritz vector, rather than
+// σ + 1/ν from the Ritz value: forming K − σM rounds every entry, which moves
+// the Ritz values by about ε·max|K_ii| (5e-11 relative for the lowest mode of
+// a 2000-mass chain), while the Rayleigh quotient uses K itself (1e-14);
+// error_estimate = ‖Kφ − λMφ‖_{M⁻¹}
+// = sqrt(rᵀM⁻¹r), r = Kφ − λMφ (by the M-factor): for the symmetric-definite
+// pencil some eigenvalue lies within it of λ (the residual bound in the
+// M-inner product). A mode is a zero mode when |λ| is within that estimate or
+// within the rounding level of evaluating φᵀKφ, 4ε(‖K‖₁ + |λ|‖M‖₁)‖φ‖₂²
+// (‖·‖₁ bounds the 2-norm of a symmetric matrix), and divergent when λ < 0
+// beyond both.
+//
+// Cost. One symbolic analysis and one numeric factorization of K − σM
+// (O(nnz(L)) memory); per restart of the Lanczos iteration about ncv − k
+// solves with the factor (O(nnz(L)) each) and products with M, plus
+// O(n·ncv²) orthogonalization, ncv = max(2k + 1, 20) ≤ n; one CHOLMOD
+// factorization of M and k solves for the error estimates. A divergent
+// equilibrium adds an LDLᵀ at σ₀, a handful of Cholesky attempts to place σ_L
+// (each O(nnz(L))) and a second Lanczos run. A user shift adds the factorization
+// at σ₀ for the Morse index.
+#include "detail.hpp"
+
+#include <Eigen/CholmodSupport>
+#include <Spectra/MatOp/SparseSymMatProd.h>
+#include <Spectra/SymGEigsShiftSolver.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace modal {
+namespace {
+
+using Index = Eigen::Index;
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+constexpr Index dense_limit = 200;  // n at or below which the dense solver runs
+
+// ---------------------------------------------------------------- validation
+
+void require_finite(const SparseMatrix& A, const char* what) {
+  for (Index j = 0; j < A.outerSize(); ++j)
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it)
+      if (!std::isfinite(it.value())) {
+        std::ostringstream out;
+        out << "solve_sparse_modes: the " << what << " has a non-finite entry (" << it.value() << " at row "
+            << it.row() + 1 << ", column " << it.col() + 1 << "): the problem cannot be solved";
+        throw NumericalError(out.str());
+      }
+}
+
+// max_j Σ_i |A_ij|, which bounds ‖A‖₂ for a symmetric A.
+double norm1(const SparseMatrix& A) {
+  double best = 0;
+  for (Index j = 0; j < A.outerSize(); ++j) {
+    double column = 0;
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it) column += std::abs(it.value());
+    best = std::max(best, column);
+  }
+  return best;
+}
+
+// ‖A − Aᵀ‖_F ≤ 100·c·ε·‖A‖_F with c the largest number of entries in a column:
+// symmetric up to the rounding of an assembly by sums of that many terms.
+bool symmetric_within_rounding(const SparseMatrix& A) {
+  Index widest = 1;
+  for (Index j = 0; j < A.outerSize(); ++j) {
+    Index count = 0;
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it) ++count;
+    widest = std::max(widest, count);
+  }
+  const SparseMatrix difference = A - SparseMatrix(A.transpose());
+  return difference.norm() <= 100.0 * static_cast<double>(widest) * eps * A.norm();
+}
+
+SparseMatrix symmetric_part(const SparseMatrix& A) {
+  SparseMatrix S = 0.5 * (A + SparseMatrix(A.transpose()));
+  S.makeCompressed();
+  return S;
+}
+
+// K and M rewritten on the union of their patterns (identical index arrays,
+// explicit zeros kept), so that K − σM is formed entry by entry for any σ and
+// one symbolic analysis serves every shift.
+void to_common_pattern(SparseMatrix& K, SparseMatrix& M) {
+  const Index n = K.cols();
+  std::vector<Eigen::Triplet<double>> tk, tm;
+  tk.reserve(static_cast<std::size_t>(K.nonZeros() + M.nonZeros()));
+  tm.reserve(tk.capacity());
+  for (Index j = 0; j < n; ++j) {
+    SparseMatrix::InnerIterator a(K, j), b(M, j);
+    while (a || b) {
+      const Index i = !b ? a.index() : !a ? b.index() : std::min(a.index(), b.index());
+      double kv = 0, mv = 0;
+      if (a && a.index() == i) { kv = a.value(); ++a; }
+      if (b && b.index() == i) { mv = b.value(); ++b; }
+      tk.emplace_back(static_cast<int>(i), static_cast<int>(j), kv);
+      tm.emplace_back(static_cast<int>(i), static_cast<int>(j), mv);
+    }
+  }
+  SparseMatrix Kc(n, n), Mc(n, n);
+  Kc.setFromTriplets(tk.begin(), tk.end());
+  Mc.setFromTriplets(tm.begin(), tm.end());
+  Kc.makeCompressed();
+  Mc.makeCompressed();
+  const bool same = Kc.nonZeros() == Mc.nonZeros() &&
+                    std::equal(Kc.outerIndexPtr(), Kc.outerIndexPtr() + n + 1, Mc.outerIndexPtr()) &&
+                    std::equal(Kc.innerIndexPtr(), Kc.innerIndexPtr() + Kc.nonZeros(), Mc.innerIndexPtr());
+  if (!same) throw std::logic_error("solve_sparse_modes: K and M could not be put on one sparsity pattern");
+  K = std::move(Kc);
+  M = std::move(Mc);
+}
+
+// --------------------------------------------------------------- mass matrix
+
+// A CHOLMOD factorization (through Eigen's wrapper) that also reports the
+// signs of its pivots. Mode CholmodAuto lets CHOLMOD choose: a supernodal LLᵀ
+// (BLAS-3, for factors with dense fill) succeeds only for a positive definite
+// matrix; a simplicial LDLᵀ (for very sparse factors, such as chains) succeeds
+// for any matrix without a zero pivot, and its D gives the inertia. Mode
+// CholmodLDLt forces the simplicial LDLᵀ.
+class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lower> {
+ public:
+  explicit CholmodFactor(Eigen::CholmodMode mode = Eigen::CholmodAuto) {
+    setMode(mode);
+    cholmod().print = 0;  // a failed factorization is reported by us, not printed by CHOLMOD
+  }
+  // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
+  bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
+  // Whether the symbolic analysis chose a supernodal (LLᵀ) factor.
+  bool is_supernodal() const { return m_cholmodFactor != nullptr && m_cholmodFactor->is_super; }
+  // Negative and zero entries of D (LDLᵀ; an LLᵀ factor that exists has none).
+  std::pair<Index, Index> nonpositive_pivots() const {
+    if (!is_ldlt()) return {0, 0};
+    const auto* x = static_cast<const double*>(m_cholmodFactor->x);
+    const auto* p = static_cast<const int*>(m_cholmodFactor->p);  // D(j,j) leads column j
+    Index negative = 0, zero = 0;
+    for (std::size_t j = 0; j < m_cholmodFactor->n; ++j) {
+      const double d = x[p[j]];
+      if (d < 0) ++negative;
+      else if (!(d > 0)) ++zero;  // zero or NaN
+    }
+    return {negative, zero};
+  }
+};
+
+// "0.71·q3 − 0.71·q4" for the largest components of v (at most 6).
+std::string describe_combination(const VectorX& v) {
+  std::vector<Index> order(static_cast<std::size_t>(v.size()));
+  std::iota(order.begin(), order.end(), Index{0});
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return std::abs(v(a)) > std::abs(v(b)); });
+  const double largest = std::abs(v(order.front()));
+  const double sign = v(order.front()) < 0 ? -1.0 : 1.0;
+  std::ostringstream out;
+  std::size_t shown = 0, more = 0;
+  for (Index i : order) {
+    if (std::abs(v(i)) < 0.1 * largest) break;
+    if (shown == 6) { ++more; continue; }
+    const double c = sign * v(i) / v.norm();
+    if (shown > 0) out << (c < 0 ? " − " : " + ");
+    else if (c < 0) out << "−";
+    out << detail::format_number(std::abs(c), 2) << "·q" << i + 1;
+    ++shown;
+  }
+  if (more > 0) out << " + … (" << more << " more coordinates)";
+  return out.str();
+}
+
+[[noreturn]] void singular_mass(const SparseMatrix& M, const std::string& detail_text) {
+  std::ostringstream out;
+  out << "the mass matrix is singular or not positive definite (" << detail_text << ")";
+  std::vector<Index> bad;
+  for (Index i = 0; i < M.rows(); ++i)
+    if (!(M.coeff(i, i) > 0)) bad.push_back(i);
+  if (!bad.empty()) {
+    out << "; coordinates without inertia (diagonal entry ≤ 0):";
+    for (std::size_t j = 0; j < std::min<std::size_t>(bad.size(), 8); ++j) out << " q" << bad[j] + 1;
+    if (bad.size() > 8) out << " and " << bad.size() - 8 << " more";
+  }
+  out << "; a body without mass or inertia, or a coordinate singularity";
+  throw SingularMassMatrix(out.str());
+}
+
+// CHOLMOD factor of M; SingularMassMatrix when M is not positive definite (a
+// failed LLᵀ, or non-positive pivots of an LDLᵀ) or
+// its smallest eigenvalue is at the rounding level 16·ε·‖M‖₁ (the bound comes
+// from a few steps of inverse iteration: 1/ρ ≥ λ_min, ρ the Rayleigh quotient
+// of M⁻¹, as in mass.cpp).
+std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
+  auto llt = std::make_unique<CholmodFactor>();
+  llt->compute(M);
+  if (llt->info() != Eigen::Success) singular_mass(M, "its sparse Cholesky factorization (CHOLMOD) failed");
+  if (const auto [negative, zero] = llt->nonpositive_pivots(); negative + zero > 0)
+    singular_mass(M, "its sparse LDLᵀ factorization (CHOLMOD) has " + std::to_string(negative) + " negative and " +
+                         std::to_string(zero) + " zero pivots");
+  const Index n = M.rows();
+  VectorX x(n);
+  for (Index i = 0; i < n; ++i) x(i) = 1.0 + 0.5 * std::cos(2.399963 * static_cast<double>(i + 1));
+  x.normalize();
+  double rho = 0;
+  for (int it = 0; it < 8; ++it) {
+    VectorX y = llt->solve(x);
+    rho = x.dot(y);
+    const double norm = y.norm();
+    if (!(norm > 0) || !std::isfinite(norm)) singular_mass(M, "M⁻¹ overflows");
+    x = y / norm;
+  }
+  const double tolerance = 16 * eps * norm1(M);
+  if (!(rho > 0) || 1.0 / rho <= tolerance)
+    singular_mass(M, "smallest eigenvalue about " + detail::format_number(rho > 0 ? 1.0 / rho : 0.0, 2) +
+                         " of ‖M‖₁ = " + detail::format_number(norm1(M), 3) + ", at the rounding level; direction " +
+                         describe_combination(x));
+  return llt;
+}
+
+// ------------------------------------------------------- K − σM, factored
+
+// The factorization of K − σM for one σ at a time (K, M on one pattern).
+class ShiftedFactor {
+ public:
+  ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M) : K_(K), M_(M), A_(K) {}
+
+  Index size() const { return K_.rows(); }
+  double sigma() const { return sigma_; }
+  bool valid() const { return current_ != nullptr; }
+  bool positive_definite() const { return current_ != nullptr && !indefinite_; }
+  bool indefinite() const { return indefinite_; }
+  int factorizations() const { return factorizations_; }
+
+  // Factors K − σM and returns the number of eigenvalues below σ (the
+  // negative pivots; 0 when an LLᵀ factor exists), or nothing when K − σM has
+  // no factorization without pivoting (a zero pivot). With `inertia` false,
+  // returns nothing as soon as K − σM is known not to be positive definite
+  // (cheaper: no LDLᵀ is attempted after a failed supernodal LLᵀ).
+  std::optional<Index> factor(double sigma, bool inertia = true) {
+    assemble(sigma);
+    current_ = nullptr;
+    if (std::optional<Index> below = factor_with(automatic_, analyzed_automatic_, &automatic_supernodal_)) {
+      current_ = automatic_.get();
+      indefinite_ = *below > 0;
+      return below;
+    }
+    if (!inertia || !automatic_supernodal_) return std::nullopt;
+    // The automatic choice was a supernodal LLᵀ, which fails for an
+    // indefinite matrix: the simplicial LDLᵀ gives the inertia.
+    if (!ldlt_) ldlt_ = std::make_unique<CholmodFactor>(Eigen::CholmodLDLt);
+    if (std::optional<Index> below = factor_with(ldlt_, analyzed_ldlt_)) {
+      current_ = ldlt_.get();
+      indefinite_ = *below > 0;
+      return below;
+    }
+    return std::nullopt;
+  }
+
+  // Whether K − σM is positive definite (no eigenvalue below σ).
+  bool positive_definite_at(double sigma) {
+    const std::optional<Index> below = factor(sigma, false);
+    return below && *below == 0;
+  }
+
+  // y = (K − σM)⁻¹ x.
+  void solve(const double* in, double* out) const {
+    if (current_ == nullptr) throw std::logic_error("solve_sparse_modes: solve without a factorization");
+    const Eigen::Map<const VectorX> x(in, size());
+    Eigen::Map<VectorX> y(out, size());
+    y = current_->solve(x);
+    if (indefinite_) {
+      // LDLᵀ without pivoting of an indefinite matrix may grow its entries;
+      // one step of iterative refinement recovers most of the lost accuracy.
+      const VectorX r = x - A_ * y;
+      y += current_->solve(r);
+    }
+  }
+
+  std::string describe() const {
+    if (current_ == nullptr) return "no factorization";
+    return current_->is_ldlt() ? "CHOLMOD simplicial LDLᵀ" : "CHOLMOD supernodal LLᵀ";
+  }
+
+ private:
+  void assemble(double sigma) {
+    sigma_ = sigma;
+    const double* k = K_.valuePtr();
+    const double* m = M_.valuePtr();
+    double* a = A_.valuePtr();
+    for (Index i = 0; i < A_.nonZeros(); ++i) a[i] = k[i] - sigma * m[i];
+  }
+
+  // Numeric factorization of A_ (symbolic analysis once, and again after a
+  // failure, which may leave CHOLMOD's factor partly converted); the count of
+  // negative pivots, or nothing when it failed or met a zero pivot.
+  std::optional<Index> factor_with(std::unique_ptr<CholmodFactor>& f, bool& analyzed, bool* supernodal = nullptr) {
+    if (!f) f = std::make_unique<CholmodFactor>();
+    if (!analyzed) {
+      f->analyzePattern(A_);
+      analyzed = true;
+      if (supernodal != nullptr) *supernodal = f->is_supernodal();
+    }
+    f->factorize(A_);
+    ++factorizations_;
+    if (f->info() != Eigen::Success) {
+      analyzed = false;
+      return std::nullopt;
+    }
+    const auto [negative, zero] = f->nonpositive_pivots();
+    if (zero > 0) return std::nullopt;
+    return negative;
+  }
+
+  const SparseMatrix& K_;
+  const SparseMatrix& M_;
+  SparseMatrix A_;
+  std::unique_ptr<CholmodFactor> automatic_, ldlt_;
+  bool analyzed_automatic_ = false, analyzed_ldlt_ = false;
+  bool automatic_supernodal_ = false;  // what the analysis of the automatic factor chose
+  CholmodFactor* current_ = nullptr;
+  bool indefinite_ = false;
+  double sigma_ = nan;
+  int factorizations_ = 0;
+};
+
+// The shift-invert operator in the form Spectra's SymGEigsShiftSolver expects
+// (the interface of Spectra::SymShiftInvert), backed by a ShiftedFactor.
+class ShiftInvertOp {
+ public:
+  using Scalar = double;
+  explicit ShiftInvertOp(ShiftedFactor& factor) : factor_(factor) {}
+  Index rows() const { return factor_.size(); }
+  Index cols() const { return factor_.size(); }
+  void set_shift(const Scalar& sigma) {
+    if (factor_.valid() && factor_.sigma() == sigma) return;
+    if (!factor_.factor(sigma))
+      throw NumericalError("solve_sparse_modes: K − σM has no LDLᵀ factorization at σ = " +
+                           detail::format_number(sigma, 10));
+  }
+  void perform_op(const Scalar* x_in, Scalar* y_out) const { factor_.solve(x_in, y_out); }
+
+ private:
+  ShiftedFactor& factor_;
+};
+
+// The `nev` eigenpairs nearest σ, ascending in λ.
+struct LanczosRun {
+  double sigma = 0;
+  VectorX lambda;
+  MatrixX Phi;  // n × nev, M-orthonormal
+  Index ncv = 0, restarts = 0, solves = 0;
+  std::string factor;
+};
+
+LanczosRun run_lanczos(ShiftedFactor& factor, const SparseMatrix& M, double sigma, Index nev,
+                       const SparseModalOptions& options) {
+  const Index n = M.rows();
+  LanczosRun run;
+  run.sigma = sigma;
+  run.ncv = std::min<Index>(n, std::max<Index>(2 * nev + 1, 20));
+  ShiftInvertOp op(factor);
+  Spectra::SparseSymMatProd<double> mass_op(M);
+  try {
+    Spectra::SymGEigsShiftSolver<ShiftInvertOp, Spectra::SparseSymMatProd<double>, Spectra::GEigsMode::ShiftInvert>
+        eigs(op, mass_op, nev, run.ncv, sigma);
+    eigs.init();
+    const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
+                                         Spectra::SortRule::SmallestAlge);
+    run.restarts = eigs.num_iterations();
+    run.solves = eigs.num_operations();
+    if (eigs.info() != Spectra::CompInfo::Successful)
+      throw NumericalError("solve_sparse_modes: the shift-invert Lanczos iteration at σ = " +
+                           detail::format_number(sigma, 6) + " did not converge: " + std::to_string(converged) +
+                           " of " + std::to_string(nev) + " eigenvalues converged after " +
+                           std::to_string(run.restarts) + " restarts (max_iterations " +
+                           std::to_string(options.max_iterations) + ", tolerance " +
+                           detail::format_number(options.tolerance, 3) +
+                           "); raise max_iterations or the tolerance, or ask for fewer modes");
+    run.lambda = eigs.eigenvalues();
+    run.Phi = eigs.eigenvectors();
+  } catch (const NumericalError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw NumericalError(std::string("solve_sparse_modes: the Lanczos iteration failed: ") + e.what());
+  }
+  run.factor = factor.describe();
+  return run;
+}
+
+std::string describe_run(const LanczosRun& run, Index nev) {
+  std::ostringstream out;
+  out << run.factor << " of K − σM at σ = " << detail::format_number(run.sigma, 6) << ", " << nev << " wanted, ncv "
+      << run.ncv << ", " << run.restarts << " restarts, " << run.solves << " solves";
+  return out.str();
+}
+
+// ------------------------------------------------------------------- modes
+
+struct Norms {
+  double K1 = 0, M1 = 0;
+};
+
+// The Mode for the converged Ritz vector φ: λ its Rayleigh quotient, shape
+// M-normalized with its largest component positive, residual error bound,
+// kind (see the header comment); `relative_residual` for the diagnostics.
+Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
+                      VectorX phi, double& relative_residual) {
+  VectorX Mphi = M * phi;
+  const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
+  phi *= scale_phi;
+  Mphi *= scale_phi;
+  const VectorX Kphi = K * phi;
+  const double lambda = phi.dot(Kphi);  // the Rayleigh quotient (φᵀMφ = 1)
+  const VectorX r = Kphi - lambda * Mphi;
+  const double error = std::sqrt(std::max(0.0, r.dot(mass.solve(r))));
+  const double x2 = phi.squaredNorm();
+  const double rounding = 4 * eps * (norms.K1 + std::abs(lambda) * norms.M1) * x2;
+  const double scale = (norms.K1 + std::abs(lambda) * norms.M1) * std::sqrt(x2);
+  relative_residual = scale > 0 ? r.norm() / scale : 0.0;
+
+  Mode mode;
+  if (std::abs(lambda) <= std::max(error, rounding)) {
+    mode = detail::make_mode(0.0, error, ModeKind::zero);
+  } else if (lambda < 0) {  // divergent: s = +√(−λ) real
+    mode = detail::make_mode(std::sqrt(-lambda), error, ModeKind::divergent);
+  } else {
+    mode = detail::make_mode({0.0, std::sqrt(lambda)}, error, ModeKind::oscillatory);
+    mode.damping_ratio = 0;
+  }
+  mode.omega2 = lambda;
+  if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
+  mode.shape = phi.cast<std::complex<double>>();
+  return mode;
+}
+
+std::string plural(Index count, const char* one, const char* many) {
+  return std::to_string(count) + " " + (count == 1 ? one : many);
+}
+
+// ------------------------------------------------------- dense fallback
+
+ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, Index k,
+                                 const SparseModalOptions& options) {
+  const Index n = K.rows();
+  const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
+  std::vector<std::string> names;
+  for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
+  const detail::Cholesky mass = detail::factor_mass(Md, names);
+  ModalResult all = detail::solve_symmetric(Md, Kd, mass);
+
+  ModalResult result;
+  result.stability = classify(all.modes);  // every mode is known
+  result.morse_index = all.morse_index;
+  result.solver = all.solver + " — dense fallback of solve_sparse_modes (n = " + std::to_string(n) + ", k = " +
+                  std::to_string(k) + (n <= dense_limit ? ": n ≤ 200)" : ": k ≥ n − 1)");
+  std::vector<Mode> modes = std::move(all.modes);
+  if (options.shift) {
+    const double sigma = *options.shift;
+    const auto below = std::count_if(modes.begin(), modes.end(), [&](const Mode& m) { return m.omega2 < sigma; });
+    std::stable_sort(modes.begin(), modes.end(), [&](const Mode& a, const Mode& b) {
+      return std::abs(a.omega2 - sigma) < std::abs(b.omega2 - sigma);
+    });
+    modes.resize(static_cast<std::size_t>(k));
+    std::stable_sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+    result.notes.push_back("the " + plural(k, "mode", "modes") + " nearest the shift σ = " +
+                           detail::format_number(sigma, 8) + "; " + plural(below, "eigenvalue lies", "eigenvalues lie") +
+                           " below σ");
+  } else {
+    modes.resize(static_cast<std::size_t>(k));
+  }
+  for (const std::string& note : all.notes)
+    if (note.rfind("modes ", 0) != 0) result.notes.push_back(note);  // cluster notes are redone below
+  result.zero_modes = static_cast<int>(
+      std::count_if(modes.begin(), modes.end(), [](const Mode& m) { return m.kind == ModeKind::zero; }));
+  result.modes = std::move(modes);
+  detail::add_cluster_notes(result.modes, true, result.notes);
+  return result;
+}
+
+}  // namespace
+
+ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_in, const SparseModalOptions& options) {
+  // ---- validation
+  if (K_in.rows() != K_in.cols() || M_in.rows() != M_in.cols() || K_in.rows() != M_in.rows())
+    throw std::invalid_argument("solve_sparse_modes: K and M must be square and of the same size (K is " +
+                                std::to_string(K_in.rows()) + "×" + std::to_string(K_in.cols()) + ", M " +
+                                std::to_string(M_in.rows()) + "×" + std::to_string(M_in.cols()) + ")");
+  if (options.modes < 1)
+    throw std::invalid_argument("solve_sparse_modes: the number of modes wanted must be at least 1 (got " +
+                                std::to_string(options.modes) + ")");
+  if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
+    throw std::invalid_argument("solve_sparse_modes: the tolerance must be positive and finite");
+  if (options.max_iterations < 1)
+    throw std::invalid_argument("solve_sparse_modes: max_iterations must be at least 1");
+  if (options.shift && !std::isfinite(*options.shift))
+    throw std::invalid_argument("solve_sparse_modes: the shift must be finite");
+  const Index n = K_in.rows();
+  if (n == 0) {
+    ModalResult empty;
+    empty.solver = "none (no coordinates)";
+    return empty;
+  }
+  require_finite(M_in, "mass matrix M");
+  require_finite(K_in, "stiffness matrix K");
+  SparseMatrix M = symmetric_part(M_in), K = symmetric_part(K_in);
+  if (!symmetric_within_rounding(M_in)) throw std::invalid_argument("solve_sparse_modes: the mass matrix is not symmetric");
+  if (!symmetric_within_rounding(K_in))
+    throw std::invalid_argument("solve_sparse_modes: the stiffness matrix is not symmetric (circulatory forces need "
+                                "the dense first-order solver, solve_modes)");
+  const Index k = std::min<Index>(options.modes, n);
+  if (n <= dense_limit || k >= n - 1) return solve_dense_fallback(K, M, k, options);
+
+  // ---- mass factor, scale, ζ
+  const std::unique_ptr<CholmodFactor> mass = factor_sparse_mass(M);
+  const Norms norms{norm1(K), norm1(M)};
+  double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
+  {
+    const VectorX dM = M.diagonal(), dK = K.diagonal();
+    VectorX radius = VectorX::Zero(n);
+    for (Index j = 0; j < n; ++j)
+      for (SparseMatrix::InnerIterator it(K, j); it; ++it)
+        if (it.row() != j) radius(it.row()) += std::abs(it.value()) / std::sqrt(dM(it.row()) * dM(j));
+    for (Index i = 0; i < n; ++i) {
+      scale = std::max(scale, dK(i) / dM(i));
+      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius(i));
+    }
+    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
+    if (!(scale > 0)) scale = K.nonZeros() > 0 ? norm1(K) / dM.maxCoeff() : 0.0;
+    if (!(scale > 0)) scale = 1.0;
+  }
+  const double zeta = 1e-8 * scale;
+  const double sigma0 = -zeta;
+
+  to_common_pattern(K, M);
+  ShiftedFactor factor(K, M);
+  ModalResult result;
+  std::vector<std::string> runs;
+
+  // Factors at σ, moving σ by 1e-6·max(|σ|, s) (at most 3 times) when the
+  // LDLᵀ factorization breaks down; returns the count below the final σ.
+  auto factor_at = [&](double& sigma, const char* what) {
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      if (const std::optional<Index> below = factor.factor(sigma)) return *below;
+      const double moved = sigma + 1e-6 * std::max(std::abs(sigma), scale);
+      result.notes.push_back(std::string("K − σM has no LDLᵀ factorization without pivoting at the ") + what +
+                             " σ = " + detail::format_number(sigma, 10) + " (a zero pivot); moved to σ = " +
+                             detail::format_number(moved, 10));
+      sigma = moved;
+    }
+    throw NumericalError(std::string("solve_sparse_modes: K − σM cannot be factored near the ") + what + " σ = " +
+                         detail::format_number(sigma, 10));
+  };
+
+  double s0 = sigma0;
+  const auto started = std::chrono::steady_clock::now();
+  const Index m = factor_at(s0, "default shift");  // eigenvalues below −ζ (Sylvester)
+  const auto factored = std::chrono::steady_clock::now();
+
+  std::vector<std::pair<double, VectorX>> pairs;  // (λ, φ)
+  auto take = [&](const LanczosRun& run, auto&& keep) {
+    for (Index j = 0; j < run.lambda.size(); ++j)
+      if (keep(run.lambda(j))) pairs.emplace_back(run.lambda(j), run.Phi.col(j));
+  };
+  Index below_user_shift = -1;
+  double user_sigma = nan;
+
+  if (options.shift) {
+    user_sigma = *options.shift;
+    below_user_shift = factor_at(user_sigma, "requested");
+    const LanczosRun run = run_lanczos(factor, M, user_sigma, k, options);
+    runs.push_back(describe_run(run, k));
+    take(run, [](double) { return true; });
+  } else if (m == 0) {
+    // Completeness by inertia: a single-vector Lanczos run can skip a copy of
+    // a repeated eigenvalue at the edge of the wanted set. The number of
+    // eigenvalues below b = λ_k + δ (δ = 1e-6|λ_k| + ζ) must equal the number
+    // of Ritz values found below b; if it is larger, run again with more.
+    Index nev = k;
+    for (int attempt = 0;; ++attempt) {
+      const LanczosRun run = run_lanczos(factor, M, s0, nev, options);
+      runs.push_back(describe_run(run, nev));
+      double bound = run.lambda(k - 1) + 1e-6 * std::abs(run.lambda(k - 1)) + zeta;
+      const Index count = factor_at(bound, "completeness check");
+      const Index found = (run.lambda.array() < bound).count();
+      if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
+        if (count > found)
+          result.notes.push_back("the inertia counts " + std::to_string(count) + " eigenvalues below " +
+                                 detail::format_number(bound, 8) + " but the Lanczos iteration found " +
+                                 std::to_string(found) + ": some modes in this range may be missing");
+        else
+          result.notes.push_back("completeness checked by the inertia of K − σM at σ = " +
+                                 detail::format_number(bound, 8) + ": exactly " + std::to_string(count) +
+                                 " eigenvalues lie below it, as found");
+        Index kept = 0;
+        take(run, [&](double) { return kept++ < k; });
+        break;
+      }
+      nev = std::min<Index>(n - 2, nev + (count - found) + 2);
+    }
+  } else {
+    // Divergent: m eigenvalues below σ₀.
+    Index negatives_found = 0;
+    if (k > m) {
+      const LanczosRun run = run_lanczos(factor, M, s0, k, options);
+      runs.push_back(describe_run(run, k));
+      negatives_found = (run.lambda.array() < s0).count();
+      if (negatives_found == m) {
+        take(run, [](double) { return true; });
+      } else {  // keep the k − m lowest of the non-negative part (run.lambda is ascending)
+        Index kept = 0;
+        for (Index j = 0; j < run.lambda.size() && kept < k - m; ++j)
+          if (run.lambda(j) >= s0) {
+            pairs.emplace_back(run.lambda(j), run.Phi.col(j));
+            ++kept;
+          }
+        if (kept < k - m)
+          throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + detail::format_number(s0, 3) +
+                               " returned " + std::to_string(kept) + " eigenvalues above it, fewer than the " +
+                               std::to_string(k - m) + " that the inertia guarantees");
+      }
+    }
+    if (negatives_found != m) {
+      // σ_L below the whole spectrum, close to λ₁ (see the header comment).
+      double d_hi = std::max(2 * zeta, s0 - gershgorin);  // distance below σ₀
+      double d_lo = 0;
+      int tries = 0;
+      while (!factor.positive_definite_at(s0 - d_hi)) {
+        d_lo = d_hi;
+        d_hi *= 4;
+        if (++tries > 200 || !std::isfinite(d_hi))
+          throw NumericalError("solve_sparse_modes: found no shift below the spectrum (K − σM is indefinite down to σ = " +
+                               detail::format_number(s0 - d_hi, 3) + ")");
+      }
+      // Up towards λ₁ (at most 200 factorizations in all: λ₁ can only be
+      // closer to σ₀ than that if it is within rounding of σ₀).
+      auto no_shift = [&] {
+        return NumericalError("solve_sparse_modes: could not place a shift just below the lowest eigenvalue "
+                              "(it lies within rounding of −ζ = " + detail::format_number(s0, 3) + ")");
+      };
+      if (d_lo == 0) {
+        for (;;) {
+          const double trial = d_hi / 8;
+          if (++tries > 200 || !(trial > 0)) throw no_shift();
+          if (!factor.positive_definite_at(s0 - trial)) {
+            d_lo = trial;
+            break;
+          }
+          d_hi = trial;
+        }
+      }
+      while (d_hi - d_lo > 0.25 * d_hi) {
+        if (++tries > 200) throw no_shift();
+        const double mid = 0.5 * (d_lo + d_hi);
+        if (factor.positive_definite_at(s0 - mid)) d_hi = mid;
+        else d_lo = mid;
+      }
+      const double sigma_low = s0 - d_hi;
+      if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
+        throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
+      const Index nev = std::min(k, m);
+      const LanczosRun run = run_lanczos(factor, M, sigma_low, nev, options);
+      runs.push_back(describe_run(run, nev));
+      const Index below = (run.lambda.array() < s0).count();
+      if (below != nev)
+        throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + detail::format_number(s0, 6) +
+                             " counts " + std::to_string(m) + " eigenvalues below it, but the Lanczos iteration from σ = " +
+                             detail::format_number(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
+                             std::to_string(nev) + " lowest there; try a larger max_iterations or a user shift");
+      take(run, [](double) { return true; });
+    }
+    if (k < m)
+      result.notes.push_back("the equilibrium has " + plural(m, "negative eigenvalue", "negative eigenvalues") +
+                             " below −ζ = " + detail::format_number(s0, 3) + "; only the " + std::to_string(k) +
+                             " most negative are returned (morse_index counts all of them)");
+  }
+
+  // ---- modes (λ: Rayleigh quotients, which may reorder nearly equal Ritz values)
+  std::vector<std::pair<Mode, double>> built;  // mode, relative residual
+  for (auto& pair : pairs) {
+    double relative_residual = 0;
+    Mode mode = make_sparse_mode(K, M, *mass, norms, std::move(pair.second), relative_residual);
+    built.emplace_back(std::move(mode), relative_residual);
+  }
+  std::stable_sort(built.begin(), built.end(),
+                   [](const auto& a, const auto& b) { return a.first.omega2 < b.first.omega2; });
+  double worst_relative_residual = 0;
+  std::size_t worst = 0;
+  for (std::size_t j = 0; j < built.size(); ++j) {
+    if (built[j].second > worst_relative_residual) {
+      worst_relative_residual = built[j].second;
+      worst = j;
+    }
+    result.modes.push_back(std::move(built[j].first));
+  }
+  // The Lanczos iteration stops at a residual of about `tolerance` relative
+  // to ‖K − σM‖; well above that, something is ill-conditioned.
+  if (worst_relative_residual > std::max(1e-10, 10 * options.tolerance))
+    result.notes.push_back("mode " + std::to_string(worst + 1) +
+                           " has a relative residual ‖Kφ − λMφ‖/((‖K‖₁ + |λ|‖M‖₁)‖φ‖) of " +
+                           detail::format_number(worst_relative_residual, 2) +
+                           ", far above the Lanczos tolerance (ill-conditioned M or K − σM); trust its error estimate");
+
+  Index resolved_small_negative = 0;
+  for (const Mode& mode : result.modes) {
+    if (mode.kind == ModeKind::zero) ++result.zero_modes;
+    if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
+  }
+  result.morse_index = static_cast<int>(m + resolved_small_negative);
+
+  result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
+  if (options.shift) {
+    const auto returned_below = std::count_if(result.modes.begin(), result.modes.end(),
+                                              [&](const Mode& mode) { return mode.omega2 < user_sigma; });
+    result.notes.push_back("the " + plural(k, "mode", "modes") + " nearest the shift σ = " +
+                           detail::format_number(user_sigma, 8) + "; " +
+                           plural(below_user_shift, "eigenvalue lies", "eigenvalues lie") +
+                           " below σ (inertia of K − σM)");
+    if (returned_below > below_user_shift)
+      result.notes.push_back("inconsistent: " + std::to_string(returned_below) +
+                             " returned eigenvalues lie below σ but the inertia counts " +
+                             std::to_string(below_user_shift) + "; the LDLᵀ factorization may be inaccurate");
+    // Zero modes among the eigenvalues not returned: the count in [−ζ, ζ).
+    if (result.morse_index == 0 && result.zero_modes == 0) {
+      double plus = zeta;
+      const Index below_plus = factor_at(plus, "zero-mode check");
+      const auto returned_near_zero = std::count_if(result.modes.begin(), result.modes.end(), [&](const Mode& mode) {
+        return mode.omega2 >= s0 && mode.omega2 < plus;
+      });
+      if (below_plus - m > returned_near_zero) {
+        result.stability = Stability::marginal;
+        result.notes.push_back(plural(below_plus - m - returned_near_zero, "eigenvalue", "eigenvalues") +
+                               " within ζ = " + detail::format_number(zeta, 3) +
+                               " of zero (a zero mode) lie outside the returned modes; stability is marginal");
+      }
+    }
+  }
+  result.solver = "sparse shift-invert Lanczos (Spectra SymGEigsShiftSolver; ";
+  for (std::size_t i = 0; i < runs.size(); ++i) result.solver += (i ? "; then " : "") + runs[i];
+  result.solver += "; inertia of K − σM at σ₀ = −ζ = " + detail::format_number(s0, 3) + ": " +
+                   plural(m, "eigenvalue", "eigenvalues") + " below)";
+  detail::add_cluster_notes(result.modes, true, result.notes);
+  result.timings = {{"factorization", std::chrono::duration<double>(factored - started).count()},
+                    {"eigen-solution", std::chrono::duration<double>(std::chrono::steady_clock::now() - factored).count()}};
+  return result;
+}
+
+}  // namespace modal

@@ -1,0 +1,643 @@
+// Generators: [[lattice]] (particles on a grid, springs to the neighbours and
+// face diagonals) and [[network]] (particles and springs from CSV files):
+// counts, names, positions, rest lengths with prestrain, fixed particles, the
+// spectrum of a pre-tensioned net, the example models, every located error
+// (CSV errors name the CSV file, line and column), and the time to read and
+// build a scene of 10⁶ coordinates.
+#include "modal/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using modal::JointType;
+using modal::Vec3;
+
+modal::Scene parse(const std::string& text) { return modal::parse_scene(text, "test.toml"); }
+
+const modal::Body& body(const modal::Scene& s, const std::string& name) {
+  const auto& bodies = s.description.bodies;
+  const auto it = std::find_if(bodies.begin(), bodies.end(), [&](const modal::Body& b) { return b.name == name; });
+  if (it == bodies.end()) throw std::runtime_error("no body " + name);
+  return *it;
+}
+
+int index_of(const modal::Scene& s, const std::string& name) {
+  return static_cast<int>(&body(s, name) - s.description.bodies.data());
+}
+
+std::size_t count_fixed(const modal::Scene& s) {
+  return static_cast<std::size_t>(std::count_if(s.description.bodies.begin(), s.description.bodies.end(),
+                                                [](const modal::Body& b) { return b.joint == JointType::fixed; }));
+}
+
+// A lattice scene: [[lattice]] on line 1, then `keys`.
+std::string lattice(const std::string& keys) { return "[[lattice]]\n" + keys; }
+
+// --- [[lattice]]: counts, names, positions ------------------------------------
+
+TEST(lattice, CountsIn3D) {
+  const std::string keys = "size = [3, 4, 5]\nspacing = 0.5\nmass = 1\nstiffness = 10\n";
+  const modal::Scene plain = parse(lattice(keys));
+  EXPECT_EQ(plain.description.bodies.size(), 60u);
+  // Along x: 2·4·5, along y: 3·3·5, along z: 3·4·4.
+  EXPECT_EQ(plain.description.springs.size(), 40u + 45u + 48u);
+  EXPECT_EQ(modal::build_system(plain).size(), 180);
+
+  const modal::Scene diagonal = parse(lattice(keys + "diagonals = true\n"));
+  // Two diagonals per square: xy 2·(2·3·5), xz 2·(2·4·4), yz 2·(3·3·4).
+  EXPECT_EQ(diagonal.description.springs.size(), 133u + 60u + 64u + 72u);
+  EXPECT_EQ(modal::build_system(diagonal).size(), 180);
+}
+
+TEST(lattice, CountsOfA2DNet) {
+  const std::string keys = "size = [4, 5, 1]\nspacing = 1\nmass = 1\nstiffness = 10\n";
+  const modal::Scene plain = parse(lattice(keys));
+  EXPECT_EQ(plain.description.bodies.size(), 20u);
+  EXPECT_EQ(plain.description.springs.size(), 3u * 5u + 4u * 4u);
+  // Every particle of a net keeps three coordinates (it may leave its plane).
+  EXPECT_EQ(modal::build_system(plain).size(), 60);
+  const modal::Scene diagonal = parse(lattice(keys + "diagonals = true\n"));
+  EXPECT_EQ(diagonal.description.springs.size(), 31u + 2u * 3u * 4u);
+  // A single row is a net too: a string of particles.
+  EXPECT_EQ(parse(lattice("size = [5, 1, 1]\nspacing = 1\nmass = 1\nstiffness = 10\ndiagonals = true\n"))
+                .description.springs.size(),
+            4u);
+}
+
+TEST(lattice, NamesPositionsAndOrder) {
+  const modal::Scene s = parse(lattice(
+      "name = \"lat\"\nsize = [2, 3, 4]\nspacing = [0.1, 0.2, 0.3]\norigin = [1, 2, 3]\nmass = 0.5\nstiffness = 10\n"));
+  const auto& bodies = s.description.bodies;
+  ASSERT_EQ(bodies.size(), 24u);
+  // The last index runs fastest.
+  EXPECT_EQ(bodies[0].name, "lat.0.0.0");
+  EXPECT_EQ(bodies[1].name, "lat.0.0.1");
+  EXPECT_EQ(bodies[4].name, "lat.0.1.0");
+  EXPECT_EQ(bodies[23].name, "lat.1.2.3");
+  const modal::Body& b = body(s, "lat.1.2.3");
+  EXPECT_EQ(b.joint, JointType::particle);
+  EXPECT_EQ(b.parent, -1);
+  EXPECT_DOUBLE_EQ(b.mass, 0.5);
+  EXPECT_NEAR((b.origin - Vec3(1.1, 2.4, 3.9)).norm(), 0.0, 1e-15);
+  EXPECT_EQ(b.particle_axes, (std::array<bool, 3>{true, true, true}));
+  EXPECT_EQ(b.initial, Eigen::VectorXd::Zero(3));
+  ASSERT_EQ(s.body_locations.size(), 24u);
+  EXPECT_EQ(s.body_locations[23].line, 1);  // the [[lattice]] table
+  EXPECT_EQ(modal::build_system(s).coordinate_names()[0], "lat.0.0.0.x");
+
+  // A 2-D net has two indices; in the xz plane j runs along z (spacing[3]).
+  const modal::Scene net = parse(lattice(
+      "name = \"n\"\nsize = [3, 2, 1]\nplane = \"xz\"\nspacing = [1, 5, 2]\norigin = [0, 1, 0]\nmass = 1\nstiffness = 10\n"));
+  EXPECT_EQ(net.description.bodies[1].name, "n.0.1");
+  EXPECT_EQ(body(net, "n.2.1").origin, Vec3(2, 1, 2));
+  const modal::Scene xy = parse(lattice("name = \"n\"\nsize = [3, 2, 1]\nspacing = [1, 5, 2]\nmass = 1\nstiffness = 10\n"));
+  EXPECT_EQ(body(xy, "n.2.1").origin, Vec3(2, 5, 0));
+}
+
+TEST(lattice, RestLengthsWithPrestrain) {
+  const modal::Scene s = parse(lattice(
+      "size = [3, 3, 3]\nspacing = [1, 2, 3]\nmass = 1\nstiffness = 7\ndamping = 0.25\ndiagonals = true\nprestrain = 0.1\n"));
+  const auto& d = s.description;
+  ASSERT_EQ(d.springs.size(), 3u * 18u + 6u * 12u);
+  std::vector<double> lengths;
+  for (const modal::Spring& spring : d.springs) {
+    const Vec3 xa = d.bodies[static_cast<std::size_t>(spring.a.body)].origin;
+    const Vec3 xb = d.bodies[static_cast<std::size_t>(spring.b.body)].origin;
+    EXPECT_NEAR(spring.rest_length, 0.9 * (xa - xb).norm(), 1e-14);
+    EXPECT_EQ(spring.a.point, Vec3::Zero());
+    EXPECT_EQ(spring.stiffness, 7.0);
+    EXPECT_EQ(spring.damping, 0.25);
+    lengths.push_back((xa - xb).norm());
+  }
+  std::sort(lengths.begin(), lengths.end());
+  lengths.erase(std::unique(lengths.begin(), lengths.end(), [](double x, double y) { return std::abs(x - y) < 1e-12; }),
+                lengths.end());
+  // Axes 1, 2, 3; face diagonals √5, √10, √13; no body diagonals.
+  ASSERT_EQ(lengths.size(), 6u);
+  EXPECT_NEAR(lengths[2], std::sqrt(5.0), 1e-14);
+  EXPECT_NEAR(lengths[5], std::sqrt(13.0), 1e-14);
+  // Without prestrain the springs rest as written.
+  const modal::Scene relaxed = parse(lattice("size = [2, 2, 1]\nspacing = 2\nmass = 1\nstiffness = 1\n"));
+  for (const modal::Spring& spring : relaxed.description.springs) EXPECT_EQ(spring.rest_length, 2.0);
+}
+
+TEST(lattice, FixedVariants) {
+  const std::string cube = "size = [4, 4, 4]\nspacing = 1\nmass = 1\nstiffness = 10\n";
+  EXPECT_EQ(count_fixed(parse(lattice(cube))), 0u);
+  EXPECT_EQ(count_fixed(parse(lattice(cube + "fixed = \"none\"\n"))), 0u);
+  EXPECT_EQ(count_fixed(parse(lattice(cube + "fixed = \"boundary\"\n"))), 64u - 8u);
+  const modal::Scene base = parse(lattice(cube + "fixed = \"z-\"\n"));
+  EXPECT_EQ(count_fixed(base), 16u);
+  EXPECT_EQ(body(base, "lattice.2.3.0").joint, JointType::fixed);
+  EXPECT_EQ(modal::joint_coordinate_count(body(base, "lattice.2.3.0")), 0);
+  EXPECT_EQ(body(base, "lattice.2.3.1").joint, JointType::particle);
+  EXPECT_EQ(modal::build_system(base).size(), 3 * 48);
+  EXPECT_EQ(body(parse(lattice(cube + "fixed = \"x+\"\n")), "lattice.3.1.2").joint, JointType::fixed);
+  EXPECT_EQ(count_fixed(parse(lattice(cube + "fixed = [\"x-\", \"x+\"]\n"))), 32u);
+  EXPECT_EQ(count_fixed(parse(lattice(cube + "fixed = [\"y-\", \"z+\", \"none\"]\n"))), 16u + 16u - 4u);
+  EXPECT_EQ(count_fixed(parse(lattice(cube + "fixed = []\n"))), 0u);
+
+  // A net's boundary is its perimeter; its edges are named by world axes.
+  const std::string net = "size = [4, 5, 1]\nspacing = 1\nmass = 1\nstiffness = 10\n";
+  EXPECT_EQ(count_fixed(parse(lattice(net + "fixed = \"boundary\"\n"))), 20u - 6u);
+  EXPECT_EQ(count_fixed(parse(lattice(net + "fixed = \"y+\"\n"))), 4u);
+  const modal::Scene xz = parse(lattice(net + "plane = \"xz\"\nfixed = \"z+\"\n"));
+  EXPECT_EQ(count_fixed(xz), 4u);
+  EXPECT_EQ(body(xz, "lattice.0.4").joint, JointType::fixed);
+  EXPECT_EQ(body(xz, "lattice.0.4").origin, Vec3(0, 0, 4));
+  // A one-layer direction has no boundary: a [5, 1, 3] slab keeps its inside.
+  EXPECT_EQ(count_fixed(parse(lattice("size = [5, 1, 3]\nspacing = 1\nmass = 1\nstiffness = 10\nfixed = \"boundary\"\n"))),
+            15u - 3u);
+}
+
+// A pre-tensioned square net (boundary fixed, no gravity) is in equilibrium
+// flat, and its spectrum is known: each spring pulls with T = k p a, so it
+// has stiffness k along itself and T/a = k p across (geometric stiffness):
+//   out of plane  ω² = (k p/m) (4 sin²(rπ/2N) + 4 sin²(sπ/2N))
+//   in plane (x)  ω² = (k/m) 4 sin²(rπ/2N) + (k p/m) 4 sin²(sπ/2N)
+// with N = 5 segments per side and r, s = 1 … 4.
+TEST(lattice, SpectrumOfAPretensionedNet) {
+  const double k = 200, m = 0.3, p = 0.05;
+  const modal::Scene s = parse("gravity = [0, 0, 0]\n" + lattice("size = [6, 6, 1]\nspacing = 0.5\nmass = 0.3\n"
+                                                                 "stiffness = 200\nprestrain = 0.05\nfixed = \"boundary\"\n"
+                                                                 "origin = [-1, 2, 0.5]\n"));
+  const modal::System system = modal::build_system(s);
+  ASSERT_EQ(system.size(), 48);
+  modal::Workspace w(system);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(48);
+  EXPECT_NEAR(modal::potential_gradient(system, w, q).norm(), 0.0, 1e-12);
+  const Eigen::MatrixXd K = modal::potential_hessian(system, w, q);
+  const Eigen::MatrixXd M = modal::mass_matrix(system, w, q);
+  const Eigen::VectorXd computed =
+      Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd>(K, M, Eigen::EigenvaluesOnly).eigenvalues();
+  std::vector<double> expected;
+  auto lambda = [](int r) { return 4 * std::pow(std::sin(r * std::numbers::pi / 10), 2); };
+  for (int r = 1; r <= 4; ++r)
+    for (int t = 1; t <= 4; ++t) {
+      expected.push_back(k * p / m * (lambda(r) + lambda(t)));
+      expected.push_back(k / m * lambda(r) + k * p / m * lambda(t));  // x
+      expected.push_back(k * p / m * lambda(r) + k / m * lambda(t));  // y
+    }
+  std::sort(expected.begin(), expected.end());
+  for (int i = 0; i < 48; ++i)
+    EXPECT_NEAR(computed[i], expected[static_cast<std::size_t>(i)], 1e-9 * expected.back()) << i;
+}
+
+TEST(lattice, WithOtherBodiesSpringsAndLoads) {
+  const modal::Scene s = parse(R"([[particle]]
+name = "weight"
+position = [0.5, 0.5, -1]
+mass = 2
+
+[[lattice]]
+name = "net"
+size = [3, 3, 1]
+spacing = 1
+mass = 1
+stiffness = 10
+fixed = "boundary"
+
+[[body]]
+name = "pendulum"
+parent = "net.1.1"
+joint = "hinge"
+mass = 1
+com = [0, 0, -0.5]
+
+[[spring]]
+a = "weight"
+b = "net.1.1"
+stiffness = 3
+
+[[load]]
+body = "net.2.2"
+force = [0, 0, -1]
+
+[[constraint]]
+type = "distance"
+a = "net.0.1"
+b = "net.1.1"
+)");
+  const auto& d = s.description;
+  ASSERT_EQ(d.bodies.size(), 1u + 9u + 1u);
+  EXPECT_EQ(d.bodies[0].name, "weight");  // file order
+  EXPECT_EQ(d.bodies[1].name, "net.0.0");
+  EXPECT_EQ(d.bodies[10].name, "pendulum");
+  EXPECT_EQ(d.bodies[10].parent, index_of(s, "net.1.1"));  // a generated particle may be a parent
+  EXPECT_EQ(s.body_locations[1].line, 6);
+  EXPECT_EQ(s.body_locations[10].line, 14);
+  // The [[spring]] first, then the net's 12 springs with their ends shifted.
+  ASSERT_EQ(d.springs.size(), 13u);
+  EXPECT_EQ(d.springs[0].a.body, 0);
+  EXPECT_EQ(d.springs[0].b.body, index_of(s, "net.1.1"));
+  EXPECT_DOUBLE_EQ(d.springs[0].rest_length, std::sqrt(0.5 * 0.5 * 2 + 1));
+  EXPECT_EQ(d.springs[1].a.body, index_of(s, "net.0.0"));
+  EXPECT_EQ(d.springs[1].b.body, index_of(s, "net.1.0"));
+  EXPECT_EQ(d.loads.at(0).at.body, index_of(s, "net.2.2"));
+  EXPECT_DOUBLE_EQ(d.constraints.at(0).length, 1.0);
+  EXPECT_EQ(modal::build_system(s).size(), 3 + 3 + 1);
+}
+
+// --- [[lattice]]: errors -------------------------------------------------------
+
+struct Expected {
+  std::string file;
+  int line;
+  int column;
+  std::string key;
+  std::string message;  // a substring of the reason
+};
+
+void check_error(const std::function<void()>& action, const Expected& expected) {
+  try {
+    action();
+    ADD_FAILURE() << "no error, expected " << expected.message;
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().file, expected.file) << e.what();
+    EXPECT_EQ(e.where().line, expected.line) << e.what();
+    EXPECT_EQ(e.where().column, expected.column) << e.what();
+    EXPECT_EQ(e.key(), expected.key) << e.what();
+    EXPECT_NE(e.reason().find(expected.message), std::string::npos) << e.what();
+  }
+}
+
+void check_scene_error(const std::string& text, int line, int column, const std::string& key, const std::string& message) {
+  check_error([&] { (void)modal::parse_scene(text, "bad.toml"); }, {"bad.toml", line, column, key, message});
+}
+
+const std::string good = "spacing = 1\nmass = 1\nstiffness = 10\n";  // lines 2-4 after [[lattice]]
+
+TEST(lattice_errors, Size) {
+  check_scene_error(lattice(good), 1, 1, "lattice[1].size", "missing required key 'size' in [[lattice]]");
+  check_scene_error(lattice(good + "size = 3\n"), 5, 8, "lattice[1].size",
+                    "expected an array of 3 positive integers [nx, ny, nz] (nz = 1: a 2-D net), got an integer");
+  check_scene_error(lattice(good + "size = [2, 2]\n"), 5, 8, "lattice[1].size", "got 2 elements");
+  check_scene_error(lattice(good + "size = [2, 0, 1]\n"), 5, 12, "lattice[1].size[2]", "must be at least 1, got 0");
+  check_scene_error(lattice(good + "size = [2.5, 2, 1]\n"), 5, 9, "lattice[1].size[1]", "must be an integer, got 2.5");
+  check_scene_error(lattice(good + "size = [2, \"x\", 1]\n"), 5, 13, "lattice[1].size[2]", "unknown name 'x'");
+  check_scene_error(lattice(good + "size = [2000, 2000, 2]\n"), 5, 8, "lattice[1].size",
+                    "the lattice would have 8000000 particles; at most 5000000 are supported");
+  check_scene_error(lattice(good + "size = [1e7, 1, 1]\n"), 5, 9, "lattice[1].size[1]",
+                    "at most 5000000 particles are supported, got 10000000");
+}
+
+TEST(lattice_errors, Values) {
+  const std::string size = "size = [2, 2, 2]\n";  // line 2
+  check_scene_error(lattice(size + "spacing = 0\nmass = 1\nstiffness = 1\n"), 3, 11, "lattice[1].spacing", "must be positive, got 0");
+  check_scene_error(lattice(size + "spacing = [1, 1]\nmass = 1\nstiffness = 1\n"), 3, 11, "lattice[1].spacing",
+                    "expected an array of 3 numbers, got 2");
+  check_scene_error(lattice(size + "spacing = [1, -1, 1]\nmass = 1\nstiffness = 1\n"), 3, 15, "lattice[1].spacing[2]",
+                    "must be positive, got -1");
+  check_scene_error(lattice(size + "mass = 1\nstiffness = 1\n"), 1, 1, "lattice[1].spacing", "missing required key 'spacing'");
+  check_scene_error(lattice(size + "spacing = 1\nstiffness = 1\n"), 1, 1, "lattice[1].mass", "missing required key 'mass'");
+  check_scene_error(lattice(size + "spacing = 1\nmass = -1\nstiffness = 1\n"), 4, 8, "lattice[1].mass", "must be non-negative, got -1");
+  check_scene_error(lattice(size + "spacing = 1\nmass = 1\nstiffness = 0\n"), 5, 13, "lattice[1].stiffness", "must be positive, got 0");
+  check_scene_error(lattice(size + good + "damping = -1\n"), 6, 11, "lattice[1].damping", "must be non-negative");
+  check_scene_error(lattice(size + good + "prestrain = 1\n"), 6, 13, "lattice[1].prestrain", "must be less than 1");
+  check_scene_error(lattice(size + good + "prestrain = -0.5\n"), 6, 13, "lattice[1].prestrain", "must be non-negative");
+  check_scene_error(lattice(size + good + "diagonals = 1\n"), 6, 13, "lattice[1].diagonals", "expected true or false");
+  check_scene_error(lattice(size + good + "spacings = 1\n"), 6, 1, "lattice[1].spacings",
+                    "unknown key 'spacings' in [[lattice]] (did you mean 'spacing'?)");
+  check_scene_error(lattice(size + good + "name = \"world\"\n"), 6, 8, "lattice[1].name", "'world' is reserved");
+  check_scene_error(lattice(size + good + "name = \"\"\n"), 6, 8, "lattice[1].name", "a lattice name must not be empty");
+}
+
+TEST(lattice_errors, FixedAndPlane) {
+  const std::string cube = "size = [2, 2, 2]\n" + good;  // lines 2-5
+  const std::string net = "size = [2, 2, 1]\n" + good;
+  check_scene_error(lattice(cube + "fixed = \"bondary\"\n"), 6, 9, "lattice[1].fixed",
+                    "unknown value 'bondary'; expected \"none\", \"boundary\" or a face \"x-\", \"x+\", \"y-\", \"y+\", "
+                    "\"z-\" or \"z+\" (did you mean 'boundary'?)");
+  check_scene_error(lattice(cube + "fixed = \"X-\"\n"), 6, 9, "lattice[1].fixed", "unknown value 'X-'; expected \"none\", \"boundary\" or a face \"x-\", \"x+\", \"y-\", \"y+\", \"z-\" or \"z+\" (did you mean 'x-'");
+  check_scene_error(lattice(cube + "fixed = true\n"), 6, 9, "lattice[1].fixed",
+                    "expected a string (\"none\", \"boundary\" or a face such as \"x-\") or an array of them, got a boolean");
+  check_scene_error(lattice(cube + "fixed = [\"x-\", \"top\"]\n"), 6, 16, "lattice[1].fixed[2]", "unknown value 'top'");
+  check_scene_error(lattice(cube + "fixed = [\"x-\", 1]\n"), 6, 16, "lattice[1].fixed[2]", "expected a string, got an integer");
+  check_scene_error(lattice(net + "fixed = \"z-\"\n"), 6, 9, "lattice[1].fixed",
+                    "the net lies in the xy plane, so 'z-' is not one of its edges; expected \"none\", \"boundary\", "
+                    "\"x-\", \"x+\", \"y-\" or \"y+\"");
+  check_scene_error(lattice(net + "plane = \"xz\"\nfixed = \"y+\"\n"), 7, 9, "lattice[1].fixed",
+                    "the net lies in the xz plane, so 'y+' is not one of its edges");
+  check_scene_error(lattice(net + "plane = \"yz\"\n"), 6, 9, "lattice[1].plane",
+                    "unknown plane 'yz'; expected \"xy\" or \"xz\"");
+  check_scene_error(lattice(cube + "plane = \"xy\"\n"), 6, 9, "lattice[1].plane",
+                    "'plane' is for 2-D nets (size = [n1, n2, 1]); this lattice is 3-D (size[3] = 2)");
+}
+
+TEST(lattice_errors, Names) {
+  const std::string net = "size = [2, 2, 1]\n" + good;  // lines 2-5 after [[lattice]]
+  // Two generators with the default name.
+  check_scene_error(lattice(net) + lattice(net), 6, 1, "lattice[2].name",
+                    "duplicate generator name 'lattice': already used by the [[lattice]] at line 1 (the default name; "
+                    "give each one a 'name')");
+  check_scene_error(lattice(net + "name = \"n\"\n") + "[[network]]\nname = \"n\"\nnodes = \"x.csv\"\nedges = \"y.csv\"\n",
+                    8, 8, "network[1].name", "duplicate generator name 'n': already used by the [[lattice]] at line 1");
+  const std::string body = "[[body]]\nname = \"lattice.1.0\"\njoint = \"hinge\"\n";
+  check_scene_error(lattice(net) + body, 7, 8, "body[1].name",
+                    "duplicate body name 'lattice.1.0': already used by [[lattice]] 'lattice' at line 1");
+  check_scene_error(body + lattice(net), 4, 1, "lattice[1].name",
+                    "[[lattice]] 'lattice' generates the particle name 'lattice.1.0', which is already used by the "
+                    "[[body]] at line 1");
+  // Names of two lattices can meet: "a" (3-D) and "a.1" (2-D) both make "a.1.0.0".
+  check_scene_error(lattice("name = \"a\"\nsize = [2, 2, 2]\n" + good) + lattice("name = \"a.1\"\n" + net), 8, 8,
+                    "lattice[2].name",
+                    "[[lattice]] 'a.1' generates the particle name 'a.1.0.0', which is already used by [[lattice]] 'a' "
+                    "at line 1");
+  check_scene_error(lattice(net) + "[[spring]]\na = \"lattice.1.2\"\nb = \"world\"\nstiffness = 1\n", 7, 5, "spring[1].a",
+                    "unknown body 'lattice.1.2' (did you mean 'lattice.1.0', 'lattice.1.1'");
+  check_scene_error(lattice(net) + "[[spring]]\na = \"lattice.1.1\"\na_point = [0, 0, 1]\nb = \"world\"\nstiffness = 1\n",
+                    8, 11, "spring[1].a_point", "a particle is a point");
+}
+
+// --- [[network]] ---------------------------------------------------------------
+
+// A scratch directory for a scene and its CSV files.
+class Directory {
+ public:
+  Directory() {
+    std::random_device random;
+    path_ = fs::temp_directory_path() / ("modal_network_test_" + std::to_string(random()) + std::to_string(random()));
+    fs::create_directories(path_);
+  }
+  ~Directory() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  Directory(const Directory&) = delete;
+  Directory& operator=(const Directory&) = delete;
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    fs::create_directories((path_ / name).parent_path());
+    std::ofstream(path_ / name, std::ios::binary) << text;
+    return file(name);
+  }
+
+ private:
+  fs::path path_;
+};
+
+// lines 1-5 of the scene
+const std::string network_scene =
+    "[[network]]\nname = \"truss\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nstiffness = 100\n";
+const std::string network_with_mass = network_scene + "mass = 1\n";  // line 6
+const std::string good_nodes = "name,x,y,z,mass,fixed\na,0,0,0,1,1\nb,1,0,0,2,0\nc,0,1,0,,z\n";  // lines 1-4
+const std::string good_edges = "a,b,stiffness,rest_length,damping\na,b,,,\nb,c,50,,0.5\n";        // lines 1-3
+
+modal::Scene load_network(const Directory& dir, const std::string& scene, const std::string& nodes,
+                          const std::string& edges) {
+  dir.write("nodes.csv", nodes);
+  dir.write("edges.csv", edges);
+  return modal::load_scene(dir.write("scene.toml", scene));
+}
+
+TEST(network, NodesAndEdges) {
+  const Directory dir;
+  const modal::Scene s = load_network(
+      dir, network_scene + "mass = 3\ndamping = 0.25\nprestrain = 0.5\n",
+      "# a comment, then the header\n\nname , x,y,z,mass,fixed\r\na,0,0,0,1,1\r\nb,1,0,0,2,0\n\nc,0,1,+0.5e0,,z\nd, 1,1,0,,xy\n",
+      good_edges + "c,d,,2,\n  # a comment\na,d,,,\n");
+  const auto& d = s.description;
+  ASSERT_EQ(d.bodies.size(), 4u);
+  EXPECT_EQ(d.bodies[0].name, "truss.a");
+  EXPECT_EQ(d.bodies[0].joint, JointType::fixed);
+  EXPECT_EQ(d.bodies[1].joint, JointType::particle);
+  EXPECT_DOUBLE_EQ(d.bodies[1].mass, 2.0);
+  EXPECT_DOUBLE_EQ(d.bodies[2].mass, 3.0);  // the default
+  EXPECT_EQ(d.bodies[2].origin, Vec3(0, 1, 0.5));
+  EXPECT_EQ(d.bodies[2].particle_axes, (std::array<bool, 3>{true, true, false}));
+  EXPECT_EQ(d.bodies[3].particle_axes, (std::array<bool, 3>{false, false, true}));
+  // Body locations point into the nodes file.
+  EXPECT_EQ(s.body_locations[1].file, dir.file("nodes.csv"));
+  EXPECT_EQ(s.body_locations[1].line, 5);
+  EXPECT_EQ(s.body_locations[3].line, 8);
+
+  ASSERT_EQ(d.springs.size(), 4u);
+  EXPECT_EQ(d.springs[0].a.body, 0);
+  EXPECT_EQ(d.springs[0].b.body, 1);
+  EXPECT_DOUBLE_EQ(d.springs[0].stiffness, 100.0);  // the default
+  EXPECT_DOUBLE_EQ(d.springs[0].rest_length, 0.5);   // (1 - prestrain) × 1
+  EXPECT_DOUBLE_EQ(d.springs[0].damping, 0.25);
+  EXPECT_DOUBLE_EQ(d.springs[1].stiffness, 50.0);
+  EXPECT_DOUBLE_EQ(d.springs[1].damping, 0.5);
+  EXPECT_DOUBLE_EQ(d.springs[1].rest_length, 0.5 * std::sqrt(2.25));
+  EXPECT_DOUBLE_EQ(d.springs[2].rest_length, 2.0);  // given: no prestrain
+  EXPECT_EQ(modal::build_system(s).size(), 0 + 3 + 2 + 1);
+}
+
+TEST(network, ColumnsInAnyOrderAndNodesUsedByOtherSections) {
+  const Directory dir;
+  const modal::Scene s = load_network(dir,
+                                      network_scene + "mass = 1\n[[particle]]\nname = \"p\"\nposition = [0, 0, -1]\nmass = 1\n"
+                                                      "[[spring]]\na = \"p\"\nb = \"truss.b\"\nstiffness = 2\n",
+                                      "z,y,x,name\n0,0,0,a\n0,0,1,b\n", "b,a\na,b\n");
+  const auto& d = s.description;
+  ASSERT_EQ(d.bodies.size(), 3u);
+  EXPECT_EQ(d.bodies[0].name, "truss.a");  // the [[network]] comes first in the file
+  EXPECT_EQ(d.bodies[1].origin, Vec3(1, 0, 0));
+  EXPECT_EQ(d.bodies[2].name, "p");
+  ASSERT_EQ(d.springs.size(), 2u);
+  EXPECT_EQ(d.springs[0].a.body, 2);  // the [[spring]]
+  EXPECT_EQ(d.springs[0].b.body, 1);
+  EXPECT_EQ(d.springs[1].a.body, 1);  // the row "a,b" under the header "b,a"
+  EXPECT_EQ(d.springs[1].b.body, 0);
+}
+
+TEST(network, TheTowerModel) {
+  const modal::Scene s = modal::load_scene(std::string(MODAL_SOURCE_DIR) + "/models/network.toml");
+  const auto& d = s.description;
+  EXPECT_EQ(d.bodies.size(), 28u);
+  EXPECT_EQ(count_fixed(s), 4u);
+  EXPECT_EQ(d.springs.size(), 102u);
+  EXPECT_EQ(body(s, "tower.a3").origin, Vec3(0, 0, 3));
+  EXPECT_DOUBLE_EQ(body(s, "tower.c6").mass, 150.0);
+  for (const modal::Spring& spring : d.springs) EXPECT_DOUBLE_EQ(spring.damping, 2.0e4);
+  const modal::System system = modal::build_system(s);
+  ASSERT_EQ(system.size(), 72);
+  // The truss is rigid: K is positive definite at the written configuration.
+  modal::Workspace w(system);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(72);
+  const Eigen::VectorXd k = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(modal::potential_hessian(system, w, q),
+                                                                           Eigen::EigenvaluesOnly)
+                                .eigenvalues();
+  EXPECT_GT(k[0], 1e3);
+}
+
+TEST(network, ExampleModelsOfGenerators) {
+  const modal::Scene block = modal::load_scene(std::string(MODAL_SOURCE_DIR) + "/models/lattice.toml");
+  EXPECT_EQ(block.description.bodies.size(), 216u);
+  EXPECT_EQ(count_fixed(block), 36u);
+  EXPECT_EQ(block.description.springs.size(), 540u + 900u);
+  EXPECT_EQ(modal::build_system(block).size(), 540);
+  const modal::Scene net = modal::load_scene(std::string(MODAL_SOURCE_DIR) + "/models/net.toml");
+  EXPECT_EQ(net.description.bodies.size(), 900u);
+  EXPECT_EQ(count_fixed(net), 116u);
+  EXPECT_EQ(modal::build_system(net).size(), 2352);
+  EXPECT_LT(net.description.springs.at(0).rest_length, 0.1);  // pre-tensioned
+}
+
+// --- [[network]]: errors -------------------------------------------------------
+
+void check_network_error(const std::string& scene, const std::string& nodes, const std::string& edges,
+                         const std::string& file, int line, int column, const std::string& key,
+                         const std::string& message) {
+  const Directory dir;
+  check_error([&] { (void)load_network(dir, scene, nodes, edges); },
+              {dir.file(file), line, column, key, message});
+}
+
+TEST(network_errors, Files) {
+  const Directory dir;
+  dir.write("edges.csv", good_edges);
+  const std::string scene = dir.write("scene.toml", network_scene);
+  check_error([&] { (void)modal::load_scene(scene); },
+              {scene, 3, 9, "network[1].nodes",
+               "cannot open the nodes file '" + dir.file("nodes.csv") +
+                   "' (\"nodes.csv\" relative to the scene file's directory): No such file or directory"});
+  // A path relative to the scene's directory is named as resolved.
+  const std::string nested = dir.write("sub/scene.toml", "[[network]]\nnodes = \"../missing.csv\"\nedges = \"e.csv\"\n");
+  check_error([&] { (void)modal::load_scene(nested); },
+              {nested, 2, 9, "network[1].nodes",
+               "cannot open the nodes file '" + dir.file("missing.csv") +
+                   "' (\"../missing.csv\" relative to the scene file's directory): No such file or directory"});
+  fs::create_directories(dir.file("sub/dir"));
+  const std::string directory = dir.write("sub/d.toml", "[[network]]\nnodes = \"dir\"\nedges = \"e.csv\"\n");
+  check_error([&] { (void)modal::load_scene(directory); },
+              {directory, 2, 9, "network[1].nodes", "cannot read the nodes file '" + dir.file("sub/dir") + "'"});
+  check_error([&] { (void)modal::load_scene(dir.write("s.toml", "[[network]]\nedges = \"e.csv\"\n")); },
+              {dir.file("s.toml"), 1, 1, "network[1].nodes", "missing required key 'nodes' in [[network]]"});
+
+  const std::string header = "; a nodes file starts with the header name,x,y,z[,mass][,fixed]";
+  check_network_error(network_with_mass, "", good_edges, "nodes.csv", 1, 1, "",
+                      "the nodes file has no header line (it is empty)" + header);
+  check_network_error(network_with_mass, "# only\n\n# comments\n", good_edges, "nodes.csv", 1, 1, "",
+                      "the nodes file has no header line (it is empty or only comments)");
+  check_network_error(network_with_mass, good_nodes, "", "edges.csv", 1, 1, "",
+                      "the edges file has no header line (it is empty); an edges file starts with the header "
+                      "a,b[,stiffness][,rest_length][,damping]");
+}
+
+TEST(network_errors, Headers) {
+  check_network_error(network_with_mass, "name,x,y,mass\na,0,0,1\n", good_edges, "nodes.csv", 1, 1, "z",
+                      "missing column 'z' in the header; a nodes file starts with the header name,x,y,z[,mass][,fixed]");
+  check_network_error(network_with_mass, "# nodes\nname,x,y,z,mas\n", good_edges, "nodes.csv", 2, 12, "mas",
+                      "unknown column 'mas' in the nodes file (did you mean 'mass'?)");
+  check_network_error(network_with_mass, "name,x,y,z,x\n", good_edges, "nodes.csv", 1, 12, "x",
+                      "the column 'x' appears twice in the header");
+  check_network_error(network_with_mass, "name,x,,z\n", good_edges, "nodes.csv", 1, 8, "", "empty column name in the header, column 3");
+  check_network_error(network_with_mass, "name,x,y,z\n", good_edges, "nodes.csv", 1, 1, "", "the nodes file has a header but no nodes");
+  check_network_error(network_with_mass, good_nodes, "a,stiffness\n", "edges.csv", 1, 1, "b", "missing column 'b' in the header");
+}
+
+TEST(network_errors, NodeRows) {
+  const std::string header = "name,x,y,z,mass,fixed\na,0,0,0,1,1\n";  // lines 1-2
+  auto nodes_error = [&](const std::string& row, int column, const std::string& key, const std::string& message) {
+    check_network_error(network_with_mass, header + row + "c,0,1,0,1,0\n", good_edges, "nodes.csv", 3, column, key, message);
+  };
+  nodes_error("b,1,0\n", 1, "", "expected 6 fields (name,x,y,z,mass,fixed), got 3");
+  nodes_error("b,1,0,0,1,0,7\n", 1, "", "expected 6 fields (name,x,y,z,mass,fixed), got 7");
+  nodes_error("b,1,zero,0,1,0\n", 5, "y", "expected a finite number, got 'zero'");
+  nodes_error("b,1, nan ,0,1,0\n", 6, "y", "expected a finite number, got 'nan'");
+  nodes_error("b,1,0,1e999,1,0\n", 7, "z", "expected a finite number, got '1e999'");
+  nodes_error("b,1,0,0,-2,0\n", 9, "mass", "must be non-negative, got -2");
+  nodes_error("b,,0,0,1,0\n", 3, "x", "missing value");
+  nodes_error(",1,0,0,1,0\n", 1, "name", "missing value");
+  nodes_error("b,1,0,0,1,yes\n", 11, "fixed",
+              "expected 0, 1, true, false or the fixed axes as letters (\"z\", \"xy\", \"xyz\"), got 'yes'");
+  nodes_error("b,1,0,0,1,xx\n", 11, "fixed", "got 'xx'");
+  nodes_error("a,1,0,0,1,0\n", 1, "name", "duplicate node name 'a': already used on line 2");
+  // No mass: neither in the row nor as a default.
+  const std::string no_default = "[[network]]\nname = \"truss\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nstiffness = 1\n";
+  check_network_error(no_default, good_nodes, good_edges, "nodes.csv", 4, 9, "mass",
+                      "no mass for node 'c': fill in the mass column or give [[network]] a default 'mass'");
+  check_network_error(no_default, "name,x,y,z\na,0,0,0\n", good_edges, "scene.toml", 1, 1, "network[1].mass",
+                      "has no mass column, so [[network]] needs a default 'mass'");
+}
+
+TEST(network_errors, EdgeRows) {
+  const std::string nodes = good_nodes + "d,0,0,0,1,0\n";  // d where a is
+  auto edges_error = [&](const std::string& edges, int line, int column, const std::string& key, const std::string& message) {
+    check_network_error(network_with_mass, nodes, edges, "edges.csv", line, column, key, message);
+  };
+  edges_error("a,b\na,b\nb,cc\n", 3, 3, "b", "unknown node 'cc' (did you mean 'c'?); an edge joins two nodes of the nodes file");
+  edges_error("a,b\nB,c\n", 2, 1, "a", "unknown node 'B' (did you mean 'b'?)");
+  edges_error("a,b\nworld,b\n", 2, 1, "a", "(to tie a node to the world, fix it: fixed = 1)");
+  edges_error("a,b\nc, c\n", 2, 4, "b", "an edge must join two different nodes; both ends are 'c'");
+  edges_error("a,b\nb,c\na,d\n", 3, 1, "rest_length",
+              "the nodes 'a' and 'd' are at the same place, so the edge's rest length would be 0; give a rest_length");
+  edges_error("a,b,rest_length\nb,c,\na,d,\n", 3, 5, "rest_length", "are at the same place");
+  edges_error("a,b,stiffness\na,b,-1\n", 2, 5, "stiffness", "must be positive, got -1");
+  edges_error("a,b,rest_length\na,b,-1\n", 2, 5, "rest_length", "must be non-negative, got -1");
+  edges_error("a,b,damping\na,b,x\n", 2, 5, "damping", "expected a finite number, got 'x'");
+  edges_error("a,b,damping\na,b\n", 2, 1, "", "expected 3 fields (a,b,damping), got 2");
+  // A zero-length edge with a rest length is accepted.
+  const Directory dir;
+  EXPECT_EQ(load_network(dir, network_with_mass, nodes, "a,b,rest_length\na,d,0.5\n").description.springs.at(0).rest_length, 0.5);
+  // No stiffness: neither in the row nor as a default.
+  const std::string no_default = "[[network]]\nname = \"truss\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nmass = 1\n";
+  check_network_error(no_default, nodes, "a,b,stiffness\na,b,3\nb,c,\n", "edges.csv", 3, 5, "stiffness",
+                      "no stiffness for the edge 'b'-'c': fill in the stiffness column or give [[network]] a default 'stiffness'");
+  check_network_error(no_default, nodes, "a,b\na,b\n", "scene.toml", 1, 1, "network[1].stiffness",
+                      "has no stiffness column, so [[network]] needs a default 'stiffness'");
+}
+
+TEST(network_errors, KeysAndNames) {
+  check_network_error(network_scene + "mass = -1\n", good_nodes, good_edges, "scene.toml", 6, 8, "network[1].mass",
+                      "must be non-negative, got -1");
+  check_network_error(network_with_mass + "prestrain = 2\n", good_nodes, good_edges, "scene.toml", 7, 13, "network[1].prestrain",
+                      "must be less than 1");
+  check_network_error(network_with_mass + "edge = \"x\"\n", good_nodes, good_edges, "scene.toml", 7, 1, "network[1].edge",
+                      "unknown key 'edge' in [[network]] (did you mean 'edges'?)");
+  // Particle names are unique across all bodies.
+  const std::string body = "[[body]]\nname = \"truss.b\"\njoint = \"hinge\"\n";
+  const Directory dir;
+  check_error([&] { (void)load_network(dir, network_with_mass + body, good_nodes, good_edges); },
+              {dir.file("scene.toml"), 8, 8, "body[1].name",
+               "duplicate body name 'truss.b': already used by node 'b' of [[network]] 'truss' (" + dir.file("nodes.csv") +
+                   " line 3)"});
+  check_network_error(body + network_with_mass, good_nodes, good_edges, "nodes.csv", 3, 1, "name",
+                      "node 'b' of [[network]] 'truss' is the particle 'truss.b', a name already used by the [[body]] at line 1");
+}
+
+// --- scale ---------------------------------------------------------------------
+
+// Reading and building scenes of about 10⁶ coordinates: reported, not asserted
+// (timings depend on the machine; sanitizer builds are much slower).
+TEST(generators_scale, MillionCoordinates) {
+  const std::vector<std::pair<std::string, std::string>> scenes{
+      {"lattice 70x70x70, diagonals, fixed z-",
+       "[[lattice]]\nsize = [70, 70, 70]\nspacing = 0.01\nmass = 1e-3\nstiffness = 100\ndiagonals = true\nfixed = \"z-\"\n"},
+      {"net 580x580, boundary fixed, prestrain",
+       "[[lattice]]\nname = \"net\"\nsize = [580, 580, 1]\nspacing = 0.01\nmass = 1e-3\nstiffness = 100\n"
+       "prestrain = 0.01\nfixed = \"boundary\"\n"}};
+  for (const auto& [label, text] : scenes) {
+    using clock = std::chrono::steady_clock;
+    const auto start = clock::now();
+    const modal::Scene scene = modal::parse_scene(text, "large.toml");
+    const auto parsed = clock::now();
+    const modal::System system = modal::build_system(scene);
+    const auto built = clock::now();
+    EXPECT_GT(system.size(), 1000000);
+    const auto ms = [](auto d) { return std::chrono::duration<double, std::milli>(d).count(); };
+    std::cout << "  " << label << ": " << scene.description.bodies.size() << " particles, " << system.size()
+              << " coordinates, " << scene.description.springs.size() << " springs: parse " << ms(parsed - start)
+              << " ms, build " << ms(built - parsed) << " ms\n";
+  }
+}
+
+}  // namespace

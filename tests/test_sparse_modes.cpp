@@ -1,0 +1,535 @@
+// tests/test_sparse_modes.cpp — solve_sparse_modes() (shift-invert Lanczos with
+// CHOLMOD / LDLᵀ factors) against closed forms and the dense solver.
+//
+// References: spring chains of unit masses and unit springs, whose
+// eigenvalues are known in closed form (fixed–fixed, n masses:
+// λ_j = 4 sin²(jπ/(2(n+1))), φ_ij ∝ sin(ijπ/(n+1)); free–free:
+// λ_j = 4 sin²(jπ/(2n)), j = 0 … n−1, λ₀ = 0 the rigid translation), computed in
+// long double; otherwise the dense symmetric solver (Eigen's self-adjoint QR,
+// tested separately in test_modes.cpp).
+//
+// Tolerances: eigenvalues to 1e-10 relative (the chain's lowest eigenvalue,
+// 6e-7 for n = 2000, is known to the rounding of K's entries times its
+// condition; a few ε relative to ‖K‖ would still be 1e-9 relative to it, so
+// 1e-10 checks that the shift-invert run resolves the low end to far better
+// than normwise accuracy), ΦᵀMΦ = I to 1e-10.
+#include "modal/modes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using modal::LinearModel;
+using modal::MatrixX;
+using modal::ModalResult;
+using modal::ModeKind;
+using modal::SparseMatrix;
+using modal::SparseModalOptions;
+using modal::Stability;
+using modal::VectorX;
+using Long = long double;
+using Triplets = std::vector<Eigen::Triplet<double>>;
+
+constexpr double eigen_tolerance = 1e-10;   // relative
+constexpr double orthonormal_tolerance = 1e-10;
+
+// Options without designated initializers (GCC warns about the members left out).
+SparseModalOptions options(int k, std::optional<double> shift = std::nullopt, double tolerance = 1e-10) {
+  SparseModalOptions o;
+  o.modes = k;
+  o.shift = shift;
+  o.tolerance = tolerance;
+  return o;
+}
+
+SparseMatrix from_triplets(int n, const Triplets& t) {
+  SparseMatrix A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  A.makeCompressed();
+  return A;
+}
+
+// Unit masses joined by unit springs; `fixed`: also a spring from each end
+// mass to the ground. `diagonal_shift[i]` is added to K_ii.
+SparseMatrix chain_stiffness(int n, bool fixed, const std::vector<std::pair<int, double>>& diagonal_shift = {}) {
+  Triplets t;
+  for (int i = 0; i < n; ++i) {
+    double d = 2.0;
+    if (!fixed && (i == 0 || i == n - 1)) d = 1.0;
+    t.emplace_back(i, i, d);
+    if (i + 1 < n) {
+      t.emplace_back(i, i + 1, -1.0);
+      t.emplace_back(i + 1, i, -1.0);
+    }
+  }
+  for (auto [i, s] : diagonal_shift) t.emplace_back(i, i, s);
+  return from_triplets(n, t);
+}
+
+SparseMatrix identity(int n) {
+  SparseMatrix I(n, n);
+  I.setIdentity();
+  return I;
+}
+
+MatrixX shapes(const ModalResult& r) {
+  MatrixX Phi(r.modes.front().shape.size(), static_cast<Eigen::Index>(r.modes.size()));
+  for (std::size_t j = 0; j < r.modes.size(); ++j) Phi.col(static_cast<Eigen::Index>(j)) = r.modes[j].shape.real();
+  return Phi;
+}
+
+// ΦᵀMΦ = I; every shape real with its dominant component (the first of the
+// largest |components|, ties within 1e-12 relative) positive; residual
+// ‖Kφ − λMφ‖₂ and error estimate at most 1e-10·(‖K‖₁ + |λ|‖M‖₁)‖φ‖ (the
+// Lanczos tolerance is 1e-10 relative; eigenvalues are far more accurate, the
+// error being quadratic in the residual); ascending λ.
+void expect_valid_modes(const ModalResult& r, const SparseMatrix& K, const SparseMatrix& M) {
+  ASSERT_FALSE(r.modes.empty());
+  const MatrixX Phi = shapes(r);
+  const MatrixX G = Phi.transpose() * (M * Phi);
+  EXPECT_LE((G - MatrixX::Identity(G.rows(), G.cols())).cwiseAbs().maxCoeff(), orthonormal_tolerance);
+  const double k1 = MatrixX(K).cwiseAbs().colwise().sum().maxCoeff();
+  const double m1 = MatrixX(M).cwiseAbs().colwise().sum().maxCoeff();
+  for (std::size_t j = 0; j < r.modes.size(); ++j) {
+    const auto& mode = r.modes[j];
+    EXPECT_LE(mode.shape.imag().cwiseAbs().maxCoeff(), 0.0);
+    const VectorX phi = mode.shape.real();
+    const double largest = phi.cwiseAbs().maxCoeff();
+    Eigen::Index dominant = 0;
+    while (std::abs(phi(dominant)) < largest * (1 - 1e-12)) ++dominant;
+    EXPECT_GT(phi(dominant), 0.0) << "mode " << j;
+    const double scale = (k1 + std::abs(mode.omega2) * m1) * phi.norm();
+    const double residual = (K * phi - mode.omega2 * (M * phi)).norm();
+    EXPECT_LE(residual, 1e-10 * scale) << "mode " << j;
+    EXPECT_GE(mode.error_estimate, 0.0);
+    EXPECT_LE(mode.error_estimate, 1e-10 * scale) << "mode " << j;
+    if (j > 0) {
+      EXPECT_LE(r.modes[j - 1].omega2, mode.omega2);
+    }
+  }
+}
+
+void expect_relative(double value, double expected, double tolerance, const std::string& what) {
+  EXPECT_LE(std::abs(value - expected), tolerance * std::abs(expected))
+      << what << ": " << value << " vs " << expected << " (relative " << std::abs(value / expected - 1) << ")";
+}
+
+// Eigenvalues of the dense pencil (reference), ascending.
+VectorX dense_eigenvalues(const SparseMatrix& K, const SparseMatrix& M) {
+  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> eig(MatrixX(K), MatrixX(M), Eigen::EigenvaluesOnly);
+  return eig.eigenvalues();
+}
+
+// (a) Fixed–fixed chain, n = 2000: the ten lowest against the closed form.
+TEST(SparseModes, FixedFixedChainLowestTen) {
+  const int n = 2000;
+  const SparseMatrix K = chain_stiffness(n, true), M = identity(n);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(10));
+  ASSERT_EQ(r.modes.size(), 10u);
+  for (int j = 1; j <= 10; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n + 1)));
+    expect_relative(r.modes[static_cast<std::size_t>(j - 1)].omega2, static_cast<double>(4 * s * s), eigen_tolerance,
+                    "λ" + std::to_string(j));
+    EXPECT_EQ(r.modes[static_cast<std::size_t>(j - 1)].kind, ModeKind::oscillatory);
+    // The error estimate bounds the actual error.
+    EXPECT_LE(std::abs(r.modes[static_cast<std::size_t>(j - 1)].omega2 - static_cast<double>(4 * s * s)),
+              r.modes[static_cast<std::size_t>(j - 1)].error_estimate);
+  }
+  expect_valid_modes(r, K, M);
+  // The first shape: sqrt(2/(n+1)) sin(iπ/(n+1)), all positive.
+  const VectorX phi = r.modes[0].shape.real();
+  double worst = 0;
+  for (int i = 0; i < n; ++i)
+    worst = std::max(worst, std::abs(phi(i) - std::sqrt(2.0 / (n + 1)) *
+                                                  std::sin((i + 1) * std::numbers::pi / (n + 1))));
+  EXPECT_LE(worst, 1e-8);
+  EXPECT_EQ(r.stability, Stability::stable);
+  EXPECT_EQ(r.morse_index, 0);
+  EXPECT_EQ(r.zero_modes, 0);
+  EXPECT_NE(r.solver.find("shift-invert Lanczos"), std::string::npos) << r.solver;
+  EXPECT_NE(r.solver.find("CHOLMOD"), std::string::npos) << r.solver;
+  EXPECT_NEAR(r.modes[0].omega, std::sqrt(r.modes[0].omega2), 1e-15);
+}
+
+// A random sparse symmetric positive definite pencil (M not diagonal).
+void random_pencil(int n, unsigned seed, SparseMatrix& K, SparseMatrix& M) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.1, 1.0);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  Triplets tk, tm;
+  VectorX rowK = VectorX::Zero(n), rowM = VectorX::Zero(n);
+  for (int i = 0; i < n; ++i)
+    for (int e = 0; e < 3; ++e) {
+      const int j = pick(rng);
+      if (j == i) continue;
+      const double a = u(rng), b = 0.2 * u(rng);
+      tk.emplace_back(i, j, a);
+      tk.emplace_back(j, i, a);
+      tm.emplace_back(i, j, b);
+      tm.emplace_back(j, i, b);
+      rowK(i) += std::abs(a), rowK(j) += std::abs(a);
+      rowM(i) += std::abs(b), rowM(j) += std::abs(b);
+    }
+  for (int i = 0; i < n; ++i) {
+    tk.emplace_back(i, i, rowK(i) + pos(rng));
+    tm.emplace_back(i, i, rowM(i) + 1.0 + pos(rng));
+  }
+  K = from_triplets(n, tk);
+  M = from_triplets(n, tm);
+}
+
+// (b) Agreement with solve_modes (dense) on a random sparse pencil, n = 300.
+TEST(SparseModes, AgreesWithDenseSolver) {
+  const int n = 300;
+  SparseMatrix K, M;
+  random_pencil(n, 12345u, K, M);
+  const int k = 8;
+  const ModalResult sparse = modal::solve_sparse_modes(K, M, options(k));
+  EXPECT_NE(sparse.solver.find("shift-invert"), std::string::npos) << sparse.solver;
+
+  LinearModel model;
+  model.q = VectorX::Zero(n);
+  model.M = MatrixX(M);
+  model.K = MatrixX(K);
+  const ModalResult dense = modal::solve_modes(model);
+  ASSERT_EQ(sparse.modes.size(), static_cast<std::size_t>(k));
+  for (std::size_t j = 0; j < sparse.modes.size(); ++j) {
+    expect_relative(sparse.modes[j].omega2, dense.modes[j].omega2, eigen_tolerance, "λ" + std::to_string(j + 1));
+    const VectorX a = sparse.modes[j].shape.real(), b = dense.modes[j].shape.real();
+    EXPECT_LE(std::min((a - b).norm(), (a + b).norm()), 1e-8) << "shape " << j + 1;
+  }
+  expect_valid_modes(sparse, K, M);
+  EXPECT_EQ(sparse.stability, Stability::stable);
+  EXPECT_EQ(sparse.morse_index, 0);
+}
+
+// (c) Free–free chain: the rigid translation is a zero mode; marginal.
+TEST(SparseModes, FreeFreeChainZeroMode) {
+  const int n = 500;
+  const SparseMatrix K = chain_stiffness(n, false), M = identity(n);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(4));
+  ASSERT_EQ(r.modes.size(), 4u);
+  EXPECT_EQ(r.modes[0].kind, ModeKind::zero);
+  EXPECT_LE(std::abs(r.modes[0].omega2), 1e-12);
+  EXPECT_LE((r.modes[0].shape.real() - VectorX::Constant(n, 1 / std::sqrt(double(n)))).cwiseAbs().maxCoeff(), 1e-10);
+  for (int j = 1; j < 4; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n)));
+    expect_relative(r.modes[static_cast<std::size_t>(j)].omega2, static_cast<double>(4 * s * s), eigen_tolerance,
+                    "λ" + std::to_string(j));
+    EXPECT_EQ(r.modes[static_cast<std::size_t>(j)].kind, ModeKind::oscillatory);
+  }
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.zero_modes, 1);
+  EXPECT_EQ(r.morse_index, 0);
+  EXPECT_EQ(r.stability, Stability::marginal);
+}
+
+// Masses 1 + 0.5 sin(i): a non-uniform diagonal M.
+SparseMatrix uneven_masses(int n) {
+  Triplets t;
+  for (int i = 0; i < n; ++i) t.emplace_back(i, i, 1.0 + 0.5 * std::sin(static_cast<double>(i)));
+  return from_triplets(n, t);
+}
+
+// (d) Three negative eigenvalues (softened springs to ground at three sites):
+// returned first, morse_index 3, divergence; with k = 2 the two most negative,
+// morse_index still 3.
+TEST(SparseModes, NegativeModesReturnedFirst) {
+  const int n = 400;
+  const SparseMatrix K = chain_stiffness(n, true, {{100, -3.0}, {200, -4.0}, {300, -5.0}});
+  const SparseMatrix M = uneven_masses(n);
+  const VectorX reference = dense_eigenvalues(K, M);
+  ASSERT_LT(reference(2), 0.0);
+  ASSERT_GT(reference(3), 0.0);
+
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(10));
+  ASSERT_EQ(r.modes.size(), 10u);
+  for (std::size_t j = 0; j < 10; ++j) {
+    expect_relative(r.modes[j].omega2, reference(static_cast<Eigen::Index>(j)), eigen_tolerance,
+                    "λ" + std::to_string(j + 1));
+    EXPECT_EQ(r.modes[j].kind, j < 3 ? ModeKind::divergent : ModeKind::oscillatory) << j;
+  }
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.morse_index, 3);
+  EXPECT_EQ(r.stability, Stability::divergence);
+  EXPECT_GT(r.modes[0].growth_rate, 0.0);
+  EXPECT_NEAR(r.modes[0].growth_rate, std::sqrt(-reference(0)), 1e-10);
+
+  for (int k : {2, 3}) {
+    const ModalResult few = modal::solve_sparse_modes(K, M, options(k));
+    ASSERT_EQ(few.modes.size(), static_cast<std::size_t>(k));
+    for (std::size_t j = 0; j < few.modes.size(); ++j) {
+      expect_relative(few.modes[j].omega2, reference(static_cast<Eigen::Index>(j)), eigen_tolerance,
+                      "k = " + std::to_string(k) + ": λ" + std::to_string(j + 1));
+      EXPECT_EQ(few.modes[j].kind, ModeKind::divergent);
+    }
+    expect_valid_modes(few, K, M);
+    EXPECT_EQ(few.morse_index, 3) << "k = " << k;
+    EXPECT_EQ(few.stability, Stability::divergence);
+  }
+}
+
+// A negative eigenvalue close to zero, among the k nearest the default shift:
+// found by the first run alone.
+TEST(SparseModes, SmallNegativeEigenvalue) {
+  const int n = 400;
+  const SparseMatrix K = chain_stiffness(n, true, {{200, -0.05}});
+  const SparseMatrix M = identity(n);
+  const VectorX reference = dense_eigenvalues(K, M);
+  ASSERT_LT(reference(0), 0.0);
+  ASSERT_GT(reference(1), 0.0);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(6));
+  ASSERT_EQ(r.modes.size(), 6u);
+  for (std::size_t j = 0; j < 6; ++j)
+    expect_relative(r.modes[j].omega2, reference(static_cast<Eigen::Index>(j)), eigen_tolerance,
+                    "λ" + std::to_string(j + 1));
+  EXPECT_EQ(r.modes[0].kind, ModeKind::divergent);
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.morse_index, 1);
+  EXPECT_EQ(r.stability, Stability::divergence);
+}
+
+// (e) A shift in the middle of the spectrum: the k eigenvalues nearest it.
+TEST(SparseModes, UserShiftReturnsNearestEigenvalues) {
+  const int n = 2000;
+  const SparseMatrix K = chain_stiffness(n, true), M = identity(n);
+  const double sigma = 1.9;
+  const int k = 6;
+  std::vector<double> exact;
+  for (int j = 1; j <= n; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n + 1)));
+    exact.push_back(static_cast<double>(4 * s * s));
+  }
+  const auto below = std::count_if(exact.begin(), exact.end(), [&](double l) { return l < sigma; });
+  std::vector<double> nearest = exact;
+  std::sort(nearest.begin(), nearest.end(),
+            [&](double a, double b) { return std::abs(a - sigma) < std::abs(b - sigma); });
+  nearest.resize(k);
+  std::sort(nearest.begin(), nearest.end());
+
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(k, sigma));
+  ASSERT_EQ(r.modes.size(), static_cast<std::size_t>(k));
+  for (std::size_t j = 0; j < nearest.size(); ++j)
+    expect_relative(r.modes[j].omega2, nearest[j], eigen_tolerance, "λ near σ #" + std::to_string(j + 1));
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.morse_index, 0);
+  EXPECT_EQ(r.stability, Stability::stable);
+  const std::string expected_note = std::to_string(below) + " eigenvalues lie below σ";
+  EXPECT_TRUE(std::any_of(r.notes.begin(), r.notes.end(),
+                          [&](const std::string& note) { return note.find(expected_note) != std::string::npos; }))
+      << "expected a note containing \"" << expected_note << "\"";
+}
+
+// A user shift exactly at an eigenvalue (0, the free chain's translation):
+// the factorization of the singular K − σM is handled, the zero mode found.
+TEST(SparseModes, UserShiftAtZeroOfFreeChain) {
+  const int n = 400;
+  const SparseMatrix K = chain_stiffness(n, false), M = identity(n);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(3, 0.0));
+  ASSERT_EQ(r.modes.size(), 3u);
+  EXPECT_EQ(r.modes[0].kind, ModeKind::zero);
+  for (int j = 1; j < 3; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n)));
+    expect_relative(r.modes[static_cast<std::size_t>(j)].omega2, static_cast<double>(4 * s * s), eigen_tolerance,
+                    "λ" + std::to_string(j));
+  }
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.stability, Stability::marginal);
+  EXPECT_EQ(r.morse_index, 0);
+}
+
+// A user shift high in the spectrum of the free chain: the zero mode is not
+// among the returned ones, but the stability class still sees it.
+TEST(SparseModes, UserShiftStillSeesUnreturnedZeroMode) {
+  const int n = 400;
+  const SparseMatrix K = chain_stiffness(n, false), M = identity(n);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(3, 3.0));
+  ASSERT_EQ(r.modes.size(), 3u);
+  for (const auto& mode : r.modes) EXPECT_EQ(mode.kind, ModeKind::oscillatory);
+  EXPECT_EQ(r.zero_modes, 0);
+  EXPECT_EQ(r.stability, Stability::marginal);
+}
+
+// A 3-D grid of unit masses and springs (Dirichlet boundary), 9×8×7: dense
+// enough fill that CHOLMOD takes its supernodal LLᵀ, which fails for an
+// indefinite K − σM (the inertia then comes from the simplicial LDLᵀ).
+// Eigenvalues Σ_d 4 sin²(j_d π/(2(N_d + 1))), all distinct here.
+struct Grid {
+  std::array<int, 3> N{9, 8, 7};
+  int size() const { return N[0] * N[1] * N[2]; }
+  SparseMatrix stiffness(const std::vector<std::pair<int, double>>& diagonal_shift = {}) const {
+    Triplets t;
+    for (int i = 0; i < size(); ++i) {
+      t.emplace_back(i, i, 6.0);
+      int stride = 1;
+      for (int d = 0; d < 3; ++d) {
+        if ((i / stride) % N[static_cast<std::size_t>(d)] + 1 < N[static_cast<std::size_t>(d)]) {
+          t.emplace_back(i, i + stride, -1.0);
+          t.emplace_back(i + stride, i, -1.0);
+        }
+        stride *= N[static_cast<std::size_t>(d)];
+      }
+    }
+    for (auto [i, sh] : diagonal_shift) t.emplace_back(i, i, sh);
+    return from_triplets(size(), t);
+  }
+  std::vector<double> eigenvalues() const {  // ascending
+    std::vector<double> values;
+    auto term = [&](int j, int d) {
+      const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> /
+                              (2 * static_cast<Long>(N[static_cast<std::size_t>(d)] + 1)));
+      return 4 * s * s;
+    };
+    for (int a = 1; a <= N[0]; ++a)
+      for (int b = 1; b <= N[1]; ++b)
+        for (int c = 1; c <= N[2]; ++c) values.push_back(static_cast<double>(term(a, 0) + term(b, 1) + term(c, 2)));
+    std::sort(values.begin(), values.end());
+    return values;
+  }
+};
+
+TEST(SparseModes, GridSupernodalPaths) {
+  const Grid grid;
+  const int n = grid.size();
+  const SparseMatrix K = grid.stiffness(), M = identity(n);
+  const std::vector<double> exact = grid.eigenvalues();
+
+  // Lowest modes: supernodal LLᵀ at the default shift.
+  const ModalResult low = modal::solve_sparse_modes(K, M, options(6));
+  EXPECT_NE(low.solver.find("supernodal"), std::string::npos) << low.solver;
+  ASSERT_EQ(low.modes.size(), 6u);
+  for (std::size_t j = 0; j < 6; ++j)
+    expect_relative(low.modes[j].omega2, exact[j], eigen_tolerance, "λ" + std::to_string(j + 1));
+  expect_valid_modes(low, K, M);
+  EXPECT_EQ(low.stability, Stability::stable);
+
+  // A shift inside the spectrum: the supernodal LLᵀ fails, LDLᵀ counts.
+  const double sigma = 5.55;
+  const ModalResult mid = modal::solve_sparse_modes(K, M, options(5, sigma));
+  std::vector<double> nearest = exact;
+  std::sort(nearest.begin(), nearest.end(),
+            [&](double a, double b) { return std::abs(a - sigma) < std::abs(b - sigma); });
+  nearest.resize(5);
+  std::sort(nearest.begin(), nearest.end());
+  ASSERT_EQ(mid.modes.size(), 5u);
+  for (std::size_t j = 0; j < 5; ++j)
+    expect_relative(mid.modes[j].omega2, nearest[j], eigen_tolerance, "λ near σ #" + std::to_string(j + 1));
+  expect_valid_modes(mid, K, M);
+  const auto below = std::count_if(exact.begin(), exact.end(), [&](double l) { return l < sigma; });
+  const std::string expected_note = std::to_string(below) + " eigenvalues lie below σ";
+  EXPECT_TRUE(std::any_of(mid.notes.begin(), mid.notes.end(),
+                          [&](const std::string& note) { return note.find(expected_note) != std::string::npos; }))
+      << "expected a note containing \"" << expected_note << "\"";
+
+  // Two negative eigenvalues (softened sites): both phases of the default shift.
+  const SparseMatrix Kd = grid.stiffness({{n / 2, -8.0}, {n / 3, -10.0}});
+  const VectorX reference = dense_eigenvalues(Kd, M);
+  ASSERT_LT(reference(1), 0.0);
+  ASSERT_GT(reference(2), 0.0);
+  const ModalResult d = modal::solve_sparse_modes(Kd, M, options(5));
+  ASSERT_EQ(d.modes.size(), 5u);
+  for (std::size_t j = 0; j < 5; ++j)
+    expect_relative(d.modes[j].omega2, reference(static_cast<Eigen::Index>(j)), eigen_tolerance,
+                    "λ" + std::to_string(j + 1));
+  expect_valid_modes(d, Kd, M);
+  EXPECT_EQ(d.morse_index, 2);
+  EXPECT_EQ(d.stability, Stability::divergence);
+}
+
+// Small problems go to the dense solver, with the same conventions.
+TEST(SparseModes, SmallProblemsUseTheDenseSolver) {
+  const int n = 50;
+  const SparseMatrix K = chain_stiffness(n, true), M = identity(n);
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(5));
+  ASSERT_EQ(r.modes.size(), 5u);
+  EXPECT_NE(r.solver.find("dense"), std::string::npos) << r.solver;
+  for (int j = 1; j <= 5; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n + 1)));
+    expect_relative(r.modes[static_cast<std::size_t>(j - 1)].omega2, static_cast<double>(4 * s * s), 1e-12,
+                    "λ" + std::to_string(j));
+  }
+  expect_valid_modes(r, K, M);
+  EXPECT_EQ(r.stability, Stability::stable);
+
+  const SparseMatrix Kn = chain_stiffness(n, true, {{25, -3.0}});
+  const ModalResult d = modal::solve_sparse_modes(Kn, M, options(1));
+  ASSERT_EQ(d.modes.size(), 1u);
+  EXPECT_EQ(d.morse_index, 1);
+  EXPECT_EQ(d.stability, Stability::divergence);
+}
+
+// Matrices in Eigen's uncompressed mode (built by insert) and with only the
+// structure differing between K and M give the same result as compressed ones.
+TEST(SparseModes, UncompressedInput) {
+  const int n = 300;
+  SparseMatrix K(n, n), M(n, n);
+  K.reserve(Eigen::VectorXi::Constant(n, 4));
+  M.reserve(Eigen::VectorXi::Constant(n, 2));
+  for (int i = 0; i < n; ++i) {
+    K.insert(i, i) = 2.0;
+    if (i + 1 < n) {
+      K.insert(i, i + 1) = -1.0;
+      K.insert(i + 1, i) = -1.0;
+    }
+    M.insert(i, i) = 1.0;
+  }
+  ASSERT_FALSE(K.isCompressed());
+  const ModalResult r = modal::solve_sparse_modes(K, M, options(3));
+  ASSERT_EQ(r.modes.size(), 3u);
+  for (int j = 1; j <= 3; ++j) {
+    const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n + 1)));
+    expect_relative(r.modes[static_cast<std::size_t>(j - 1)].omega2, static_cast<double>(4 * s * s), eigen_tolerance,
+                    "λ" + std::to_string(j));
+  }
+}
+
+// (f) Errors: singular M, k < 1, sizes, non-finite entries.
+TEST(SparseModes, Errors) {
+  const int n = 300;
+  const SparseMatrix K = chain_stiffness(n, true);
+  SparseMatrix M = identity(n);
+  M.coeffRef(41, 41) = 0.0;
+  EXPECT_THROW(modal::solve_sparse_modes(K, M, options(4)), modal::SingularMassMatrix);
+  try {
+    modal::solve_sparse_modes(K, M, options(4));
+  } catch (const modal::SingularMassMatrix& e) {
+    EXPECT_NE(std::string(e.what()).find("q42"), std::string::npos) << e.what();
+  }
+  // Singular without a zero diagonal entry: two coordinates sharing one mass.
+  Triplets t;
+  for (int i = 0; i < n; ++i)
+    if (i != 10 && i != 11) t.emplace_back(i, i, 1.0);
+  for (int i : {10, 11})
+    for (int j : {10, 11}) t.emplace_back(i, j, 1.0);
+  EXPECT_THROW(modal::solve_sparse_modes(K, from_triplets(n, t), options(4)), modal::SingularMassMatrix);
+  // Dense fallback: the same error type.
+  SparseMatrix Ms = identity(20);
+  Ms.coeffRef(3, 3) = 0.0;
+  EXPECT_THROW(modal::solve_sparse_modes(chain_stiffness(20, true), Ms, options(2)), modal::SingularMassMatrix);
+
+  EXPECT_THROW(modal::solve_sparse_modes(K, identity(n), options(0)), std::invalid_argument);
+  EXPECT_THROW(modal::solve_sparse_modes(K, identity(n), options(-3)), std::invalid_argument);
+  EXPECT_THROW(modal::solve_sparse_modes(K, identity(n + 1), options(2)), std::invalid_argument);
+  EXPECT_THROW(modal::solve_sparse_modes(K, identity(n), options(2, std::nullopt, 0.0)), std::invalid_argument);
+  SparseMatrix Kbad = K;
+  Kbad.coeffRef(5, 5) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(modal::solve_sparse_modes(Kbad, identity(n), options(2)), modal::NumericalError);
+  SparseMatrix Kasym = K;
+  Kasym.coeffRef(5, 6) = 0.5;
+  EXPECT_THROW(modal::solve_sparse_modes(Kasym, identity(n), options(2)), std::invalid_argument);
+}
+
+}  // namespace
