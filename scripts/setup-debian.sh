@@ -18,6 +18,7 @@ packages=(
   libbenchmark-dev     # benchmarks
   libginac-dev         # benchmark only: bench_expression measures GiNaC against our expressions
   python3-sympy        # benchmark only: the SymPy mechanics peer of bench/map_linearize.sh
+  python3-scipy python3-matplotlib  # benchmark only: scipy eigsh peer and the plot of bench/sparse_scaling.sh
 )
 
 if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
