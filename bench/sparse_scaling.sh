@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# Time and peak memory of `modal analyze --solver sparse --modes 10` against n
+# for a 2-D pre-tensioned net sagging under gravity and a 3-D lattice clamped
+# at its base, split into the stages modal reports (--timing): parse+build,
+# equilibrium, assembly, factorization, eigen-solution. Side by side, in the
+# same run: scipy.sparse.linalg.eigsh(K, 10, M, sigma=0, tol=1e-10) on the
+# matrices modal exported (--export-matrices), with the ratio of the
+# eigen-solution times and the largest relative eigenvalue difference.
+#
+#   bench/sparse_scaling.sh [build-dir] [max-exponent]   (default: build 6)
+#
+# Writes results/sparse_scaling.csv, results/sparse_scaling.md and
+# results/sparse_scaling.png. Needs /usr/bin/time and python3 with scipy and
+# matplotlib (Debian: time, python3-scipy, python3-matplotlib).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build}
+max_exp=${2:-6}
+modal="$build/modal"
+py=/usr/bin/python3
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+csv=results/sparse_scaling.csv
+echo "scene,n,parse_build_s,equilibrium_s,assembly_s,export_s,factorization_s,eigen_solution_s,total_s,peak_MiB,scipy_eigsh_s,scipy_read_s,ratio_eigsh_over_modal,max_rel_diff,lambda1" > "$csv"
+
+net_scene() {  # N×N net, boundary fixed: 3 (N − 2)² coordinates
+  cat > "$1" <<EOF
+gravity = [0, 0, -9.81]
+[[lattice]]
+name = "net"
+size = [$2, $2, 1]
+spacing = 0.1
+mass = 0.002
+stiffness = 1000
+prestrain = 0.02
+fixed = "boundary"
+EOF
+}
+lattice_scene() {  # s×s×s lattice with face diagonals, base fixed: 3 s² (s − 1) coordinates
+  cat > "$1" <<EOF
+gravity = [0, 0, -9.81]
+[[lattice]]
+name = "block"
+size = [$2, $2, $2]
+spacing = 0.1
+mass = 0.01
+stiffness = 1000
+diagonals = true
+fixed = "z-"
+EOF
+}
+
+run_case() {  # kind size
+  local kind=$1 size=$2 scene="$work/$1_$2.toml" out="$work/$1_$2"
+  "${kind}_scene" "$scene" "$size"
+  rm -rf "$out.mtx"
+  /usr/bin/time -v "$modal" analyze "$scene" --solver sparse --modes 10 --tol 1e-10 --timing \
+    --export-matrices "$out.mtx" --csv "$out" > "$out.txt" 2> "$out.err"
+  local n
+  n=$(sed -n '/^[0-9]/{p;q}' "$out.mtx/M.mtx" | awk '{print $1}')
+  ms() { awk -v k="$1" '$1 == "timing:" && $2 == k {print $3 / 1000; f=1} END {if (!f) print 0}' "$out.err"; }
+  local peak
+  peak=$(awk '/Maximum resident set size/ {printf "%.1f", $6 / 1024}' "$out.err")
+  "$py" bench/scipy_eigsh.py "$out.mtx" 10 0 1e-10 > "$out.scipy"
+  "$py" - "$out" "$kind" "$n" "$(ms parse+build)" "$(ms equilibrium)" "$(ms assembly)" "$(ms export)" \
+    "$(ms factorization)" "$(ms eigen-solution)" "$(ms total)" "$peak" >> "$csv" <<'EOF'
+import csv, sys
+out, kind, n, pb, eq, asm, exp, fac, eig, total, peak = sys.argv[1:]
+modal = [float(r["omega2"]) for r in csv.DictReader(open(out + "_modes.csv"))]
+scipy = {}
+lams = []
+for line in open(out + ".scipy"):
+    key, value = line.split()
+    if key == "lambda":
+        lams.append(float(value))
+    else:
+        scipy[key] = float(value)
+diff = max(abs(a - b) / abs(b) for a, b in zip(sorted(modal), lams))
+modal_eigen = float(fac) + float(eig)
+print(f"{kind},{n},{pb},{eq},{asm},{exp},{fac},{eig},{total},{peak},{scipy['eigsh_s']:.3f},{scipy['read_s']:.3f},"
+      f"{scipy['eigsh_s'] / modal_eigen:.2f},{diff:.2e},{lams[0]:.10g}")
+EOF
+  echo "done: $kind $size (n = $n)" >&2
+}
+
+net_sizes=(20 60 185 580)        # ~1e3, 1e4, 1e5, 1e6 coordinates
+lattice_sizes=(7 15 32 70)
+for i in $(seq 0 $((max_exp - 3))); do
+  run_case net "${net_sizes[$i]}"
+  run_case lattice "${lattice_sizes[$i]}"
+done
+
+"$py" - "$csv" <<'EOF'
+import csv, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+rows = list(csv.DictReader(open(sys.argv[1])))
+fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+for ax, kind in zip(axes, ["net", "lattice"]):
+    rs = [r for r in rows if r["scene"] == kind]
+    n = [int(r["n"]) for r in rs]
+    for key, label in [("parse_build_s", "parse+build"), ("equilibrium_s", "equilibrium"), ("assembly_s", "assembly"),
+                       ("factorization_s", "factorization"), ("eigen_solution_s", "eigen-solution"),
+                       ("total_s", "modal total"), ("scipy_eigsh_s", "scipy eigsh")]:
+        ax.loglog(n, [max(float(r[key]), 1e-4) for r in rs], marker="o", label=label)
+    ax.set_title(f"{kind}: time against coordinates (10 lowest modes)")
+    ax.set_xlabel("coordinates n")
+    ax.set_ylabel("seconds")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+fig.tight_layout()
+fig.savefig("results/sparse_scaling.png", dpi=110)
+EOF
+echo "wrote $csv and results/sparse_scaling.png" >&2
