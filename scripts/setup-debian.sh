@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev        # dense linear algebra, Eigen 3.4
   libspectra-dev       # sparse/iterative eigen-solvers, Spectra 1.0
   libsuitesparse-dev   # CHOLMOD sparse Cholesky (shift-invert of the sparse eigen-solver)
+  libmumps-seq-dev     # MUMPS sparse LDLᵀ with pivoting: inertia and indefinite shifts of the sparse eigen-solver
   libnlopt-cxx-dev     # NLopt with its C++ API (equilibrium searches)
   libgsl-dev           # GSL: ODE integration (energy conservation, simulation)
   libcli11-dev         # command line

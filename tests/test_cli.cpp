@@ -593,6 +593,37 @@ TEST_F(Cli, SparseAndDenseSolversAgree) {
     EXPECT_REL(number(b.rows[i], "omega2"), number(a.rows[i], "omega2"), 1e-10) << "mode " << i + 1;
 }
 
+// Above large_system_coordinates: both strategies of the large-scene
+// equilibrium (Newton first; L-BFGS first) reach the same sagged net, to the
+// equilibrium tolerance (1e-12 relative residual; the net's Hessian has a
+// condition number of about 1e4, so the coordinates agree to ~1e-8 of the sag).
+TEST_F(Cli, LargeEquilibriumStrategiesAgree) {
+  std::string text = small_net;
+  text.replace(text.find("[14, 14, 1]"), 11, "[21, 21, 1]");  // 3·19² = 1083 coordinates
+  const std::string scene = write("net21.toml", text);
+  const std::string a = prefix("newton"), b = prefix("lbfgs");
+  const Outcome ra = run({"analyze", scene, "--modes", "3", "--large-equilibrium", "newton", "--csv", a});
+  const Outcome rb = run({"analyze", scene, "--modes", "3", "--large-equilibrium", "lbfgs", "--csv", b});
+  ASSERT_EQ(ra.status, 0) << ra.err;
+  ASSERT_EQ(rb.status, 0) << rb.err;
+  EXPECT_NE(ra.out.find("found by truncated Newton with the sparse Hessian"), std::string::npos) << ra.out;
+  EXPECT_NE(rb.out.find("found by L-BFGS ("), std::string::npos) << rb.out;
+  const Row qa = read_csv(a + "_equilibria.csv").rows.at(0), qb = read_csv(b + "_equilibria.csv").rows.at(0);
+  const double sag = number(qa, "net.10.10.z");
+  EXPECT_LT(sag, -0.01);  // gravity makes the net sag at its centre
+  double worst = 0;
+  int compared = 0;
+  for (const auto& [key, value] : qa)
+    if (key.rfind("net.", 0) == 0) {
+      worst = std::max(worst, std::abs(number(qa, key) - number(qb, key)));
+      ++compared;
+    }
+  EXPECT_EQ(compared, 1083);
+  EXPECT_LT(worst, 1e-8 * std::abs(sag));
+  const Outcome bad = run({"analyze", scene, "--large-equilibrium", "bfgs"});
+  EXPECT_EQ(bad.status, 1) << bad.err;  // a usage error
+}
+
 TEST_F(Cli, ExportMatricesWritesMatrixMarket) {
   const std::string scene = write("net.toml", small_net);
   const std::string out = (dir / "mm").string();

@@ -410,6 +410,11 @@ TEST(SparseModes, GridSupernodalPaths) {
   // Lowest modes: supernodal LLᵀ at the default shift.
   const ModalResult low = modal::solve_sparse_modes(K, M, options(6));
   EXPECT_NE(low.solver.find("supernodal"), std::string::npos) << low.solver;
+  // The completeness check counted the eigenvalues below the 6th by MUMPS's LDLᵀ.
+  const auto below_sixth = std::count_if(exact.begin(), exact.end(), [&](double l) { return l < exact[5] - 1e-6; });
+  EXPECT_TRUE(std::any_of(low.notes.begin(), low.notes.end(), [&](const std::string& note) {
+    return note.find("exactly " + std::to_string(below_sixth) + " eigenvalues lie below it") != std::string::npos;
+  })) << "expected the completeness note";
   ASSERT_EQ(low.modes.size(), 6u);
   for (std::size_t j = 0; j < 6; ++j)
     expect_relative(low.modes[j].omega2, exact[j], eigen_tolerance, "λ" + std::to_string(j + 1));
@@ -425,6 +430,7 @@ TEST(SparseModes, GridSupernodalPaths) {
   nearest.resize(5);
   std::sort(nearest.begin(), nearest.end());
   ASSERT_EQ(mid.modes.size(), 5u);
+  EXPECT_NE(mid.solver.find("MUMPS LDLᵀ with pivoting"), std::string::npos) << mid.solver;
   for (std::size_t j = 0; j < 5; ++j)
     expect_relative(mid.modes[j].omega2, nearest[j], eigen_tolerance, "λ near σ #" + std::to_string(j + 1));
   expect_valid_modes(mid, K, M);

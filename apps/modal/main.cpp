@@ -161,6 +161,7 @@ struct SolverChoice {
   std::optional<double> shift;  // sparse: σ
   double tolerance = 1e-10;     // sparse: Lanczos convergence tolerance
   std::string export_dir;       // --export-matrices
+  std::string large_equilibrium = "newton";  // newton | lbfgs (scenes above large_system_coordinates)
 };
 
 // The documented rule: sparse for more than large_system_coordinates
@@ -182,7 +183,9 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
   const modal::System sys = modal::build_system(scene);
   clock.lap("parse+build");
 
-  const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration())
+  modal::EquilibriumOptions eo;
+  if (choice.large_equilibrium == "lbfgs") eo.large_method = modal::LargeEquilibriumMethod::lbfgs;
+  const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration(), eo)
                                     : equilibrium_at(sys, parse_point("--at", *at, sys));
   clock.lap("equilibrium");
   modal::ModalResult result;
@@ -623,6 +626,12 @@ int main(int argc, char** argv) {
                       "sparse solver: find the modes with ω² nearest this shift (rad²/s²; default: the lowest)");
   analyze->add_option("--tol", solver_choice.tolerance, "sparse solver: relative convergence tolerance")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  analyze->add_option("--large-equilibrium", solver_choice.large_equilibrium,
+                      "equilibrium of a scene above " + std::to_string(modal::large_system_coordinates) +
+                          " coordinates: newton (truncated Newton from the start with the sparse Hessian; L-BFGS if "
+                          "it stalls) or lbfgs (L-BFGS down to 1e-4 of the starting gradient first, then Newton)")
+      ->check(CLI::IsMember({"newton", "lbfgs"}))
       ->capture_default_str();
   analyze->add_option("--export-matrices", solver_choice.export_dir,
                       "write M, K (and D, G where present) at the equilibrium as Matrix Market files into DIR")

@@ -36,6 +36,7 @@
 
 #include <Eigen/Cholesky>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
@@ -430,12 +431,35 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
   return H;
 }
 
-SparseMatrix sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
-  if (s.is_map()) return potential_hessian(s, w, q).sparseView();
+const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  SparseMatrix& H = w.sparse_hessian;
+  if (s.is_map()) {
+    H = potential_hessian(s, w, q).sparseView();
+    return H;
+  }
+  // The entries touched depend on the system only, not on q: after the first
+  // assembly each entry is added in place (binary search in its column),
+  // which avoids sorting one triplet per term (36 per spring) every time.
+  if (H.rows() == s.size() && H.cols() == s.size() && H.isCompressed() && H.nonZeros() > 0) {
+    std::fill_n(H.valuePtr(), H.nonZeros(), 0.0);
+    const auto* outer = H.outerIndexPtr();
+    const auto* inner = H.innerIndexPtr();
+    double* values = H.valuePtr();
+    bool fits = true;
+    assemble_potential_hessian(s, w, q, [&](int j, int k, double v) {
+      const auto* begin = inner + outer[k];
+      const auto* end = inner + outer[k + 1];
+      const auto* at = std::lower_bound(begin, end, j);
+      if (at != end && *at == j) values[at - inner] += v;
+      else fits = false;
+    });
+    if (fits) return H;
+  }
   std::vector<Eigen::Triplet<double>> t;
   assemble_potential_hessian(s, w, q, triplet_adder(t));
-  SparseMatrix H(s.size(), s.size());
+  H.resize(s.size(), s.size());
   H.setFromTriplets(t.begin(), t.end());  // sums the elements' contributions
+  H.makeCompressed();
   return H;
 }
 

@@ -87,7 +87,7 @@
 #include "detail.hpp"
 
 #include <Eigen/CholmodSupport>
-#include <Spectra/MatOp/SparseSymMatProd.h>
+#include <dmumps_c.h>
 #include <Spectra/SymGEigsShiftSolver.h>
 
 #include <algorithm>
@@ -199,6 +199,27 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
     setMode(mode);
     cholmod().print = 0;  // a failed factorization is reported by us, not printed by CHOLMOD
   }
+  CholmodFactor(const CholmodFactor&) = delete;
+  CholmodFactor& operator=(const CholmodFactor&) = delete;
+  ~CholmodFactor() {
+    for (cholmod_dense** d : {&x_, &y_, &e_}) cholmod_free_dense(d, &cholmod());
+  }
+  // y = A⁻¹x for one vector, through cholmod_solve2 with workspace kept from
+  // call to call (Eigen's solve() allocates and frees three n-vectors per
+  // call, which dominates the many solves of a Lanczos run). False when
+  // CHOLMOD fails.
+  bool solve_into(const double* in, double* out) {
+    cholmod_dense b{};
+    b.nrow = b.d = m_cholmodFactor->n;
+    b.ncol = 1;
+    b.nzmax = b.nrow;
+    b.x = const_cast<double*>(in);  // read only: B is an input of cholmod_solve2
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    if (!cholmod_solve2(CHOLMOD_A, m_cholmodFactor, &b, nullptr, &x_, nullptr, &y_, &e_, &cholmod())) return false;
+    std::copy_n(static_cast<const double*>(x_->x), b.nrow, out);
+    return true;
+  }
   // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
   bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
   // Whether the symbolic analysis chose a supernodal (LLᵀ) factor.
@@ -216,6 +237,9 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
     }
     return {negative, zero};
   }
+
+ private:
+  cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;  // cholmod_solve2's reusable workspace
 };
 
 // "0.71·q3 − 0.71·q4" for the largest components of v (at most 6).
@@ -289,37 +313,134 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
 
 // ------------------------------------------------------- K − σM, factored
 
-// The factorization of K − σM for one σ at a time (K, M on one pattern).
+// A sparse symmetric indefinite LDLᵀ factorization with pivoting (MUMPS,
+// sequential, multifrontal with BLAS-3 fronts, METIS or AMD ordering chosen by
+// MUMPS): the inertia of an indefinite K − σM (its negative pivots, INFOG(12))
+// at the cost of a supernodal Cholesky, where CHOLMOD's LDLᵀ is simplicial
+// (scalar, several times slower on 2-D and 3-D meshes) and does not pivot.
+// Null pivots are detected (ICNTL(24)) and reported as a failure, like a zero
+// pivot. One symbolic analysis serves every σ (the pattern of A is fixed).
+class MumpsLdlt {
+ public:
+  // A: full symmetric storage, compressed; its lower triangle is used.
+  explicit MumpsLdlt(const SparseMatrix& A) : n_(A.rows()) {
+    for (Index j = 0; j < A.outerSize(); ++j)
+      for (Index p = A.outerIndexPtr()[j]; p < A.outerIndexPtr()[j + 1]; ++p)
+        if (A.innerIndexPtr()[p] >= j) {
+          positions_.push_back(p);
+          irn_.push_back(static_cast<MUMPS_INT>(A.innerIndexPtr()[p] + 1));
+          jcn_.push_back(static_cast<MUMPS_INT>(j + 1));
+        }
+    values_.resize(positions_.size());
+    id_.comm_fortran = -987654;  // USE_COMM_WORLD of the sequential MPI stand-in
+    id_.par = 1;
+    id_.sym = 2;  // symmetric, not necessarily definite: LDLᵀ with 1×1 and 2×2 pivots
+    id_.job = -1;
+    dmumps_c(&id_);
+    initialized_ = id_.infog[0] >= 0;
+    if (!initialized_) throw NumericalError("solve_sparse_modes: MUMPS could not be initialized");
+    for (int i : {0, 1, 2}) id_.icntl[i] = -1;  // no output
+    id_.icntl[3] = 0;
+    id_.icntl[6] = 7;    // ICNTL(7): ordering chosen by MUMPS
+    id_.icntl[23] = 1;   // ICNTL(24): detect null pivots
+    id_.cntl[2] = 0.0;   // CNTL(3): default null-pivot threshold
+    id_.n = static_cast<MUMPS_INT>(n_);
+    id_.nnz = static_cast<MUMPS_INT8>(positions_.size());
+    id_.irn = irn_.data();
+    id_.jcn = jcn_.data();
+    id_.a = values_.data();
+  }
+  MumpsLdlt(const MumpsLdlt&) = delete;
+  MumpsLdlt& operator=(const MumpsLdlt&) = delete;
+  ~MumpsLdlt() {
+    if (initialized_) {
+      id_.job = -2;
+      dmumps_c(&id_);
+    }
+  }
+
+  // Factors A (same pattern as at construction); the number of negative
+  // pivots, or nothing when the factorization failed or met a null pivot.
+  std::optional<Index> factor(const SparseMatrix& A) {
+    for (std::size_t i = 0; i < positions_.size(); ++i) values_[i] = A.valuePtr()[positions_[i]];
+    if (!analyzed_) {
+      id_.job = 1;
+      dmumps_c(&id_);
+      if (id_.infog[0] < 0) return std::nullopt;
+      analyzed_ = true;
+    }
+    factored_ = false;
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      id_.job = 2;
+      dmumps_c(&id_);
+      // INFOG(1) = −8, −9: the estimated workspace was too small; grow it.
+      if (id_.infog[0] == -8 || id_.infog[0] == -9) {
+        id_.icntl[13] = std::max<MUMPS_INT>(40, 2 * id_.icntl[13]);
+        continue;
+      }
+      break;
+    }
+    if (id_.infog[0] < 0 || id_.infog[27] > 0) return std::nullopt;  // INFOG(28): null pivots
+    factored_ = true;
+    return static_cast<Index>(id_.infog[11]);  // INFOG(12): negative pivots
+  }
+
+  // y = A⁻¹x; false when MUMPS fails.
+  bool solve(const double* in, double* out) {
+    if (!factored_) return false;
+    std::copy_n(in, n_, out);
+    id_.rhs = out;
+    id_.nrhs = 1;
+    id_.lrhs = static_cast<MUMPS_INT>(n_);
+    id_.job = 3;
+    dmumps_c(&id_);
+    return id_.infog[0] >= 0;
+  }
+
+ private:
+  Index n_;
+  std::vector<Index> positions_;  // of the lower-triangle entries in A's value array
+  std::vector<MUMPS_INT> irn_, jcn_;
+  std::vector<double> values_;
+  DMUMPS_STRUC_C id_{};
+  bool initialized_ = false, analyzed_ = false, factored_ = false;
+};
+
+// The factorization of K − σM for one σ at a time (K, M on one pattern):
+// CHOLMOD's automatic choice (supernodal LLᵀ, or simplicial LDLᵀ for very
+// sparse factors); when a supernodal LLᵀ fails (K − σM indefinite) and the
+// inertia is wanted, MUMPS's LDLᵀ with pivoting.
 class ShiftedFactor {
  public:
   ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M) : K_(K), M_(M), A_(K) {}
 
   Index size() const { return K_.rows(); }
   double sigma() const { return sigma_; }
-  bool valid() const { return current_ != nullptr; }
-  bool positive_definite() const { return current_ != nullptr && !indefinite_; }
+  bool valid() const { return active_ != Active::none; }
+  bool positive_definite() const { return valid() && !indefinite_; }
   bool indefinite() const { return indefinite_; }
   int factorizations() const { return factorizations_; }
 
   // Factors K − σM and returns the number of eigenvalues below σ (the
   // negative pivots; 0 when an LLᵀ factor exists), or nothing when K − σM has
-  // no factorization without pivoting (a zero pivot). With `inertia` false,
-  // returns nothing as soon as K − σM is known not to be positive definite
-  // (cheaper: no LDLᵀ is attempted after a failed supernodal LLᵀ).
+  // no factorization (a zero pivot). With `inertia` false, returns nothing as
+  // soon as K − σM is known not to be positive definite (cheaper: no LDLᵀ is
+  // attempted after a failed supernodal LLᵀ).
   std::optional<Index> factor(double sigma, bool inertia = true) {
     assemble(sigma);
-    current_ = nullptr;
-    if (std::optional<Index> below = factor_with(automatic_, analyzed_automatic_, &automatic_supernodal_)) {
-      current_ = automatic_.get();
+    active_ = Active::none;
+    if (std::optional<Index> below = factor_automatic()) {
+      active_ = Active::cholmod;
       indefinite_ = *below > 0;
       return below;
     }
     if (!inertia || !automatic_supernodal_) return std::nullopt;
     // The automatic choice was a supernodal LLᵀ, which fails for an
-    // indefinite matrix: the simplicial LDLᵀ gives the inertia.
-    if (!ldlt_) ldlt_ = std::make_unique<CholmodFactor>(Eigen::CholmodLDLt);
-    if (std::optional<Index> below = factor_with(ldlt_, analyzed_ldlt_)) {
-      current_ = ldlt_.get();
+    // indefinite matrix: MUMPS's LDLᵀ gives the inertia.
+    if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_);
+    ++factorizations_;
+    if (std::optional<Index> below = mumps_->factor(A_)) {
+      active_ = Active::mumps;
       indefinite_ = *below > 0;
       return below;
     }
@@ -334,24 +455,37 @@ class ShiftedFactor {
 
   // y = (K − σM)⁻¹ x.
   void solve(const double* in, double* out) const {
-    if (current_ == nullptr) throw std::logic_error("solve_sparse_modes: solve without a factorization");
-    const Eigen::Map<const VectorX> x(in, size());
-    Eigen::Map<VectorX> y(out, size());
-    y = current_->solve(x);
+    if (active_ == Active::mumps) {
+      if (!mumps_->solve(in, out)) throw NumericalError("solve_sparse_modes: a MUMPS solve with K − σM failed");
+      return;
+    }
+    if (active_ == Active::none) throw std::logic_error("solve_sparse_modes: solve without a factorization");
+    if (!automatic_->solve_into(in, out)) throw NumericalError("solve_sparse_modes: a CHOLMOD solve with K − σM failed");
     if (indefinite_) {
-      // LDLᵀ without pivoting of an indefinite matrix may grow its entries;
-      // one step of iterative refinement recovers most of the lost accuracy.
-      const VectorX r = x - A_ * y;
-      y += current_->solve(r);
+      // CHOLMOD's LDLᵀ does not pivot: for an indefinite matrix its entries may
+      // grow; one step of iterative refinement recovers most of the lost accuracy.
+      const Eigen::Map<const VectorX> x(in, size());
+      Eigen::Map<VectorX> y(out, size());
+      residual_ = x - A_ * y;
+      correction_.resize(size());
+      if (!automatic_->solve_into(residual_.data(), correction_.data()))
+        throw NumericalError("solve_sparse_modes: a CHOLMOD solve with K − σM failed");
+      y += correction_;
     }
   }
 
   std::string describe() const {
-    if (current_ == nullptr) return "no factorization";
-    return current_->is_ldlt() ? "CHOLMOD simplicial LDLᵀ" : "CHOLMOD supernodal LLᵀ";
+    switch (active_) {
+      case Active::none: return "no factorization";
+      case Active::mumps: return "MUMPS LDLᵀ with pivoting";
+      case Active::cholmod: break;
+    }
+    return automatic_->is_ldlt() ? "CHOLMOD simplicial LDLᵀ" : "CHOLMOD supernodal LLᵀ";
   }
 
  private:
+  enum class Active { none, cholmod, mumps };
+
   void assemble(double sigma) {
     sigma_ = sigma;
     const double* k = K_.valuePtr();
@@ -360,23 +494,25 @@ class ShiftedFactor {
     for (Index i = 0; i < A_.nonZeros(); ++i) a[i] = k[i] - sigma * m[i];
   }
 
-  // Numeric factorization of A_ (symbolic analysis once, and again after a
-  // failure, which may leave CHOLMOD's factor partly converted); the count of
-  // negative pivots, or nothing when it failed or met a zero pivot.
-  std::optional<Index> factor_with(std::unique_ptr<CholmodFactor>& f, bool& analyzed, bool* supernodal = nullptr) {
-    if (!f) f = std::make_unique<CholmodFactor>();
-    if (!analyzed) {
-      f->analyzePattern(A_);
-      analyzed = true;
-      if (supernodal != nullptr) *supernodal = f->is_supernodal();
+  // CHOLMOD's numeric factorization of A_ (symbolic analysis once; again
+  // after a failed simplicial LDLᵀ, which may leave the factor partly
+  // converted; a supernodal factor keeps its structure when it stops at a
+  // non-positive pivot); the count of negative pivots, or nothing when it
+  // failed or met a zero pivot.
+  std::optional<Index> factor_automatic() {
+    if (!automatic_) automatic_ = std::make_unique<CholmodFactor>();
+    if (!analyzed_) {
+      automatic_->analyzePattern(A_);
+      analyzed_ = true;
+      automatic_supernodal_ = automatic_->is_supernodal();
     }
-    f->factorize(A_);
+    automatic_->factorize(A_);
     ++factorizations_;
-    if (f->info() != Eigen::Success) {
-      analyzed = false;
+    if (automatic_->info() != Eigen::Success) {
+      if (!automatic_supernodal_) analyzed_ = false;
       return std::nullopt;
     }
-    const auto [negative, zero] = f->nonpositive_pivots();
+    const auto [negative, zero] = automatic_->nonpositive_pivots();
     if (zero > 0) return std::nullopt;
     return negative;
   }
@@ -384,13 +520,15 @@ class ShiftedFactor {
   const SparseMatrix& K_;
   const SparseMatrix& M_;
   SparseMatrix A_;
-  std::unique_ptr<CholmodFactor> automatic_, ldlt_;
-  bool analyzed_automatic_ = false, analyzed_ldlt_ = false;
+  std::unique_ptr<CholmodFactor> automatic_;
+  std::unique_ptr<MumpsLdlt> mumps_;
+  bool analyzed_ = false;
   bool automatic_supernodal_ = false;  // what the analysis of the automatic factor chose
-  CholmodFactor* current_ = nullptr;
+  Active active_ = Active::none;
   bool indefinite_ = false;
   double sigma_ = nan;
   int factorizations_ = 0;
+  mutable VectorX residual_, correction_;  // workspace of the refinement step
 };
 
 // The shift-invert operator in the form Spectra's SymGEigsShiftSolver expects
@@ -413,6 +551,43 @@ class ShiftInvertOp {
   ShiftedFactor& factor_;
 };
 
+// y = M x for Spectra's B-inner products, which a Lanczos step takes several
+// times (norm, orthogonalization, reorthogonalization): a diagonal M (particles
+// and point masses) as a vector, otherwise M in full symmetric storage on its
+// own pattern (not the common pattern with K, whose explicit zeros would make
+// each product as dear as one with K).
+class MassProduct {
+ public:
+  using Scalar = double;
+  explicit MassProduct(const SparseMatrix& M) {
+    bool diagonal = true;
+    for (Index j = 0; j < M.outerSize() && diagonal; ++j)
+      for (SparseMatrix::InnerIterator it(M, j); it; ++it)
+        if (it.row() != j && it.value() != 0) {
+          diagonal = false;
+          break;
+        }
+    if (diagonal) {
+      diagonal_ = M.diagonal();
+    } else {
+      M_ = M.pruned(0.0);  // exact zeros only
+      M_.makeCompressed();
+    }
+  }
+  Index rows() const { return diagonal_.size() > 0 ? diagonal_.size() : M_.rows(); }
+  Index cols() const { return rows(); }
+  void perform_op(const Scalar* x_in, Scalar* y_out) const {
+    const Eigen::Map<const VectorX> x(x_in, rows());
+    Eigen::Map<VectorX> y(y_out, rows());
+    if (diagonal_.size() > 0) y = diagonal_.cwiseProduct(x);
+    else y.noalias() = M_ * x;
+  }
+
+ private:
+  VectorX diagonal_;
+  SparseMatrix M_;
+};
+
 // The `nev` eigenpairs nearest σ, ascending in λ.
 struct LanczosRun {
   double sigma = 0;
@@ -422,16 +597,15 @@ struct LanczosRun {
   std::string factor;
 };
 
-LanczosRun run_lanczos(ShiftedFactor& factor, const SparseMatrix& M, double sigma, Index nev,
+LanczosRun run_lanczos(ShiftedFactor& factor, MassProduct& mass_op, double sigma, Index nev,
                        const SparseModalOptions& options) {
-  const Index n = M.rows();
+  const Index n = mass_op.rows();
   LanczosRun run;
   run.sigma = sigma;
   run.ncv = std::min<Index>(n, std::max<Index>(2 * nev + 1, 20));
   ShiftInvertOp op(factor);
-  Spectra::SparseSymMatProd<double> mass_op(M);
   try {
-    Spectra::SymGEigsShiftSolver<ShiftInvertOp, Spectra::SparseSymMatProd<double>, Spectra::GEigsMode::ShiftInvert>
+    Spectra::SymGEigsShiftSolver<ShiftInvertOp, MassProduct, Spectra::GEigsMode::ShiftInvert>
         eigs(op, mass_op, nev, run.ncv, sigma);
     eigs.init();
     const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
@@ -601,6 +775,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   const double zeta = 1e-8 * scale;
   const double sigma0 = -zeta;
 
+  MassProduct mass_op(M);
   to_common_pattern(K, M);
   ShiftedFactor factor(K, M);
   ModalResult result;
@@ -637,19 +812,28 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   if (options.shift) {
     user_sigma = *options.shift;
     below_user_shift = factor_at(user_sigma, "requested");
-    const LanczosRun run = run_lanczos(factor, M, user_sigma, k, options);
+    const LanczosRun run = run_lanczos(factor, mass_op, user_sigma, k, options);
     runs.push_back(describe_run(run, k));
     take(run, [](double) { return true; });
   } else if (m == 0) {
     // Completeness by inertia: a single-vector Lanczos run can skip a copy of
-    // a repeated eigenvalue at the edge of the wanted set. The number of
-    // eigenvalues below b = λ_k + δ (δ = 1e-6|λ_k| + ζ) must equal the number
-    // of Ritz values found below b; if it is larger, run again with more.
+    // a repeated eigenvalue. With b = λ_k − δ (δ = 1e-6|λ_k| + ζ) below the
+    // k-th Ritz value, the number of eigenvalues below b must equal the number
+    // of Ritz values found below b; then the k returned are the k lowest (the
+    // true λ_k lies in [b, λ_k]; copies of the k-th eigenvalue that were not
+    // returned are equally valid k-th modes). If more lie below b, the run is
+    // repeated with more wanted.
     Index nev = k;
     for (int attempt = 0;; ++attempt) {
-      const LanczosRun run = run_lanczos(factor, M, s0, nev, options);
+      const LanczosRun run = run_lanczos(factor, mass_op, s0, nev, options);
       runs.push_back(describe_run(run, nev));
-      double bound = run.lambda(k - 1) + 1e-6 * std::abs(run.lambda(k - 1)) + zeta;
+      const double lambda_k = run.lambda(k - 1);
+      double bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
+      if (!(bound > s0)) {  // the k-th is (near) zero: nothing to check between σ₀ and it
+        Index kept = 0;
+        take(run, [&](double) { return kept++ < k; });
+        break;
+      }
       const Index count = factor_at(bound, "completeness check");
       const Index found = (run.lambda.array() < bound).count();
       if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
@@ -659,8 +843,8 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                  std::to_string(found) + ": some modes in this range may be missing");
         else
           result.notes.push_back("completeness checked by the inertia of K − σM at σ = " +
-                                 detail::format_number(bound, 8) + ": exactly " + std::to_string(count) +
-                                 " eigenvalues lie below it, as found");
+                                 detail::format_number(bound, 8) + ", just below the highest returned eigenvalue: exactly " +
+                                 std::to_string(count) + " eigenvalues lie below it, as found");
         Index kept = 0;
         take(run, [&](double) { return kept++ < k; });
         break;
@@ -671,7 +855,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
     // Divergent: m eigenvalues below σ₀.
     Index negatives_found = 0;
     if (k > m) {
-      const LanczosRun run = run_lanczos(factor, M, s0, k, options);
+      const LanczosRun run = run_lanczos(factor, mass_op, s0, k, options);
       runs.push_back(describe_run(run, k));
       negatives_found = (run.lambda.array() < s0).count();
       if (negatives_found == m) {
@@ -728,7 +912,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
         throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
       const Index nev = std::min(k, m);
-      const LanczosRun run = run_lanczos(factor, M, sigma_low, nev, options);
+      const LanczosRun run = run_lanczos(factor, mass_op, sigma_low, nev, options);
       runs.push_back(describe_run(run, nev));
       const Index below = (run.lambda.array() < s0).count();
       if (below != nev)

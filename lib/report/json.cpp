@@ -38,6 +38,7 @@ Json equilibrium_json(const Report& report, const Equilibrium& e) {
   j["residual"] = e.residual;
   j["residual_norm"] = e.residual_norm;
   j["iterations"] = e.iterations;
+  if (!e.method.empty()) j["method"] = e.method;
   return j;
 }
 

@@ -124,6 +124,7 @@ void print_analysis(std::ostream& out, const Report& report) {
   out << fmt::format("  relative residual {} (|grad V - Q{}| = {}, {} Newton iteration{})\n", sci(e.residual),
                      r.constraint_forces.empty() ? "" : " - grad c s", sci(e.residual_norm), e.iterations,
                      e.iterations == 1 ? "" : "s");
+  if (!e.method.empty()) out << "  found by " << e.method << "\n";
   if (!r.steady.empty()) {
     out << "  steady motion (ignorable coordinates; the others analyzed at these momenta by Routh's reduction):\n";
     for (const SteadyRate& sr : r.steady)

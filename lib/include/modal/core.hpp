@@ -347,6 +347,7 @@ class Workspace {
   VectorX gradient;  // last potential_gradient
   MatrixX hessian;   // last potential_hessian
   MatrixX mass;      // last mass_matrix
+  SparseMatrix sparse_hessian;  // last sparse_potential_hessian (its pattern is reused)
 
  private:
   KinematicsCache* cache_;
@@ -357,13 +358,13 @@ double potential(const System& s, Workspace& w, const VectorX& q);              
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
 
-// The same matrices assembled sparse (n×n, both triangles; exact zeros left
-// out): the elements' local derivatives and the tree terms are added entry by
-// entry, so no dense n×n matrix is formed. For a scene of particles and
+// The same matrices assembled sparse (n×n, both triangles; entries that no
+// term touches are left out): the elements' local derivatives and the tree
+// terms are added entry by entry, so no dense n×n matrix is formed. For a scene of particles and
 // springs each spring adds a 6×6 block and the cost is O(elements); a deep
 // tree fills in (a chain's ∇∇V is dense) and gains nothing. Maps: the dense
 // result converted.
-SparseMatrix sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q);  // ∇∇V
+const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q);  // ∇∇V
 SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q);        // M(q)
 SparseMatrix sparse_damping_matrix(const System& s, Workspace& w, const VectorX& q);     // D(q)
 

@@ -32,6 +32,7 @@
 
 #include "modal/core.hpp"
 
+#include <string>
 #include <optional>
 #include <vector>
 
@@ -44,12 +45,19 @@ namespace modal {
 // multi-start enumeration) refuses such systems.
 inline constexpr int large_system_coordinates = 1000;
 
+// How find_equilibrium treats a large scene (more than
+// large_system_coordinates coordinates, conservative tree): newton = Newton
+// from the start, with L-BFGS only if it stalls; lbfgs = L-BFGS on V to a
+// relative residual of 1e-6 first, then Newton.
+enum class LargeEquilibriumMethod { newton, lbfgs };
+
 struct EquilibriumOptions {
   double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q (− ∇c s)‖ / force_scale
                              // (and constraint violation ‖c‖ / length_scale)
   int starts = 64;           // deterministic starts of find_equilibria (besides the
                              // initial configuration and the {0, π} corners of hinges)
   int max_iterations = 100;  // per Newton polish
+  LargeEquilibriumMethod large_method = LargeEquilibriumMethod::newton;
 };
 
 struct Equilibrium {
@@ -62,6 +70,7 @@ struct Equilibrium {
   // forces); 0 for redundant equations. Empty without constraints.
   VectorX multipliers;
   double constraint_violation = 0;  // ‖c(q)‖, m
+  std::string method;  // how a large scene's equilibrium was found (empty otherwise)
 };
 
 // ∇V(q) − Q(q, 0), n (without the constraint forces ∇c s).
