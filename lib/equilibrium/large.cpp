@@ -5,8 +5,9 @@
 // loads, constraints or kinematic map). Two strategies
 // (EquilibriumOptions::large_method):
 //   newton (default): Newton's method from the start with the exact sparse
-//      Hessian ∇∇V and backtracking on ‖∇V‖ (the equilibrium nearest the
-//      start, whatever its stability); if it stalls, the lbfgs strategy;
+//      Hessian ∇∇V and backtracking until ‖∇V‖ or (along a descent direction)
+//      V decreases enough (the equilibrium nearest the start, whatever its
+//      stability); if it stalls, the lbfgs strategy;
 //   lbfgs: NLopt LD_LBFGS minimizes V from the start with the exact gradient
 //      ∇V (O(elements) per evaluation) until ‖∇V‖ has fallen to 1e-4 of its
 //      starting value (at most 2000 evaluations), and Newton polishes from
@@ -183,6 +184,8 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       if (d.size() == 0) return;
       ++newton_iterations;
       bool accepted = false;
+      const double slope = r.dot(d);  // d V(q + t d)/dt at t = 0
+      const double v = slope < 0 ? potential(s, w, q) : 0.0;
       for (double t = 1; t > 1e-10; t *= 0.5) {
         const VectorX qt = q + t * d;
         VectorX rt;
@@ -191,7 +194,19 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         } catch (const NumericalError&) {
           continue;
         }
-        if (rt.allFinite() && rt.norm() < (1 - 1e-4 * t) * rnorm) {
+        // Sufficient decrease of ‖∇V‖, or (d a descent direction) Armijo's
+        // condition on V: from a flat net the full Newton step is accepted
+        // far more often than by the residual alone (5 steps instead of 7
+        // for the benchmark nets).
+        bool decrease = rt.allFinite() && rt.norm() < (1 - 1e-4 * t) * rnorm;
+        if (!decrease && rt.allFinite() && slope < 0) {
+          try {
+            const double vt = potential(s, w, qt);
+            decrease = std::isfinite(vt) && vt <= v + 1e-4 * t * slope;
+          } catch (const NumericalError&) {
+          }
+        }
+        if (decrease) {
           q = canonical_coordinates(s, qt);
           r = rt;
           accepted = true;

@@ -10,17 +10,19 @@
 // of K − σM computed once per shift with CHOLMOD, which chooses by the fill:
 // a supernodal LLᵀ (BLAS-3; exists only when K − σM is positive definite) or a
 // simplicial LDLᵀ (very sparse factors such as chains; exists for indefinite
-// matrices too, unless a pivot is exactly zero). When the supernodal LLᵀ fails
-// (K − σM indefinite) the simplicial LDLᵀ is used. LDLᵀ has no pivoting: for
-// an indefinite K − σM its solves get one step of iterative refinement. M is
-// factored once by CHOLMOD (not positive definite → SingularMassMatrix) for
-// the error estimates. Symbolic analyses (orderings) are computed once and
-// reused for every shift (K and M are put on one sparsity pattern).
+// matrices too, unless a pivot is exactly zero; no pivoting, so its solves of
+// an indefinite matrix get one step of iterative refinement). When the
+// supernodal LLᵀ fails (K − σM indefinite), MUMPS factors K − σM by a
+// multifrontal LDLᵀ with 1×1 and 2×2 pivoting (BLAS-3 fronts, like the
+// supernodal LLᵀ). M is factored once by CHOLMOD (not positive definite →
+// SingularMassMatrix) for the error estimates. Symbolic analyses (orderings)
+// are computed once and reused for every shift (K and M are put on one
+// sparsity pattern).
 //
 // Inertia (Sylvester's law). K − σM is congruent to diag(λ_i − σ), so the
-// number of negative pivots of any LDLᵀ factorization of it (P(K − σM)Pᵀ =
-// LDLᵀ) is the number of eigenvalues below σ, and a successful Cholesky
-// factorization says there are none. That count is what guarantees that no
+// number of negative eigenvalues of D in any LDLᵀ factorization of it
+// (P(K − σM)Pᵀ = LDLᵀ, D with 1×1 or 2×2 blocks) is the number of eigenvalues
+// below σ, and a successful Cholesky factorization says there are none. That count is what guarantees that no
 // negative or zero mode is lost, whatever the Lanczos iteration does.
 //
 // Shift rule (options.shift unset: the k lowest modes). Scale
@@ -222,6 +224,13 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
   }
   // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
   bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
+  // The fill-reducing pivot order of the analysis (entry k: the k-th
+  // variable); empty before an analysis.
+  std::vector<int> ordering() const {
+    if (m_cholmodFactor == nullptr || m_cholmodFactor->Perm == nullptr) return {};
+    const auto* perm = static_cast<const int*>(m_cholmodFactor->Perm);
+    return std::vector<int>(perm, perm + m_cholmodFactor->n);
+  }
   // Whether the symbolic analysis chose a supernodal (LLᵀ) factor.
   bool is_supernodal() const { return m_cholmodFactor != nullptr && m_cholmodFactor->is_super; }
   // Negative and zero entries of D (LDLᵀ; an LLᵀ factor that exists has none).
@@ -323,7 +332,10 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
 class MumpsLdlt {
  public:
   // A: full symmetric storage, compressed; its lower triangle is used.
-  explicit MumpsLdlt(const SparseMatrix& A) : n_(A.rows()) {
+  // `order`: a fill-reducing pivot order (order[k] = the k-th variable), e.g.
+  // CHOLMOD's for the same pattern, which spares MUMPS its own ordering;
+  // empty: MUMPS chooses.
+  MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order) : n_(A.rows()) {
     for (Index j = 0; j < A.outerSize(); ++j)
       for (Index p = A.outerIndexPtr()[j]; p < A.outerIndexPtr()[j + 1]; ++p)
         if (A.innerIndexPtr()[p] >= j) {
@@ -341,7 +353,14 @@ class MumpsLdlt {
     if (!initialized_) throw NumericalError("solve_sparse_modes: MUMPS could not be initialized");
     for (int i : {0, 1, 2}) id_.icntl[i] = -1;  // no output
     id_.icntl[3] = 0;
-    id_.icntl[6] = 7;    // ICNTL(7): ordering chosen by MUMPS
+    if (order.size() == static_cast<std::size_t>(n_)) {
+      perm_in_.resize(order.size());
+      for (std::size_t k = 0; k < order.size(); ++k) perm_in_[static_cast<std::size_t>(order[k])] = static_cast<MUMPS_INT>(k + 1);
+      id_.icntl[6] = 1;  // ICNTL(7): the given order (PERM_IN)
+      id_.perm_in = perm_in_.data();
+    } else {
+      id_.icntl[6] = 7;  // ICNTL(7): ordering chosen by MUMPS
+    }
     id_.icntl[23] = 1;   // ICNTL(24): detect null pivots
     id_.cntl[2] = 0.0;   // CNTL(3): default null-pivot threshold
     id_.n = static_cast<MUMPS_INT>(n_);
@@ -400,7 +419,7 @@ class MumpsLdlt {
  private:
   Index n_;
   std::vector<Index> positions_;  // of the lower-triangle entries in A's value array
-  std::vector<MUMPS_INT> irn_, jcn_;
+  std::vector<MUMPS_INT> irn_, jcn_, perm_in_;
   std::vector<double> values_;
   DMUMPS_STRUC_C id_{};
   bool initialized_ = false, analyzed_ = false, factored_ = false;
@@ -437,7 +456,7 @@ class ShiftedFactor {
     if (!inertia || !automatic_supernodal_) return std::nullopt;
     // The automatic choice was a supernodal LLᵀ, which fails for an
     // indefinite matrix: MUMPS's LDLᵀ gives the inertia.
-    if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_);
+    if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_, automatic_->ordering());
     ++factorizations_;
     if (std::optional<Index> below = mumps_->factor(A_)) {
       active_ = Active::mumps;
