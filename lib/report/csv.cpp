@@ -2,12 +2,14 @@
 #include "modal/report.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <complex>
 #include <numbers>
 #include <ostream>
+#include <string>
+#include <vector>
 
 namespace modal {
 
@@ -61,8 +63,8 @@ const char* mode_stability(ModeKind kind) {
 std::string csv_number(double value) {
   if (!std::isfinite(value)) return {};
   char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
+  const auto r = std::to_chars(buffer, buffer + sizeof buffer, value);  // shortest form that reads back exactly
+  return std::string(buffer, r.ptr);
 }
 
 std::string csv_field(std::string_view text) {
@@ -94,18 +96,40 @@ void write_modes_csv(std::ostream& out, const Report& report) {
 
 void write_shapes_csv(std::ostream& out, const Report& report) {
   out << "equilibrium,mode,coordinate,value,amplitude,phase_deg\n";
+  // One row per coordinate and mode (10⁷ rows for 10 modes of a 10⁶-coordinate
+  // net): formatted into a buffer written in blocks.
+  std::vector<std::string> names(report.coordinates.size());
+  for (std::size_t i = 0; i < names.size(); ++i) names[i] = csv_field(report.coordinates[i]);
+  std::string buffer;
+  buffer.reserve(1 << 20);
+  char number[40];
+  auto append = [&](double value) {
+    if (std::isfinite(value)) buffer.append(number, std::to_chars(number, number + sizeof number, value).ptr);
+  };
   for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
     const auto& modes = report.equilibria[e].result.modes;
     for (std::size_t k = 0; k < modes.size(); ++k) {
       const Eigen::VectorXcd& shape = modes[k].shape;
+      const std::string prefix = std::to_string(e + 1) + ',' + std::to_string(k + 1) + ',';
       for (Eigen::Index i = 0; i < shape.size(); ++i) {
-        out << (e + 1) << ',' << (k + 1) << ','
-            << csv_field(coordinate_name(report, static_cast<std::size_t>(i))) << ','
-            << csv_number(shape[i].real()) << ',' << csv_number(std::abs(shape[i])) << ','
-            << csv_number(std::arg(shape[i]) * 180 / std::numbers::pi) << '\n';
+        const auto c = static_cast<std::size_t>(i);
+        buffer += prefix;
+        buffer += c < names.size() ? names[c] : coordinate_name(report, c);
+        buffer += ',';
+        append(shape[i].real());
+        buffer += ',';
+        append(std::abs(shape[i]));
+        buffer += ',';
+        append(std::arg(shape[i]) * 180 / std::numbers::pi);
+        buffer += '\n';
+        if (buffer.size() > (1 << 20) - 256) {
+          out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+          buffer.clear();
+        }
       }
     }
   }
+  out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
 }
 
 void write_equilibria_csv(std::ostream& out, const Report& report) {
