@@ -189,13 +189,15 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
                                     : equilibrium_at(sys, parse_point("--at", *at, sys));
   clock.lap("equilibrium");
   modal::ModalResult result;
+  auto export_if_asked = [&](const auto& lin) {
+    if (choice.export_dir.empty()) return;
+    modal::export_matrices(choice.export_dir, lin);
+    clock.lap("export");
+  };
   if (use_sparse(sys, choice)) {
     const modal::SparseLinearModel lin = modal::linearize_sparse(sys, eq.q);
     clock.lap("assembly");
-    if (!choice.export_dir.empty()) {
-      modal::export_matrices(choice.export_dir, lin);
-      clock.lap("export");
-    }
+    export_if_asked(lin);
     modal::SparseModalOptions so_sparse;
     if (modes > 0) so_sparse.modes = modes;
     so_sparse.shift = choice.shift;
@@ -207,10 +209,7 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     if (choice.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
     const modal::LinearModel lin = modal::linearize(sys, eq.q);
     clock.lap("linearize");
-    if (!choice.export_dir.empty()) {
-      modal::export_matrices(choice.export_dir, lin);
-      clock.lap("export");
-    }
+    export_if_asked(lin);
     modal::ModalOptions mo;
     mo.modes = modes;
     result = modal::solve_modes(lin, mo);

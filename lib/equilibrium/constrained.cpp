@@ -76,10 +76,6 @@ class Constrained {
   Problem p_;
 };
 
-using Projected = ConstraintProjection;
-
-Projected project(Constrained& k, const VectorX& start) { return k.project(start); }
-
 struct Point {
   VectorX q, s;          // coordinates (n), multipliers (m; 0 on redundant equations)
   VectorX force;         // ∇V − Q − Aᵀ s, n
@@ -247,7 +243,7 @@ std::string format(double v) {
 }
 
 // "the constraints cannot all be satisfied …" for the best attempt.
-std::string infeasible_message(Constrained& k, const Projected& best, int starts) {
+std::string infeasible_message(Constrained& k, const ConstraintProjection& best, int starts) {
   std::ostringstream m;
   m << "the constraints cannot all be satisfied: from " << starts << " start" << (starts == 1 ? "" : "s")
     << " the smallest violation reached is ‖c‖ = " << format(best.violation) << " m";
@@ -286,7 +282,7 @@ std::string no_equilibrium(Constrained& k, const Equilibrium& best, int starts) 
 
 struct Candidates {
   std::vector<Equilibrium> found;
-  Projected best_projection{VectorX(), std::numeric_limits<double>::infinity()};
+  ConstraintProjection best_projection{VectorX(), std::numeric_limits<double>::infinity()};
   Equilibrium best_failure;
   bool feasible = false;
   int starts = 0;
@@ -296,7 +292,7 @@ struct Candidates {
 // a conservative system SLSQP (a minimum of V) then Newton.
 void try_start(Constrained& k, const VectorX& start, const EquilibriumOptions& options, Candidates& out) {
   ++out.starts;
-  const Projected on = project(k, start);
+  const ConstraintProjection on = k.project(start);
   if (on.violation < out.best_projection.violation) out.best_projection = on;
   if (!(on.violation <= std::max(options.tolerance, 1e-10) * k.length())) return;
   out.feasible = true;
@@ -308,7 +304,7 @@ void try_start(Constrained& k, const VectorX& start, const EquilibriumOptions& o
   };
   keep(newton(k, on.q, options));
   if (!k.system().has_follower_loads() && k.n() > 0) {
-    const Projected min = project(k, minimize_on_manifold(k, on.q));
+    const ConstraintProjection min = k.project(minimize_on_manifold(k, on.q));
     if (min.q.size() == k.n()) keep(newton(k, min.q, options));
   }
 }
@@ -317,7 +313,7 @@ void try_start(Constrained& k, const VectorX& start, const EquilibriumOptions& o
 
 std::optional<Equilibrium> polish_constrained(const System& s, const VectorX& q, const EquilibriumOptions& options) {
   Constrained k(s);
-  const Projected on = project(k, q);
+  const ConstraintProjection on = k.project(q);
   if (on.q.size() != s.size()) return std::nullopt;
   Newton r = newton(k, on.q, options);
   if (!r.converged) return std::nullopt;
@@ -326,12 +322,12 @@ std::optional<Equilibrium> polish_constrained(const System& s, const VectorX& q,
 
 Equilibrium find_constrained_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
   Constrained k(s);
-  const Projected on = project(k, start);
+  const ConstraintProjection on = k.project(start);
   if (on.violation <= std::max(options.tolerance, 1e-10) * k.length()) {
     Newton r = newton(k, on.q, options);
     if (r.converged) return r.best;
     if (!s.has_follower_loads()) {
-      r = newton(k, project(k, minimize_on_manifold(k, on.q)).q, options);
+      r = newton(k, k.project(minimize_on_manifold(k, on.q)).q, options);
       if (r.converged) return r.best;
     }
   }

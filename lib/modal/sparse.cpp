@@ -136,21 +136,19 @@ double norm1(const SparseMatrix& A) {
   return best;
 }
 
-// ‖A − Aᵀ‖_F ≤ 100·c·ε·‖A‖_F with c the largest number of entries in a column:
-// symmetric up to the rounding of an assembly by sums of that many terms.
-bool symmetric_within_rounding(const SparseMatrix& A) {
+// ½(A + Aᵀ), or nothing when A is not symmetric up to the rounding of an
+// assembly by sums: ‖A − Aᵀ‖_F ≤ 100·c·ε·‖A‖_F with c the largest number of
+// entries in a column. Aᵀ is formed once for both.
+std::optional<SparseMatrix> symmetric_part(const SparseMatrix& A) {
   Index widest = 1;
   for (Index j = 0; j < A.outerSize(); ++j) {
     Index count = 0;
     for (SparseMatrix::InnerIterator it(A, j); it; ++it) ++count;
     widest = std::max(widest, count);
   }
-  const SparseMatrix difference = A - SparseMatrix(A.transpose());
-  return difference.norm() <= 100.0 * static_cast<double>(widest) * eps * A.norm();
-}
-
-SparseMatrix symmetric_part(const SparseMatrix& A) {
-  SparseMatrix S = 0.5 * (A + SparseMatrix(A.transpose()));
+  const SparseMatrix At = A.transpose();
+  if (SparseMatrix(A - At).norm() > 100.0 * static_cast<double>(widest) * eps * A.norm()) return std::nullopt;
+  SparseMatrix S = 0.5 * (A + At);
   S.makeCompressed();
   return S;
 }
@@ -765,11 +763,13 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   }
   require_finite(M_in, "mass matrix M");
   require_finite(K_in, "stiffness matrix K");
-  SparseMatrix M = symmetric_part(M_in), K = symmetric_part(K_in);
-  if (!symmetric_within_rounding(M_in)) throw std::invalid_argument("solve_sparse_modes: the mass matrix is not symmetric");
-  if (!symmetric_within_rounding(K_in))
+  std::optional<SparseMatrix> M_sym = symmetric_part(M_in);
+  if (!M_sym) throw std::invalid_argument("solve_sparse_modes: the mass matrix is not symmetric");
+  std::optional<SparseMatrix> K_sym = symmetric_part(K_in);
+  if (!K_sym)
     throw std::invalid_argument("solve_sparse_modes: the stiffness matrix is not symmetric (circulatory forces need "
                                 "the dense first-order solver, solve_modes)");
+  SparseMatrix M = std::move(*M_sym), K = std::move(*K_sym);
   const Index k = std::min<Index>(options.modes, n);
   if (n <= dense_limit || k >= n - 1) return solve_dense_fallback(K, M, k, options);
 
