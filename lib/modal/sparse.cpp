@@ -442,14 +442,21 @@ class ShiftedFactor {
   // negative pivots; 0 when an LLᵀ factor exists), or nothing when K − σM has
   // no factorization (a zero pivot). With `inertia` false, returns nothing as
   // soon as K − σM is known not to be positive definite (cheaper: no LDLᵀ is
-  // attempted after a failed supernodal LLᵀ).
-  std::optional<Index> factor(double sigma, bool inertia = true) {
+  // attempted after a failed supernodal LLᵀ). `expect_indefinite`: the
+  // caller knows of a vector with a negative Rayleigh quotient, so a
+  // supernodal LLᵀ would only fail (after up to a whole factorization's work):
+  // go to the LDLᵀ with pivoting at once. A hint only; the count is exact
+  // either way.
+  std::optional<Index> factor(double sigma, bool inertia = true, bool expect_indefinite = false) {
     assemble(sigma);
     active_ = Active::none;
-    if (std::optional<Index> below = factor_automatic()) {
-      active_ = Active::cholmod;
-      indefinite_ = *below > 0;
-      return below;
+    const bool skip_llt = inertia && expect_indefinite && analyzed_ && automatic_supernodal_;
+    if (!skip_llt) {
+      if (std::optional<Index> below = factor_automatic()) {
+        active_ = Active::cholmod;
+        indefinite_ = *below > 0;
+        return below;
+      }
     }
     if (!inertia || !automatic_supernodal_) return std::nullopt;
     // The automatic choice was a supernodal LLᵀ, which fails for an
@@ -802,9 +809,9 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
 
   // Factors at σ, moving σ by 1e-6·max(|σ|, s) (at most 3 times) when the
   // LDLᵀ factorization breaks down; returns the count below the final σ.
-  auto factor_at = [&](double& sigma, const char* what) {
+  auto factor_at = [&](double& sigma, const char* what, bool expect_indefinite = false) {
     for (int attempt = 0; attempt < 4; ++attempt) {
-      if (const std::optional<Index> below = factor.factor(sigma)) return *below;
+      if (const std::optional<Index> below = factor.factor(sigma, true, expect_indefinite)) return *below;
       const double moved = sigma + 1e-6 * std::max(std::abs(sigma), scale);
       result.notes.push_back(std::string("K − σM has no LDLᵀ factorization without pivoting at the ") + what +
                              " σ = " + detail::format_number(sigma, 10) + " (a zero pivot); moved to σ = " +
@@ -853,8 +860,9 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
         take(run, [&](double) { return kept++ < k; });
         break;
       }
-      const Index count = factor_at(bound, "completeness check");
       const Index found = (run.lambda.array() < bound).count();
+      // Ritz values below b: K − bM is indefinite (see ShiftedFactor::factor).
+      const Index count = factor_at(bound, "completeness check", found > 0);
       if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
         if (count > found)
           result.notes.push_back("the inertia counts " + std::to_string(count) + " eigenvalues below " +
