@@ -13,7 +13,9 @@
 // condition; a few ε relative to ‖K‖ would still be 1e-9 relative to it, so
 // 1e-10 checks that the shift-invert run resolves the low end to far better
 // than normwise accuracy), ΦᵀMΦ = I to 1e-10.
+#include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
+#include "modal/scene.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,6 +26,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <random>
 #include <stdexcept>
@@ -453,6 +456,59 @@ TEST(SparseModes, GridSupernodalPaths) {
   expect_valid_modes(d, Kd, M);
   EXPECT_EQ(d.morse_index, 2);
   EXPECT_EQ(d.stability, Stability::divergence);
+}
+
+// A given fill-reducing order (SparseModalOptions::fill_reducing_order): any
+// permutation gives the same modes, including the MUMPS completeness check
+// that reuses it; something that is not a permutation is ignored.
+TEST(SparseModes, GivenFillReducingOrder) {
+  const Grid grid;
+  const int n = grid.size();
+  const SparseMatrix K = grid.stiffness(), M = identity(n);
+  const std::vector<double> exact = grid.eigenvalues();
+  std::vector<int> reversed(static_cast<std::size_t>(n));
+  std::iota(reversed.rbegin(), reversed.rend(), 0);  // a poor order, but a valid one
+  std::vector<int> duplicate = reversed;
+  duplicate[0] = duplicate[1];
+  for (const std::vector<int>& order : {reversed, duplicate, std::vector<int>{0, 1, 2}}) {
+    SparseModalOptions o = options(6);
+    o.fill_reducing_order = order;
+    const ModalResult r = modal::solve_sparse_modes(K, M, o);
+    ASSERT_EQ(r.modes.size(), 6u);
+    for (std::size_t j = 0; j < 6; ++j)
+      expect_relative(r.modes[j].omega2, exact[j], eigen_tolerance, "λ" + std::to_string(j + 1));
+    expect_valid_modes(r, K, M);
+    EXPECT_TRUE(std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& note) {
+      return note.find("completeness checked") != std::string::npos;
+    }));
+  }
+}
+
+// End to end on a sagging net of 1200 coordinates (the large-scene
+// equilibrium): the equilibrium hands over the pivot order of its Hessian's
+// analysis, and the modes with it equal the modes without it.
+TEST(SparseModes, EquilibriumHandsOverItsOrdering) {
+  const modal::Scene scene = modal::parse_scene(
+      "gravity = [0, 0, -9.81]\n[[lattice]]\nname = \"net\"\nsize = [22, 22, 1]\nspacing = 0.1\nmass = 0.002\n"
+      "stiffness = 1000\nprestrain = 0.02\nfixed = \"boundary\"\n",
+      "net.toml");
+  const modal::System system = modal::build_system(scene);
+  ASSERT_EQ(system.size(), 1200);
+  const modal::Equilibrium eq = modal::find_equilibrium(system, system.initial_configuration());
+  EXPECT_NE(eq.method.find("truncated Newton"), std::string::npos) << eq.method;
+  std::vector<int> sorted = eq.fill_reducing_order;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<int> identity_order(1200);
+  std::iota(identity_order.begin(), identity_order.end(), 0);
+  EXPECT_EQ(sorted, identity_order);  // a permutation of the coordinates
+  const modal::SparseLinearModel lin = modal::linearize_sparse(system, eq.q);
+  SparseModalOptions with = options(8);
+  with.fill_reducing_order = eq.fill_reducing_order;
+  const ModalResult a = modal::solve_sparse_modes(lin.K, lin.M, with), b = modal::solve_sparse_modes(lin.K, lin.M, options(8));
+  ASSERT_EQ(a.modes.size(), 8u);
+  ASSERT_EQ(b.modes.size(), 8u);
+  for (std::size_t j = 0; j < 8; ++j) expect_relative(a.modes[j].omega2, b.modes[j].omega2, 1e-10, "λ" + std::to_string(j + 1));
+  expect_valid_modes(a, lin.K, lin.M);
 }
 
 // Small problems go to the dense solver, with the same conventions.

@@ -233,6 +233,7 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     if (modes > 0) so_sparse.modes = modes;
     so_sparse.shift = choice.shift;
     so_sparse.tolerance = choice.tolerance;
+    so_sparse.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
     result = modal::solve_sparse_modes(lin.K, lin.M, so_sparse);
     for (const auto& [phase, seconds] : result.timings) clock.add(phase, seconds);
     clock.lap("eigen");

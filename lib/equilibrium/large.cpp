@@ -63,11 +63,25 @@ double lbfgs_objective(unsigned n, const double* x, double* grad, void* data) {
   }
 }
 
+// CHOLMOD's supernodal Cholesky factor, with the pivot order its analysis chose.
+class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> {
+ public:
+  // order[k] = the k-th coordinate; empty before an analysis.
+  std::vector<int> ordering() const {
+    if (m_cholmodFactor == nullptr || m_cholmodFactor->Perm == nullptr) return {};
+    const auto* perm = static_cast<const int*>(m_cholmodFactor->Perm);
+    return std::vector<int>(perm, perm + m_cholmodFactor->n);
+  }
+};
+
 // Newton steps d with ∇∇V d = −r (see the header comment), with counters for
 // the report.
 class NewtonSteps {
  public:
   int factorizations = 0, cg_iterations = 0;
+
+  // The pivot order of the last symbolic analysis of ∇∇V (empty: none).
+  std::vector<int> ordering() const { return llt_.ordering(); }
 
   // Empty when no step can be computed (both factorizations fail).
   VectorX step(const SparseMatrix& H, const VectorX& r, double forcing) {
@@ -141,7 +155,7 @@ class NewtonSteps {
            std::equal(inner_.begin(), inner_.end(), H.innerIndexPtr());
   }
 
-  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt_;
+  SupernodalLlt llt_;
   std::vector<SparseMatrix::StorageIndex> outer_, inner_;
   bool have_factor_ = false, refactor_ = false;
 };
@@ -262,6 +276,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
                          " (large-scene search: L-BFGS, then Newton with the sparse Hessian)");
   }
   best.potential = potential(s, w, best.q);
+  best.fill_reducing_order = steps.ordering();
   best.method = (lbfgs_evaluations > 0 ? "L-BFGS (" + std::to_string(lbfgs_evaluations) + " evaluations of V and ∇V), then " : std::string()) +
                 "truncated Newton with the sparse Hessian: " + std::to_string(newton_iterations) + " steps, " +
                 std::to_string(steps.factorizations) + " factorizations, " + std::to_string(steps.cg_iterations) +

@@ -193,6 +193,17 @@ void to_common_pattern(SparseMatrix& K, SparseMatrix& M) {
 // matrix; a simplicial LDLᵀ (for very sparse factors, such as chains) succeeds
 // for any matrix without a zero pivot, and its D gives the inertia. Mode
 // CholmodLDLt forces the simplicial LDLᵀ.
+// Whether `order` holds each of 0..n−1 exactly once.
+bool is_pivot_order(const std::vector<int>& order, Index n) {
+  if (order.size() != static_cast<std::size_t>(n)) return false;
+  std::vector<char> seen(order.size(), 0);
+  for (int i : order) {
+    if (i < 0 || i >= n || seen[static_cast<std::size_t>(i)] != 0) return false;
+    seen[static_cast<std::size_t>(i)] = 1;
+  }
+  return true;
+}
+
 class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lower> {
  public:
   explicit CholmodFactor(Eigen::CholmodMode mode = Eigen::CholmodAuto) {
@@ -219,6 +230,29 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
     if (!cholmod_solve2(CHOLMOD_A, m_cholmodFactor, &b, nullptr, &x_, nullptr, &y_, &e_, &cholmod())) return false;
     std::copy_n(static_cast<const double*>(x_->x), b.nrow, out);
     return true;
+  }
+  // The symbolic analysis of A (both triangles stored; the lower one is
+  // read) in the pivot order `order` (order[k] = the k-th variable), which
+  // CHOLMOD then only postorders; when `order` is not a permutation of
+  // 0..n−1, CHOLMOD's own choice (analyzePattern).
+  void analyze(const SparseMatrix& A, const std::vector<int>& order) {
+    if (!is_pivot_order(order, A.rows())) {
+      analyzePattern(A);
+      return;
+    }
+    if (m_cholmodFactor != nullptr) cholmod_free_factor(&m_cholmodFactor, &cholmod());
+    cholmod_sparse a = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Lower>());
+    const int nmethods = cholmod().nmethods;
+    const int ordering = cholmod().method[0].ordering;
+    cholmod().nmethods = 1;
+    cholmod().method[0].ordering = CHOLMOD_GIVEN;
+    m_cholmodFactor = cholmod_analyze_p(&a, const_cast<int*>(order.data()), nullptr, 0, &cholmod());
+    cholmod().nmethods = nmethods;
+    cholmod().method[0].ordering = ordering;
+    m_isInitialized = true;
+    m_analysisIsOk = m_cholmodFactor != nullptr;
+    m_factorizationIsOk = false;
+    m_info = m_analysisIsOk ? Eigen::Success : Eigen::NumericalIssue;
   }
   // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
   bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
@@ -429,7 +463,9 @@ class MumpsLdlt {
 // inertia is wanted, MUMPS's LDLᵀ with pivoting.
 class ShiftedFactor {
  public:
-  ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M) : K_(K), M_(M), A_(K) {}
+  // `order`: the fill-reducing order of CholmodFactor::analyze (empty: CHOLMOD's choice).
+  ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M, std::vector<int> order)
+      : K_(K), M_(M), A_(K), order_(std::move(order)) {}
 
   Index size() const { return K_.rows(); }
   double sigma() const { return sigma_; }
@@ -526,7 +562,7 @@ class ShiftedFactor {
   std::optional<Index> factor_automatic() {
     if (!automatic_) automatic_ = std::make_unique<CholmodFactor>();
     if (!analyzed_) {
-      automatic_->analyzePattern(A_);
+      automatic_->analyze(A_, order_);
       analyzed_ = true;
       automatic_supernodal_ = automatic_->is_supernodal();
     }
@@ -544,6 +580,7 @@ class ShiftedFactor {
   const SparseMatrix& K_;
   const SparseMatrix& M_;
   SparseMatrix A_;
+  std::vector<int> order_;
   std::unique_ptr<CholmodFactor> automatic_;
   std::unique_ptr<MumpsLdlt> mumps_;
   bool analyzed_ = false;
@@ -803,7 +840,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
 
   MassProduct mass_op(M);
   to_common_pattern(K, M);
-  ShiftedFactor factor(K, M);
+  ShiftedFactor factor(K, M, options.fill_reducing_order);
   ModalResult result;
   std::vector<std::string> runs;
 

@@ -94,6 +94,12 @@ struct SparseModalOptions {
   std::optional<double> shift;   // σ (rad²/s²); unset: below the spectrum (see solve_sparse_modes)
   double tolerance = 1e-10;      // relative convergence tolerance of the Lanczos iteration
   int max_iterations = 1000;     // restarts of the Lanczos iteration
+  // A fill-reducing pivot order for the factorizations of K − σM
+  // (order[k] = the k-th coordinate), e.g. Equilibrium::fill_reducing_order;
+  // any permutation of 0..n−1 gives correct results, a good one for K's
+  // pattern saves the ordering step. Empty, or not a permutation of 0..n−1:
+  // CHOLMOD chooses (AMD or METIS).
+  std::vector<int> fill_reducing_order;
 };
 
 // The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k
