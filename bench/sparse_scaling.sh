@@ -15,7 +15,9 @@
 # whole benchmark) and its columns are left empty.
 #
 # Writes results/sparse_scaling.csv, results/sparse_scaling_eigenvalues.csv (both
-# tools' eigenvalues, case by case) and results/sparse_scaling.png. Needs
+# tools' eigenvalues, case by case), results/sparse_scaling.png and, with the 10⁶
+# net, results/sparse_target.csv (the plain `modal analyze NET --modes 10`
+# process, TARGET_RUNS times: the 60 s / 8 GiB target's measurement). Needs
 # /usr/bin/time and python3 with scipy and matplotlib (Debian: time,
 # python3-scipy, python3-matplotlib).
 set -euo pipefail
@@ -113,6 +115,26 @@ for i in $(seq 0 $((max_exp - 3))); do
     case " $scenes " in *" lattice "*) run_case lattice "${lattice_sizes[$i]}" ;; esac
   fi
 done
+
+# The target's measurement: the plain process a user runs on the largest net
+# (no export, no CSV files), TARGET_RUNS times (default 3), wall time and peak
+# RSS each, into results/sparse_target.csv.
+target=results/sparse_target.csv
+echo "scene,n,run,wall_s,peak_MiB,equilibrium_s,factorization_s,eigen_solution_s" > "$target"
+if [ "$max_exp" -ge 6 ] && case " $scenes " in *" net "*) true ;; *) false ;; esac; then
+  scene="$work/net_target.toml"
+  net_scene "$scene" "${net_sizes[3]}"
+  for run in $(seq 1 "${TARGET_RUNS:-3}"); do
+    /usr/bin/time -f "wall %e\npeak %M" "$modal" analyze "$scene" --modes 10 --timing > "$work/target.txt" 2> "$work/target.err"
+    awk -v run="$run" '
+      $1 == "wall" {wall = $2} $1 == "peak" {peak = $2 / 1024}
+      $1 == "timing:" && $2 == "equilibrium" {eq = $3 / 1000}
+      $1 == "timing:" && $2 == "factorization" {fac = $3 / 1000}
+      $1 == "timing:" && $2 == "eigen-solution" {eig = $3 / 1000}
+      END {printf "net,1002252,%d,%.2f,%.1f,%.2f,%.2f,%.2f\n", run, wall, peak, eq, fac, eig}' "$work/target.err" >> "$target"
+    echo "done: target run $run" >&2
+  done
+fi
 
 "$py" - "$csv" <<'EOF'
 import csv, sys

@@ -18,6 +18,7 @@ packages=(
   libfmt-dev           # text tables
   nlohmann-json3-dev   # JSON output
   libgtest-dev libgmock-dev  # tests
+  clang libclang-rt-14-dev   # tests: the libFuzzer target on the scene reader (fuzz/)
   libbenchmark-dev     # benchmarks
   libginac-dev         # benchmark only: bench_expression measures GiNaC against our expressions
   python3-sympy        # benchmark only: the SymPy mechanics peer of bench/map_linearize.sh

@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
 # Builds modal and runs the whole test suite with ctest: once as a release
-# build, then again under AddressSanitizer and UndefinedBehaviorSanitizer.
-# Usage: scripts/test.sh            (MODAL_JOBS=N to change parallelism)
+# build, then again under AddressSanitizer and UndefinedBehaviorSanitizer;
+# then fuzzes the scene reader (libFuzzer, clang build in build-fuzz) for a
+# bounded time: any crash, hang, sanitizer report or undocumented exception
+# fails the run and leaves the input in build-fuzz/findings/.
+# Usage: scripts/test.sh            (MODAL_JOBS=N to change parallelism,
+#                                    MODAL_FUZZ_SECONDS=S for the fuzzing time, default 180)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=${MODAL_JOBS:-$(nproc)}
@@ -14,3 +18,13 @@ cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_SANITIZE=
 cmake --build build-sanitize -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-sanitize --output-on-failure -j"$jobs"
+
+cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_FUZZ=ON \
+  -DMODAL_BUILD_TESTS=OFF -DMODAL_BUILD_BENCH=OFF
+cmake --build build-fuzz -j"$jobs" --target fuzz_scene
+mkdir -p build-fuzz/corpus build-fuzz/findings
+# The corpus grows in build-fuzz/corpus; models/ seeds it (read only).
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  build-fuzz/fuzz/fuzz_scene -max_total_time="${MODAL_FUZZ_SECONDS:-180}" -timeout=20 -rss_limit_mb=4096 \
+  -max_len=4096 -dict=fuzz/scene.dict -artifact_prefix=build-fuzz/findings/ -print_final_stats=1 \
+  build-fuzz/corpus models

@@ -624,6 +624,23 @@ TEST_F(Cli, LargeEquilibriumStrategiesAgree) {
   EXPECT_EQ(bad.status, 1) << bad.err;  // a usage error
 }
 
+// A large scene's summary lists the first 100 rows of each list and says how
+// many it left out; --all lists every row.
+TEST_F(Cli, CheckAbbreviatesLargeScenes) {
+  const std::string scene = write("net.toml", small_net);  // 196 particles (52 fixed), 432 coordinates
+  const Outcome brief = run({"check", scene});
+  ASSERT_EQ(brief.status, 0) << brief.err;
+  EXPECT_NE(brief.out.find("Bodies (196)"), std::string::npos) << brief.out;
+  EXPECT_NE(brief.out.find("  … and 96 more bodies (modal check --all lists them)"), std::string::npos) << brief.out;
+  EXPECT_NE(brief.out.find("  … and 332 more coordinates"), std::string::npos) << brief.out;
+  EXPECT_EQ(brief.out.find("net.12.12"), std::string::npos);  // the last particle is not listed
+  EXPECT_NE(brief.out.find("Total mass: 0.392 kg"), std::string::npos) << brief.out;  // over all bodies
+  const Outcome all = run({"check", scene, "--all"});
+  ASSERT_EQ(all.status, 0) << all.err;
+  EXPECT_EQ(all.out.find(" more bodies"), std::string::npos);
+  EXPECT_NE(all.out.find("net.12.12"), std::string::npos);
+}
+
 TEST_F(Cli, ExportMatricesWritesMatrixMarket) {
   const std::string scene = write("net.toml", small_net);
   const std::string out = (dir / "mm").string();

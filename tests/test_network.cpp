@@ -519,6 +519,10 @@ TEST(network_errors, Files) {
   const std::string directory = dir.write("sub/d.toml", "[[network]]\nnodes = \"dir\"\nedges = \"e.csv\"\n");
   check_error([&] { (void)modal::load_scene(directory); },
               {directory, 2, 9, "network[1].nodes", "cannot read the nodes file '" + dir.file("sub/dir") + "'"});
+  // A device would never end (/dev/zero) or would block (a terminal): refused by name.
+  const std::string device = dir.write("dev.toml", "[[network]]\nnodes = \"/dev/zero\"\nedges = \"e.csv\"\n");
+  check_error([&] { (void)modal::load_scene(device); },
+              {device, 2, 9, "network[1].nodes", "cannot read the nodes file '/dev/zero': it is a device, not a file"});
   check_error([&] { (void)modal::load_scene(dir.write("s.toml", "[[network]]\nedges = \"e.csv\"\n")); },
               {dir.file("s.toml"), 1, 1, "network[1].nodes", "missing required key 'nodes' in [[network]]"});
 

@@ -290,10 +290,10 @@ int run_equilibria(const SceneOptions& so, int starts, const std::string& csv, c
   return ok;
 }
 
-int run_check(const SceneOptions& so) {
+int run_check(const SceneOptions& so, bool all) {
   const modal::Scene scene = load(so);
   const modal::System sys = modal::build_system(scene);
-  modal::print_summary(std::cout, scene.file, scene.parameters, sys);
+  modal::print_summary(std::cout, scene.file, scene.parameters, sys, all ? 0 : 100);
   return ok;
 }
 
@@ -700,6 +700,8 @@ int main(int argc, char** argv) {
 
   CLI::App* check = app.add_subcommand("check", "validate the scene and print a summary");
   add_scene_options(check, check_scene);
+  bool check_all = false;
+  check->add_flag("--all", check_all, "list every body, coordinate and spring (default: the first 100 of each)");
 
   SceneOptions simulate_scene;
   SimulateArgs simulate_args;
@@ -741,7 +743,7 @@ int main(int argc, char** argv) {
     if (*analyze)
       return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing, solver_choice);
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
-    if (*check) return run_check(check_scene);
+    if (*check) return run_check(check_scene, check_all);
     if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes);
     if (*simulate) {
       if (simulate_at_option->count()) simulate_args.at = simulate_at;

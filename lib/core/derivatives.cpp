@@ -867,12 +867,13 @@ MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q) {
   for (const Constraint& k : s.constraints()) {
     const auto [xa, xb] = constraint_ends(st, k);
     const PointJacobian Ja = point_jacobian(s, st, k.a, xa), Jb = point_jacobian(s, st, k.b, xb);
+    const Vec3 axis = (xa - xb).normalized();  // distance constraints: the direction between the ends
     auto add = [&](const PointJacobian& J, double sign) {
       for (std::size_t i = 0; i < J.index.size(); ++i) {
         if (k.type == Constraint::Type::point)
           A.block<3, 1>(row, J.index[i]) += sign * J.column[i];
         else
-          A(row, J.index[i]) += sign * (xa - xb).normalized().dot(J.column[i]);
+          A(row, J.index[i]) += sign * axis.dot(J.column[i]);
       }
     };
     add(Ja, 1.0);

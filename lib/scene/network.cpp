@@ -324,8 +324,13 @@ void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvF
       "'" + file.path + "'" +
       (relative && file.path != written ? " (\"" + written + "\" relative to the scene file's directory)" : "");
   std::error_code ec;
-  if (std::filesystem::is_directory(file.path, ec))
+  const std::filesystem::file_type type = std::filesystem::status(file.path, ec).type();
+  if (type == std::filesystem::file_type::directory)
     s.fail(key, "cannot read the " + file.what + " file " + resolved + ": it is a directory");
+  // A device (/dev/zero, a terminal) never ends or blocks: only files and pipes are read.
+  if (type == std::filesystem::file_type::character || type == std::filesystem::file_type::block ||
+      type == std::filesystem::file_type::socket)
+    s.fail(key, "cannot read the " + file.what + " file " + resolved + ": it is a device, not a file");
   std::ifstream in(file.path, std::ios::binary);
   if (!in) s.fail(key, "cannot open the " + file.what + " file " + resolved + ": " + std::strerror(errno));
   std::ostringstream text;

@@ -146,8 +146,10 @@ void print_analysis(std::ostream& out, const Report& report);
 void print_equilibria(std::ostream& out, const Report& report);
 // `modal check`: title, parameters, bodies (name, joint, parent, mass),
 // coordinates (name, kind, initial), springs, loads, total mass, gravity.
+// Each list shows its first `list_limit` rows and then says how many it left
+// out (a 10⁶-coordinate lattice would otherwise print 360 MB); 0: all rows.
 void print_summary(std::ostream& out, const std::string& scene_file,
                    const std::vector<std::pair<std::string, double>>& parameters,
-                   const System& system);
+                   const System& system, std::size_t list_limit = 0);
 
 }  // namespace modal
