@@ -13,6 +13,7 @@
 namespace modal::scene_detail {
 
 std::string format_number(double value) {
+  if (std::isnan(value)) return "nan";  // the sign bit of a NaN means nothing ("-nan" from sqrt(-1))
   char buffer[32];
   const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
   return std::string(buffer, result.ptr);

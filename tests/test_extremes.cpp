@@ -1,0 +1,150 @@
+// Numerical extremes (issue 6, part 5): each case either matches its closed
+// form within the error modal itself reports (Mode::error_estimate, plus the
+// rounding of the closed form), or is diagnosed in words. Never a silently
+// wrong number.
+//
+// Cases so far: mass ratios 1e-9 … 1e9 between the two bobs of a double
+// pendulum (R1), stiffness ratios up to 1e12 along a spring chain, and the
+// same pendulum in nanometres and in kilometres, and NaN, infinite and
+// overflowing inputs.
+#include "modal/equilibrium.hpp"
+#include "modal/linearize.hpp"
+#include "modal/modes.hpp"
+#include "modal/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace modal;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+ModalResult analyze_text(const std::string& text) {
+  const Scene scene = parse_scene(text, "extreme.toml");
+  const System sys = build_system(scene);
+  const Equilibrium eq = find_equilibrium(sys, sys.initial_configuration());
+  return solve_modes(linearize(sys, eq.q));
+}
+
+// |λ − λ_ref| within the reported error estimate and the closed form's own rounding.
+void expect_within_estimate(const Mode& m, double lambda_ref, const std::string& what) {
+  EXPECT_LE(std::abs(m.omega2 - lambda_ref), m.error_estimate + 16 * kEps * std::abs(lambda_ref))
+      << what << ": omega2 " << m.omega2 << " reference " << lambda_ref << " estimate " << m.error_estimate;
+}
+
+std::string number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+// A planar double pendulum, equal rods l, bobs m1 (upper) and m2, gravity g.
+std::string double_pendulum(double m1, double m2, double l, double g) {
+  return "gravity = [0, 0, " + number(-g) + "]\n"
+         "[[body]]\nname = \"upper\"\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = " + number(m1) +
+         "\ncom = [0, 0, " + number(-l) + "]\n"
+         "[[body]]\nname = \"lower\"\nparent = \"upper\"\njoint = \"hinge\"\naxis = [0, 1, 0]\norigin = [0, 0, " +
+         number(-l) + "]\nmass = " + number(m2) + "\ncom = [0, 0, " + number(-l) + "]\n";
+}
+
+// R1 with l1 = l2 = l: ω² = (g/l)(1 + μ)(1 ∓ r), r = √(μ/(1 + μ)), μ = m2/m1.
+// The lower root without cancellation: (1 + μ)(1 − r) = (1 + μ)(1 − r²)/(1 + r)
+// = 1/(1 + r), since 1 − r² = 1/(1 + μ) (forming 1 − r² itself would lose
+// 1e-7 relative at μ = 1e9).
+std::vector<double> double_pendulum_reference(double mu, double l, double g) {
+  const double r = std::sqrt(mu / (1 + mu));
+  return {g / l / (1 + r), g / l * (1 + mu) * (1 + r)};
+}
+
+TEST(Extremes, MassRatiosFrom1eMinus9To1e9) {
+  for (double mu : {1e-9, 1e-6, 1e-3, 1.0, 1e3, 1e6, 1e9}) {
+    const ModalResult r = analyze_text(double_pendulum(1.0, mu, 1.0, 9.81));
+    const std::vector<double> ref = double_pendulum_reference(mu, 1.0, 9.81);
+    ASSERT_EQ(r.modes.size(), 2u);
+    for (std::size_t j = 0; j < 2; ++j)
+      expect_within_estimate(r.modes[j], ref[j], "m2/m1 = " + number(mu) + ", mode " + std::to_string(j + 1));
+    EXPECT_EQ(r.stability, Stability::stable) << "m2/m1 = " << mu;
+  }
+}
+
+// Huge and tiny units in one scene: the same double pendulum with rods of
+// 1 nm and of 1 km (ω² scales as g/l, by 1e9 and 1e-3).
+TEST(Extremes, NanometresAndKilometres) {
+  for (double l : {1e-9, 1e3}) {
+    const ModalResult r = analyze_text(double_pendulum(1.0, 1.0, l, 9.81));
+    const std::vector<double> ref = double_pendulum_reference(1.0, l, 9.81);
+    ASSERT_EQ(r.modes.size(), 2u);
+    for (std::size_t j = 0; j < 2; ++j)
+      expect_within_estimate(r.modes[j], ref[j], "l = " + number(l) + ", mode " + std::to_string(j + 1));
+  }
+}
+
+// Four unit masses on slides between two walls, joined by five springs
+// k = [1, 1, K, 1, 1] (wall–1–2–3–4–wall), rest lengths as written. The
+// chain is mirror-symmetric. Modes with u1 = u4, u2 = u3 leave the stiff
+// spring unstretched: λ² − 3λ + 1 = 0, λ = (3 ∓ √5)/2 whatever K. Modes with
+// u1 = −u4, u2 = −u3 stretch it: λ² − (3 + 2K)λ + (1 + 4K) = 0, the lower root
+// formed as the product over the upper one (no cancellation).
+std::string stiff_chain(double K) {
+  std::string text = "gravity = [0, 0, 0]\n";
+  for (int i = 1; i <= 4; ++i)
+    text += "[[body]]\nname = \"m" + std::to_string(i) + "\"\njoint = \"slide\"\naxis = [1, 0, 0]\norigin = [" +
+            std::to_string(i) + ", 0, 0]\nmass = 1\n";
+  const std::vector<double> k = {1, 1, K, 1, 1};
+  for (int i = 0; i <= 4; ++i) {
+    const std::string a = i == 0 ? "world" : "m" + std::to_string(i);
+    const std::string b = i == 4 ? "world" : "m" + std::to_string(i + 1);
+    text += "[[spring]]\na = \"" + a + "\"\nb = \"" + b + "\"\n" + (i == 4 ? "b_point = [5, 0, 0]\n" : "") +
+            "stiffness = " + number(k[static_cast<std::size_t>(i)]) + "\n";
+  }
+  return text;
+}
+
+TEST(Extremes, StiffnessRatiosUpTo1e12) {
+  for (double K : {1.0, 1e6, 1e12}) {
+    const double upper = ((3 + 2 * K) + std::sqrt((3 + 2 * K) * (3 + 2 * K) - 4 * (1 + 4 * K))) / 2;
+    std::vector<double> ref = {(3 - std::sqrt(5.0)) / 2, (3 + std::sqrt(5.0)) / 2, (1 + 4 * K) / upper, upper};
+    std::sort(ref.begin(), ref.end());
+    const ModalResult r = analyze_text(stiff_chain(K));
+    ASSERT_EQ(r.modes.size(), 4u);
+    for (std::size_t j = 0; j < 4; ++j)
+      expect_within_estimate(r.modes[j], ref[j], "K = " + number(K) + ", mode " + std::to_string(j + 1));
+  }
+}
+
+// NaN, infinite and overflowing inputs: refused where they are written,
+// with file:line:column, key and reason; never carried into a result.
+TEST(Extremes, NanInfAndOverflowingInputs) {
+  struct Case {
+    std::string value, message;
+  };
+  const Case cases[] = {{"nan", "the value must be finite, got nan"},
+                        {"inf", "the value must be finite, got inf"},
+                        {"-inf", "the value must be finite, got -inf"},
+                        {"\"1e400\"", "number '1e400' is out of range"},
+                        {"\"1/0\"", "\"1/0\" evaluates to inf; the value must be finite"},
+                        {"\"sqrt(-1)\"", "\"sqrt(-1)\" evaluates to nan; the value must be finite"},
+                        {"\"1e300*1e300\"", "\"1e300*1e300\" evaluates to inf; the value must be finite"}};
+  for (const Case& c : cases) {
+    const std::string text = "[[body]]\nname = \"p\"\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = " + c.value +
+                             "\ncom = [0, 0, -1]\n";
+    try {
+      (void)parse_scene(text, "extreme.toml");
+      ADD_FAILURE() << "mass = " << c.value << " was accepted";
+    } catch (const SceneError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind("extreme.toml:5:", 0), 0u) << what;
+      EXPECT_NE(what.find("body[1].mass"), std::string::npos) << what;
+      EXPECT_NE(what.find(c.message), std::string::npos) << what;
+    }
+  }
+}
+
+}  // namespace
