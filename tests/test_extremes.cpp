@@ -5,8 +5,9 @@
 //
 // Cases so far: mass ratios 1e-9 … 1e9 between the two bobs of a double
 // pendulum (R1), stiffness ratios up to 1e12 along a spring chain, and the
-// same pendulum in nanometres and in kilometres, and NaN, infinite and
-// overflowing inputs.
+// same pendulum in nanometres and in kilometres, NaN, infinite and
+// overflowing inputs, and the spherical pendulum's double mode (orthogonal
+// shapes).
 #include "modal/equilibrium.hpp"
 #include "modal/linearize.hpp"
 #include "modal/modes.hpp"
@@ -145,6 +146,30 @@ TEST(Extremes, NanInfAndOverflowingInputs) {
       EXPECT_NE(what.find(c.message), std::string::npos) << what;
     }
   }
+}
+
+// Repeated eigenvalues: the spherical pendulum with a solid bob (ball joint)
+// has a double swing mode, ω² = m g l/(m l² + I), and a zero mode (spin about
+// the rod). The double mode's two shapes must be M-orthogonal and
+// M-normalized, and orthogonal to the zero mode's: any basis of the
+// eigenspace is right, a non-orthogonal one is not.
+TEST(Extremes, RepeatedEigenvaluesHaveOrthogonalShapes) {
+  const Scene scene = load_scene(std::string(MODAL_SOURCE_DIR) + "/models/spherical_pendulum.toml");
+  const System sys = build_system(scene);
+  const Equilibrium eq = find_equilibrium(sys, sys.initial_configuration());
+  const LinearModel lin = linearize(sys, eq.q);
+  const ModalResult r = solve_modes(lin);
+  ASSERT_EQ(r.modes.size(), 3u);
+  const double m = 1.0, l = 1.0, g = 9.81, I = 0.4 * m * 0.1 * 0.1;
+  EXPECT_EQ(r.modes[0].kind, ModeKind::zero);
+  EXPECT_LE(std::abs(r.modes[0].omega2), r.modes[0].error_estimate + 16 * kEps * g / l);
+  EXPECT_EQ(r.zero_modes, 1);
+  EXPECT_EQ(r.stability, Stability::marginal);
+  for (std::size_t j : {1u, 2u}) expect_within_estimate(r.modes[j], m * g * l / (m * l * l + I), "swing " + std::to_string(j));
+  Eigen::MatrixXd Phi(3, 3);
+  for (int j = 0; j < 3; ++j) Phi.col(j) = r.modes[static_cast<std::size_t>(j)].shape.real();
+  const Eigen::MatrixXd gram = Phi.transpose() * lin.M * Phi;
+  EXPECT_LE((gram - Eigen::MatrixXd::Identity(3, 3)).cwiseAbs().maxCoeff(), 1e-12) << gram;
 }
 
 }  // namespace
