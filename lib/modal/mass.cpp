@@ -103,7 +103,9 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
     out << " (a " << null_dimension << "-dimensional null space: any basis of it describes it equally well)";
   out << (indefinite ? "; negative mass or inertia in the model, which is inconsistent"
                      : "; a coordinate singularity (e.g. a rotation vector at a gimbal-lock point, "
-                       "aligned hinge axes) or a body without mass or inertia");
+                       "aligned hinge axes), a body without mass or inertia, or coordinates in which M is too "
+                       "ill-conditioned for double precision (condition number near 1/ε; e.g. a chain of thousands "
+                       "of links in relative joint angles)");
   throw SingularMassMatrix(out.str());
 }
 

@@ -316,7 +316,9 @@ std::string describe_combination(const VectorX& v) {
     for (std::size_t j = 0; j < std::min<std::size_t>(bad.size(), 8); ++j) out << " q" << bad[j] + 1;
     if (bad.size() > 8) out << " and " << bad.size() - 8 << " more";
   }
-  out << "; a body without mass or inertia, or a coordinate singularity";
+  out << "; a body without mass or inertia, a coordinate singularity, or coordinates in which M is too "
+         "ill-conditioned for double precision (condition number near 1/ε; e.g. a chain of thousands of links in "
+         "relative joint angles, whose M grows as the fourth power of the number of links)";
   throw SingularMassMatrix(out.str());
 }
 
