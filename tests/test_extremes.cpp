@@ -7,7 +7,9 @@
 // pendulum (R1), stiffness ratios up to 1e12 along a spring chain, and the
 // same pendulum in nanometres and in kilometres, NaN, infinite and
 // overflowing inputs, the spherical pendulum's double mode (orthogonal
-// shapes), and a chain of 5000 links (diagnosed: M at the rounding level).
+// shapes), a chain of 5000 links (diagnosed: M at the rounding level), an
+// equilibrium exactly at a bifurcation (λ = 0), free bodies (exact zero
+// modes), and nearly singular mass matrices.
 #include "modal/equilibrium.hpp"
 #include "modal/linearize.hpp"
 #include "modal/modes.hpp"
@@ -196,6 +198,89 @@ TEST(Extremes, ChainOf5000LinksIsDiagnosed) {
     EXPECT_NE(what.find("at the rounding level"), std::string::npos) << what;
     EXPECT_NE(what.find("too ill-conditioned for double precision"), std::string::npos) << what;
   }
+}
+
+// An equilibrium exactly at a bifurcation: an inverted pendulum (mass m on a
+// massless rod l, upright) with a joint spring at its buckling stiffness
+// k = m g l, so V = ½kθ² + m g l cos θ has V'' = 0 at θ = 0 (a pitchfork:
+// V' = m g l (θ − sin θ) ≈ m g l θ³/6). The true λ is 0; what modal computes
+// can only be at the rounding level of K = k − m g l cos θ, i.e. a few ε·2mgl,
+// and it must say so: a zero mode (|λ| within its estimate), stability
+// marginal. Just above (k = m g l (1 + 1e-6)) the pendulum is stable with
+// λ = 1e-6 g/l, which must come out within its estimate. (Before the fix the
+// polish stopped at θ = 5e-5 and λ = 1.3e-8 was reported stable with an
+// estimate of 4e-23.)
+std::string sprung_inverted_pendulum(double k) {
+  return "gravity = [0, 0, -9.81]\n[[body]]\nname = \"rod\"\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = 1\n"
+         "com = [0, 0, 1]\nstiffness = " + number(k) + "\ninitial = 0.05\n";
+}
+
+TEST(Extremes, EquilibriumAtABifurcationIsAZeroMode) {
+  const double g = 9.81;
+  const ModalResult at = analyze_text(sprung_inverted_pendulum(g));
+  ASSERT_EQ(at.modes.size(), 1u);
+  EXPECT_EQ(at.modes[0].kind, ModeKind::zero) << "omega2 " << at.modes[0].omega2 << " estimate " << at.modes[0].error_estimate;
+  EXPECT_LE(std::abs(at.modes[0].omega2), at.modes[0].error_estimate);
+  EXPECT_LE(at.modes[0].error_estimate, 1e-13 * g);  // rounding level, not a loose bound
+  EXPECT_EQ(at.stability, Stability::marginal);
+
+  const ModalResult above = analyze_text(sprung_inverted_pendulum(g * (1 + 1e-6)));
+  ASSERT_EQ(above.modes.size(), 1u);
+  expect_within_estimate(above.modes[0], 1e-6 * g, "k = m g l (1 + 1e-6)");
+  EXPECT_EQ(above.stability, Stability::stable);
+}
+
+// Exact zero modes: two free bodies in space (no gravity) joined by one
+// unstretched spring between off-centre points. Of the 12 coordinates only the
+// stretch of the spring is stiff: 11 zero modes (rigid motions, the bodies'
+// turns about the spring's ends, its swing), each reported as a zero mode with
+// |λ| within its estimate — none as divergent or stable by a rounding-size
+// sign — and the stretch mode itself within its estimate of the closed form
+// λ = k (1/m1 + 1/m2 + r²/I1 + r²/I2) for attachments offset by r from the
+// centres perpendicular to the spring (a turn θ about z moves them by r θ
+// along it; isotropic inertias).
+TEST(Extremes, FreeBodiesHaveExactZeroModes) {
+  const double k = 1e3, m1 = 2, m2 = 0.5, I1 = 0.3, I2 = 0.05, r1 = 0.2, r2 = r1;  // r2 = r1: the spring along x
+  const std::string text =
+      "gravity = [0, 0, 0]\n"
+      "[[body]]\nname = \"a\"\njoint = \"free\"\nmass = " + number(m1) + "\ninertia = [" + number(I1) + ", " + number(I1) +
+      ", " + number(I1) + ", 0, 0, 0]\n"
+      "[[body]]\nname = \"b\"\njoint = \"free\"\norigin = [1, 0, 0]\nmass = " + number(m2) + "\ninertia = [" +
+      number(I2) + ", " + number(I2) + ", " + number(I2) + ", 0, 0, 0]\n"
+      "[[spring]]\na = \"a\"\na_point = [0, " + number(r1) + ", 0]\nb = \"b\"\nb_point = [0, " + number(r2) +
+      ", 0]\nstiffness = " + number(k) + "\nrest_length = 1\n";
+  const ModalResult r = analyze_text(text);
+  ASSERT_EQ(r.modes.size(), 12u);
+  EXPECT_EQ(r.zero_modes, 11);
+  EXPECT_EQ(r.morse_index, 0);
+  EXPECT_EQ(r.stability, Stability::marginal);
+  for (std::size_t j = 0; j < 11; ++j) {
+    EXPECT_EQ(r.modes[j].kind, ModeKind::zero) << "mode " << j + 1 << " omega2 " << r.modes[j].omega2;
+    EXPECT_LE(std::abs(r.modes[j].omega2), r.modes[j].error_estimate) << "mode " << j + 1;
+  }
+  expect_within_estimate(r.modes[11], k * (1 / m1 + 1 / m2 + r1 * r1 / I1 + r2 * r2 / I2), "stretch");
+}
+
+// A nearly singular mass matrix: a double pendulum whose lower bob is lighter
+// by μ = 1e-12 … 1e-18 than the upper, and a massless one (μ = 0). M's
+// condition number grows as 1/μ and the upper mode as (g/l)/√μ. Each case is
+// either within its own estimate of R1 or refused as a singular mass matrix
+// naming the coordinate; never a wrong number presented as right.
+TEST(Extremes, NearlySingularMassMatrix) {
+  int refused = 0;
+  for (double mu : {1e-12, 1e-14, 1e-16, 1e-18, 0.0}) {
+    try {
+      const ModalResult r = analyze_text(double_pendulum(1.0, mu, 1.0, 9.81));
+      const std::vector<double> ref = double_pendulum_reference(mu, 1.0, 9.81);
+      ASSERT_EQ(r.modes.size(), 2u);
+      for (std::size_t j = 0; j < 2; ++j)
+        expect_within_estimate(r.modes[j], ref[j], "m2/m1 = " + number(mu) + ", mode " + std::to_string(j + 1));
+    } catch (const SingularMassMatrix& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find("lower"), std::string::npos) << e.what();  // names the coordinate
+    }
+  }
+  EXPECT_GE(refused, 1);  // a massless bob (μ = 0) at least is refused
 }
 
 }  // namespace

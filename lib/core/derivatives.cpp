@@ -41,21 +41,31 @@
 #include <cmath>
 #include <string>
 #include <tuple>
+#include <limits>
+#include <optional>
+#include <string_view>
 
 namespace modal {
 
-struct KinematicsCache {
+// Per body: subtree sums of element cotangents e (F), of their moments x × e
+// (tau) and of x eᵀ (P), in the scalar R (double; Complex for complex steps).
+template <class R> struct SubtreeSums {
+  std::vector<model::V3<R>> F, tau;
+  std::vector<model::M3<R>> P;
+  void resize(std::size_t bodies) {
+    F.resize(bodies);
+    tau.resize(bodies);
+    P.resize(bodies);
+  }
+};
+
+struct KinematicsCache : SubtreeSums<double> {
   model::TreeState<double> st;
-  std::vector<Vec3> F, tau;  // per body: subtree sums of cotangents and their moments
-  std::vector<Mat3> P;       // per body: subtree sums of x eᵀ
 };
 
 Workspace::Workspace(const System& system) : cache_(new KinematicsCache) {
   cache_->st.resize(system);
-  const auto nb = system.bodies().size();
-  cache_->F.resize(nb);
-  cache_->tau.resize(nb);
-  cache_->P.resize(nb);
+  cache_->resize(system.bodies().size());
 }
 Workspace::~Workspace() { delete cache_; }
 Workspace::Workspace(Workspace&& o) noexcept
@@ -101,11 +111,12 @@ template <class F> void for_each_path_coordinate(const System& s, int body, F&& 
 // What an element depends on: a world point x moved with `body` (∂x/∂q_k =
 // ω_k × x + v_k), or a world direction x fixed in `body` (∂x/∂q_k = ω_k × x);
 // body -1: fixed in the world.
-struct Site {
+template <class R> struct SiteT {
   int body = -1;
-  Vec3 x = Vec3::Zero();
+  model::V3<R> x = model::V3<R>::Zero();
   bool direction = false;
 };
+using Site = SiteT<double>;
 
 // ∂x/∂q_k for a site moved by coordinate k.
 Vec3 site_velocity(const TreeState<double>& st, int k, const Site& site) {
@@ -145,27 +156,32 @@ double point_jacobian_norm(const System& s, const TreeState<double>& st, const A
 
 // Hands an element's cotangents (and, for second order, its local Hessian) on:
 // `energy` of the stacked site coordinates (3N), templated on the scalar.
-template <int N, class Energy, class Deposit, class LocalHessian>
-void deposit_element(const std::array<Site, N>& sites, Energy&& energy, Deposit&& deposit, LocalHessian&& local_hessian,
-                     bool second_order) {
-  Eigen::Matrix<double, 3 * N, 1> x;
+// Sites of a complex scalar (complex steps) have first order only.
+template <int N, class R, class Energy, class Deposit, class LocalHessian>
+void deposit_element(const std::array<SiteT<R>, N>& sites, Energy&& energy, Deposit&& deposit,
+                     LocalHessian&& local_hessian, bool second_order) {
+  Eigen::Matrix<R, 3 * N, 1> x;
   for (int i = 0; i < N; ++i) x.template segment<3>(3 * i) = sites[static_cast<std::size_t>(i)].x;
-  Eigen::Matrix<double, 3 * N, 1> g;
-  if (second_order) {
-    const auto r = ad::hessian<3 * N>(energy, x);
-    g = r.gradient;
-    local_hessian(sites, r.hessian);
+  Eigen::Matrix<R, 3 * N, 1> g;
+  if constexpr (std::is_same_v<R, double>) {
+    if (second_order) {
+      const auto r = ad::hessian<3 * N>(energy, x);
+      g = r.gradient;
+      local_hessian(sites, r.hessian);
+    } else {
+      g = ad::gradient<3 * N>(energy, x).gradient;
+    }
   } else {
     g = ad::gradient<3 * N>(energy, x).gradient;
   }
   for (int i = 0; i < N; ++i)
     if (sites[static_cast<std::size_t>(i)].body >= 0)
-      deposit(sites[static_cast<std::size_t>(i)], Vec3(g.template segment<3>(3 * i)));
+      deposit(sites[static_cast<std::size_t>(i)], model::V3<R>(g.template segment<3>(3 * i)));
 }
 
 // The centrifugal elements of −T₀ (module comment) of every body.
-template <class Deposit, class LocalHessian>
-void for_each_centrifugal_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit,
+template <class R, class Deposit, class LocalHessian>
+void for_each_centrifugal_cotangent(const System& s, const TreeState<R>& st, Deposit&& deposit,
                                     LocalHessian&& local_hessian, bool second_order) {
   const auto& bodies = s.bodies();
   const Vec3& Omega = s.frame_rotation();
@@ -177,7 +193,8 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<double>& st
         using S = std::decay_t<decltype(x[0])>;
         return model::centrifugal_point_energy<S>(body.mass, Omega, model::V3<S>(x[0], x[1], x[2]));
       };
-      const std::array<Site, 1> com{Site{bi, Vec3(st.position[b] + st.rotation[b] * body.com), false}};
+      const std::array<SiteT<R>, 1> com{
+          SiteT<R>{bi, model::V3<R>(st.position[b] + st.rotation[b] * body.com.cast<R>()), false}};
       deposit_element<1>(com, energy, deposit, local_hessian, second_order);
     }
     if (!body.inertia.isZero(0.0)) {
@@ -186,8 +203,9 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<double>& st
         const model::V3<S> u[3] = {{x[0], x[1], x[2]}, {x[3], x[4], x[5]}, {x[6], x[7], x[8]}};
         return model::centrifugal_rotation_energy<S>(body.inertia, Omega, u);
       };
-      const std::array<Site, 3> axes{Site{bi, st.rotation[b].col(0), true}, Site{bi, st.rotation[b].col(1), true},
-                                     Site{bi, st.rotation[b].col(2), true}};
+      const std::array<SiteT<R>, 3> axes{SiteT<R>{bi, st.rotation[b].col(0), true},
+                                         SiteT<R>{bi, st.rotation[b].col(1), true},
+                                         SiteT<R>{bi, st.rotation[b].col(2), true}};
       deposit_element<3>(axes, energy, deposit, local_hessian, second_order);
     }
   }
@@ -196,21 +214,23 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<double>& st
 // The element cotangents e = ∂V_e/∂x at sites, handed to `deposit(site, e)`;
 // elements with a local Hessian (springs: 6×6 in (xa, xb); centrifugal
 // elements) hand it to `local_hessian(sites, H)` when second_order.
-template <class Deposit, class LocalHessian>
-void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& deposit, LocalHessian&& local_hessian,
+template <class R, class Deposit, class LocalHessian>
+void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& deposit, LocalHessian&& local_hessian,
                         bool second_order) {
+  using V = model::V3<R>;
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     if (body.mass == 0.0) continue;
-    deposit(Site{static_cast<int>(b), Vec3(st.position[b] + st.rotation[b] * body.com), false},
-            Vec3(-body.mass * s.gravity()));
+    deposit(SiteT<R>{static_cast<int>(b), V(st.position[b] + st.rotation[b] * body.com.cast<R>()), false},
+            V((-body.mass * s.gravity()).cast<R>()));
   }
-  for (const DeadLoad& l : s.loads()) deposit(Site{l.at.body, model::world_point(st, l.at), false}, Vec3(-l.force));
+  for (const DeadLoad& l : s.loads())
+    deposit(SiteT<R>{l.at.body, model::world_point(st, l.at), false}, V((-l.force).cast<R>()));
   if (s.rotating()) for_each_centrifugal_cotangent(s, st, deposit, local_hessian, second_order);
   for (const Spring& sp : s.springs()) {
-    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
-    if (sp.rest_length != 0.0 && (xa - xb).norm() == 0.0)
+    const V xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
+    if (sp.rest_length != 0.0 && value((xa - xb).squaredNorm()) == 0.0)
       throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
                            " m has coincident end points: its force direction is undefined");
     auto energy = [&sp](const auto& x) {
@@ -218,22 +238,23 @@ void for_each_cotangent(const System& s, const TreeState<double>& st, Deposit&& 
       const model::V3<S> a(x[0], x[1], x[2]), b(x[3], x[4], x[5]);
       return model::spring_energy<S>(sp, a, b);
     };
-    const std::array<Site, 2> ends{Site{sp.a.body, xa, false}, Site{sp.b.body, xb, false}};
+    const std::array<SiteT<R>, 2> ends{SiteT<R>{sp.a.body, xa, false}, SiteT<R>{sp.b.body, xb, false}};
     deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
   }
 }
 
 // Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
 // to deposit(site, e) (a direction adds nothing to F).
-template <class Source> void accumulate_sums(const System& s, Workspace& w, bool second_order, Source&& source) {
-  KinematicsCache& c = w.cache();
+template <class R, class Source>
+void accumulate_sums(const System& s, SubtreeSums<R>& c, bool second_order, Source&& source) {
   const auto nb = s.bodies().size();
+  c.resize(nb);
   for (std::size_t b = 0; b < nb; ++b) {
     c.F[b].setZero();
     c.tau[b].setZero();
     c.P[b].setZero();
   }
-  source([&](const Site& site, const Vec3& e) {
+  source([&](const SiteT<R>& site, const model::V3<R>& e) {
     if (site.body < 0) return;
     const auto b = static_cast<std::size_t>(site.body);
     if (!site.direction) c.F[b] += e;
@@ -253,21 +274,21 @@ template <class Source> void accumulate_sums(const System& s, Workspace& w, bool
 // The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
 template <class LocalHessian>
 void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian) {
-  accumulate_sums(s, w, second_order, [&](auto&& deposit) {
+  accumulate_sums(s, w.cache(), second_order, [&](auto&& deposit) {
     for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order);
   });
 }
 
 // World force of a follower load at the current kinematics: R_b · (body-frame force).
-Vec3 follower_force(const TreeState<double>& st, const FollowerLoad& l) {
-  return st.rotation[static_cast<std::size_t>(l.at.body)] * l.force;
+template <class R> model::V3<R> follower_force(const TreeState<R>& st, const FollowerLoad& l) {
+  return st.rotation[static_cast<std::size_t>(l.at.body)] * l.force.cast<R>();
 }
 
 // The subtree sums of the follower forces themselves (cotangent e = f): then
 // the tree gradient below is Q_j = f·∂x/∂q_j and the tree Hessian is f·∂²x/∂q_j∂q_k.
 void accumulate_followers(const System& s, Workspace& w, bool second_order) {
   const TreeState<double>& st = w.cache().st;
-  accumulate_sums(s, w, second_order, [&](auto&& deposit) {
+  accumulate_sums(s, w.cache(), second_order, [&](auto&& deposit) {
     for (const FollowerLoad& l : s.followers())
       deposit(Site{l.at.body, model::world_point(st, l.at), false}, follower_force(st, l));
   });
@@ -279,7 +300,8 @@ bool is_rotation_vector(const Body& body, int local) {
 
 // g_k = ω_k·τ + v_k·F with the subtree sums of the body that coordinate k moves:
 // Σ e·∂x/∂q_k over the deposited cotangents (n entries, g resized).
-void tree_gradient(const System& s, const TreeState<double>& st, const KinematicsCache& c, VectorX& g) {
+template <class R>
+void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>& c, model::VX<R>& g) {
   g.setZero(s.size());
   for (std::size_t b = 0; b < s.bodies().size(); ++b) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
@@ -287,6 +309,26 @@ void tree_gradient(const System& s, const TreeState<double>& st, const Kinematic
       const auto kk = static_cast<std::size_t>(k);
       g[k] = st.omega[kk].dot(c.tau[b]) + st.vel[kk].dot(c.F[b]);
     }
+  }
+}
+
+// The gradient of the potential plus whatever `extra(deposit)` deposits, at
+// the kinematics st of q (scalar R): one accumulation of every cotangent, the
+// tree gradient, and the joint springs ½k(q − rest)².
+template <class R, class Extra>
+void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeSums<R>& c, model::VX<R>& g,
+                   Extra&& extra) {
+  accumulate_sums(s, c, false, [&](auto&& deposit) {
+    for_each_cotangent(s, st, deposit, [](auto&&...) {}, false);
+    extra(deposit);
+  });
+  tree_gradient(s, st, c, g);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    if (bodies[b].stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
+      g[k0 + i] += bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
   }
 }
 
@@ -413,16 +455,8 @@ const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& 
     return w.gradient;
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  accumulate(s, w, false, [](auto&&...) {});
-  VectorX& g = w.gradient;
-  tree_gradient(s, st, w.cache(), g);
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
-      g[k0 + i] += bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
-  }
-  return g;
+  gradient_with(s, st, q.data(), w.cache(), w.gradient, [](auto&&) {});
+  return w.gradient;
 }
 
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q) {
@@ -435,6 +469,13 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
   H.setZero(s.size(), s.size());
   assemble_potential_hessian(s, w, q, dense_adder(H));
   return H;
+}
+
+MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) return potential_hessian(s, w, q).cwiseAbs();  // one expression per entry: no terms to separate
+  MatrixX E = MatrixX::Zero(s.size(), s.size());
+  assemble_potential_hessian(s, w, q, [&E](int j, int k, double v) { E(j, k) += std::abs(v); });
+  return E;
 }
 
 const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
@@ -814,12 +855,44 @@ namespace {
 
 // The end points of a constraint at the current kinematics; a distance
 // constraint needs them apart (its direction is undefined otherwise).
-std::pair<Vec3, Vec3> constraint_ends(const TreeState<double>& st, const Constraint& k) {
-  const Vec3 xa = model::world_point(st, k.a), xb = model::world_point(st, k.b);
-  if (k.type == Constraint::Type::distance && (xa - xb).norm() == 0.0)
+template <class R>
+std::pair<model::V3<R>, model::V3<R>> constraint_ends(const TreeState<R>& st, const Constraint& k) {
+  const model::V3<R> xa = model::world_point(st, k.a), xb = model::world_point(st, k.b);
+  if (k.type == Constraint::Type::distance && value((xa - xb).squaredNorm()) == 0.0)
     throw NumericalError("the distance constraint '" + k.name +
                          "' has coincident end points here: its direction (and its force) is undefined");
   return {xa, xb};
+}
+
+// The generalized force ∇(sᵀc) of constraint multipliers s (m) as element
+// cotangents: a point constraint sᵀ(x_a − x_b) deposits ±s (no local
+// Hessian); a distance constraint s (|x_a − x_b| − length) is an element
+// whose cotangents and local Hessian come from AD.
+template <class R, class Deposit, class LocalHessian>
+void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, const VectorX& multipliers,
+                                   Deposit&& deposit, LocalHessian&& local_hessian, bool second_order) {
+  using V = model::V3<R>;
+  Eigen::Index row = 0;
+  for (const Constraint& k : s.constraints()) {
+    const auto [xa, xb] = constraint_ends(st, k);
+    if (k.type == Constraint::Type::point) {
+      const V f = multipliers.segment<3>(row).cast<R>();
+      deposit(SiteT<R>{k.a.body, xa, false}, f);
+      deposit(SiteT<R>{k.b.body, xb, false}, V(-f));
+    } else {
+      const double sk = multipliers[row];
+      const double length = k.length;
+      auto energy = [sk, length](const auto& x) {
+        using S = std::decay_t<decltype(x[0])>;
+        using std::sqrt;
+        const model::V3<S> d(x[0] - x[3], x[1] - x[4], x[2] - x[5]);
+        return sk * (sqrt(d.squaredNorm()) - length);
+      };
+      const std::array<SiteT<R>, 2> ends{SiteT<R>{k.a.body, xa, false}, SiteT<R>{k.b.body, xb, false}};
+      deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
+    }
+    row += k.equations();
+  }
 }
 
 }  // namespace
@@ -895,27 +968,8 @@ MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, cons
   }
   const TreeState<double>& st = kinematics(s, w, q);
   auto local_hessian = [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, dense_adder(H)); };
-  accumulate_sums(s, w, true, [&](auto&& deposit) {
-    Eigen::Index row = 0;
-    for (const Constraint& k : s.constraints()) {
-      const auto [xa, xb] = constraint_ends(st, k);
-      if (k.type == Constraint::Type::point) {  // sᵀ(x_a − x_b): cotangents ±s, no local Hessian
-        const Vec3 f = multipliers.segment<3>(row);
-        deposit(Site{k.a.body, xa, false}, f);
-        deposit(Site{k.b.body, xb, false}, Vec3(-f));
-      } else {  // s (|x_a − x_b| − length)
-        const double sk = multipliers[row];
-        auto energy = [&](const auto& x) {
-          using S = std::decay_t<decltype(x[0])>;
-          using std::sqrt;
-          const model::V3<S> d(x[0] - x[3], x[1] - x[4], x[2] - x[5]);
-          return sk * (sqrt(d.squaredNorm()) - k.length);
-        };
-        const std::array<Site, 2> ends{Site{k.a.body, xa, false}, Site{k.b.body, xb, false}};
-        deposit_element<2>(ends, energy, deposit, local_hessian, true);
-      }
-      row += k.equations();
-    }
+  accumulate_sums(s, w.cache(), true, [&](auto&& deposit) {
+    for_each_constraint_cotangent(s, st, multipliers, deposit, local_hessian, true);
   });
   tree_hessian(s, st, w.cache(), q, dense_adder(H));
   return 0.5 * (H + H.transpose());
@@ -926,6 +980,183 @@ std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q) {
   std::vector<Pose> poses(s.bodies().size());
   for (std::size_t b = 0; b < poses.size(); ++b) poses[b] = {st.rotation[b], st.position[b]};
   return poses;
+}
+
+
+
+// --- derivatives by differences (DerivativeMethod) ------------------------------
+
+const char* to_string(DerivativeMethod method) {
+  switch (method) {
+    case DerivativeMethod::exact: return "exact";
+    case DerivativeMethod::central: return "central";
+    case DerivativeMethod::forward: return "forward";
+    case DerivativeMethod::complex_step: return "complex-step";
+  }
+  return "?";
+}
+
+std::optional<DerivativeMethod> parse_derivative_method(std::string_view word) {
+  for (const DerivativeMethod m : {DerivativeMethod::exact, DerivativeMethod::central, DerivativeMethod::forward,
+                                   DerivativeMethod::complex_step})
+    if (word == to_string(m)) return m;
+  return std::nullopt;
+}
+
+double default_step_factor(DerivativeMethod method) {
+  switch (method) {
+    case DerivativeMethod::forward: return std::sqrt(std::numeric_limits<double>::epsilon());
+    case DerivativeMethod::central: return std::cbrt(std::numeric_limits<double>::epsilon());
+    case DerivativeMethod::complex_step: return 1e-20;
+    case DerivativeMethod::exact: return 0.0;
+  }
+  return 0.0;
+}
+
+namespace {
+
+void check_method_applies(const System& s, DerivativeMethod method, const char* what) {
+  if (method == DerivativeMethod::complex_step && s.is_map())
+    throw std::invalid_argument(std::string(what) +
+                                ": complex-step derivatives are not available for kinematic maps (their expressions "
+                                "are evaluated in real arithmetic); use exact, central or forward");
+}
+
+// The step of coordinate j: factor × max(|q_j|, its unit), the unit being
+// 1 rad or the scene's length scale; for differences made exactly
+// representable ((q + h) − q = h), so that the quotient divides by the step
+// actually taken.
+double coordinate_step(const System& s, const VectorX& q, int j, DerivativeMethod method, double factor) {
+  const double unit =
+      s.coordinates()[static_cast<std::size_t>(j)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
+  if (method == DerivativeMethod::complex_step) return factor * unit;
+  const double h = factor * std::max(std::abs(q[j]), unit);
+  const double shifted = q[j] + h;
+  return shifted - q[j];
+}
+
+// The columns ∂f/∂q_j (n×n) of a vector function f(q) (n) by `method`:
+// central or forward differences of f evaluated through `f(x, out)` (x: n
+// doubles), or complex steps Im f(q + i h e_j)/h through `fc(x, out)` (x: n
+// Complex values). With `error`: 2|J_h − J_2h| entrywise. The asymptotic
+// truncation error of J_h is all of |J_h − J_2h| for forward differences
+// (O(h)) and a third of it for central ones (O(h²)); the rounding noise of
+// the two sets is independent, so one difference can understate it: the
+// factor 2 covers both.
+template <class F, class FC>
+MatrixX jacobian_by(const System& s, const VectorX& q, DerivativeMethod method, double factor, MatrixX* error, F&& f,
+                    FC&& fc) {
+  const int n = s.size();
+  auto columns = [&](double scale) {
+    MatrixX J(n, n);
+    if (method == DerivativeMethod::complex_step) {
+      std::vector<Complex> x(q.data(), q.data() + n);
+      model::VX<Complex> out;
+      for (int j = 0; j < n; ++j) {
+        const double h = scale * coordinate_step(s, q, j, method, factor);
+        x[static_cast<std::size_t>(j)].im = h;
+        fc(x.data(), out);
+        for (int i = 0; i < n; ++i) J(i, j) = out[i].im / h;
+        x[static_cast<std::size_t>(j)].im = 0.0;
+      }
+      return J;
+    }
+    VectorX f0, fp, fm;
+    if (method == DerivativeMethod::forward) f(q, f0);
+    VectorX x = q;
+    for (int j = 0; j < n; ++j) {
+      const double h = coordinate_step(s, q, j, method, scale * factor);
+      x[j] = q[j] + h;
+      f(x, fp);
+      if (method == DerivativeMethod::central) {
+        x[j] = q[j] - h;
+        f(x, fm);
+        J.col(j) = (fp - fm) / (2 * h);
+      } else {
+        J.col(j) = (fp - f0) / h;
+      }
+      x[j] = q[j];
+    }
+    return J;
+  };
+  MatrixX J = columns(1.0);
+  if (error) *error = 2 * (J - columns(2.0)).cwiseAbs();
+  return J;
+}
+
+// f(q) = ∇V − Q(q, 0) − ∇c s at the kinematics st (scalar R).
+template <class R>
+void rest_force_at(const System& s, const TreeState<R>& st, const R* q, const VectorX& multipliers,
+                   SubtreeSums<R>& c, model::VX<R>& f) {
+  gradient_with(s, st, q, c, f, [&](auto&& deposit) {
+    for (const FollowerLoad& l : s.followers())
+      deposit(SiteT<R>{l.at.body, model::world_point(st, l.at), false}, model::V3<R>(-follower_force(st, l)));
+    if (multipliers.size() > 0)
+      for_each_constraint_cotangent(
+          s, st, multipliers,
+          [&](const SiteT<R>& site, const model::V3<R>& e) { deposit(site, model::V3<R>(-e)); },
+          [](auto&&...) {}, false);
+  });
+}
+
+void check_multipliers(const System& s, const VectorX& multipliers, const char* what) {
+  if (multipliers.size() != 0 && multipliers.size() != s.constraint_equations())
+    throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(s.constraint_equations()) +
+                                " multipliers (or none), got " + std::to_string(multipliers.size()));
+}
+
+}  // namespace
+
+VectorX rest_force(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers) {
+  check_multipliers(s, multipliers, "rest_force");
+  if (s.is_map()) return potential_gradient(s, w, q);  // maps have no loads or constraints
+  const TreeState<double>& st = kinematics(s, w, q);
+  VectorX f;
+  rest_force_at(s, st, q.data(), multipliers, w.cache(), f);
+  return f;
+}
+
+MatrixX rest_force_jacobian(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method,
+                            const VectorX& multipliers, double step_factor, MatrixX* error) {
+  check_size(s, q, "rest_force_jacobian");
+  check_multipliers(s, multipliers, "rest_force_jacobian");
+  check_method_applies(s, method, "rest_force_jacobian");
+  const double factor = step_factor > 0 ? step_factor : default_step_factor(method);
+  switch (method) {
+    case DerivativeMethod::exact: {
+      MatrixX K = potential_hessian(s, w, q);
+      if (s.has_follower_loads()) K -= generalized_force_jacobian(s, w, q);
+      if (multipliers.size() > 0) K -= constraint_hessian(s, w, q, multipliers);
+      return K;
+    }
+    default: {
+      TreeState<Complex> st;
+      SubtreeSums<Complex> sums;
+      return jacobian_by(
+          s, q, method, factor, error, [&](const VectorX& x, VectorX& out) { out = rest_force(s, w, x, multipliers); },
+          [&](const Complex* x, model::VX<Complex>& out) {
+            model::forward_kinematics(s, x, st);
+            rest_force_at(s, st, x, multipliers, sums, out);
+          });
+    }
+  }
+}
+
+MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method, double step_factor) {
+  if (method == DerivativeMethod::exact) return gyroscopic_matrix(s, w, q);
+  check_size(s, q, "gyroscopic_matrix");
+  check_method_applies(s, method, "gyroscopic_matrix");
+  const int n = s.size();
+  if (!s.has_frame_coupling()) return MatrixX::Zero(n, n);
+  const double factor = step_factor > 0 ? step_factor : default_step_factor(method);
+  TreeState<Complex> st;
+  const MatrixX J = jacobian_by(  // J_ij = ∂g_i/∂q_j
+      s, q, method, factor, nullptr, [&](const VectorX& x, VectorX& out) { out = frame_coupling(s, w, x); },
+      [&](const Complex* x, model::VX<Complex>& out) {
+        model::forward_kinematics(s, x, st);
+        model::frame_coupling(s, st, out);
+      });
+  return J - J.transpose();
 }
 
 }  // namespace modal

@@ -133,10 +133,16 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       out.best = record(p, q, rnorm, rel, it);
     }
     if (out.converged) {
-      // Accepted. Newton converges quadratically here, so a few more full
-      // steps usually bring the residual to rounding level; keep each only
-      // while it halves the residual.
-      if (refinements++ == 3 || rnorm == 0.0) return out;
+      // Accepted. At a regular equilibrium Newton converges quadratically, so
+      // one or two more full steps bring the residual to rounding level and
+      // the next fails to halve it: the refinement stops there. At a
+      // degenerate one (λ = 0: a bifurcation point) Newton converges only
+      // linearly — the residual ∝ θ³ of a pitchfork passes the tolerance at
+      // θ ≈ 1e-5 while K ∝ θ² is still 1e-10 off zero — and the refinement
+      // goes on while each step halves the residual (a pitchfork: × 0.30
+      // per step; a fold: × 0.25), up to the rounding level. The cap only
+      // bounds the cost: 60 steps of × 0.5 span 18 orders of magnitude.
+      if (refinements++ == 60 || rnorm == 0.0) return out;
       const MatrixX& j = p.jacobian(q);
       const VectorX d = newton_step(j, r, p.symmetric_jacobian());
       const VectorX qt = q + d;

@@ -156,7 +156,14 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   };
 
   model.circulatory = s.has_follower_loads();
-  if (model.circulatory) {
+  model.derivatives = options.derivatives;
+  MatrixX difference_error;
+  if (options.derivatives != DerivativeMethod::exact) {  // ∂f/∂q of f = ∇V − Q − ∇c s by differences
+    const MatrixX K =
+        rest_force_jacobian(s, ws, q, options.derivatives, multipliers, options.step_factor, &difference_error);
+    require_finite(K, "stiffness matrix K (by differences)", model.coordinates);
+    model.K = model.circulatory ? K : symmetric_part(K);
+  } else if (model.circulatory) {
     const MatrixX K = stiffness(potential_hessian(s, ws, q) - generalized_force_jacobian(s, ws, q));
     require_finite(K, "stiffness matrix K = ∇∇V − ∂Q/∂q", model.coordinates);
     model.K = K;  // not symmetric: its skew part is the circulatory stiffness
@@ -165,6 +172,13 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     require_finite(K, "stiffness matrix K = ∇∇V", model.coordinates);
     model.K = symmetric_part(K);
   }
+  // K's error: its rounding, 4ε × Σ|terms| of ∇∇V and of the follower and
+  // multiplier terms subtracted from it; for differences also their own.
+  MatrixX terms = potential_hessian_magnitude(s, ws, q);
+  if (model.circulatory) terms += generalized_force_jacobian(s, ws, q).cwiseAbs();
+  if (s.has_constraints()) terms += multiplier_term.cwiseAbs();
+  model.K_error = 4 * std::numeric_limits<double>::epsilon() * terms;
+  if (difference_error.size() > 0) model.K_error += difference_error;
   const MatrixX M = mass_matrix(s, ws, q);
   require_finite(M, "mass matrix M", model.coordinates);
   model.M = symmetric_part(M);
@@ -180,7 +194,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   model.G = MatrixX::Zero(n, n);
   model.has_gyroscopic = false;
   if (s.has_frame_coupling()) {
-    const MatrixX G = gyroscopic_matrix(s, ws, q);
+    const MatrixX G = gyroscopic_matrix(s, ws, q, options.derivatives, options.step_factor);
     require_finite(G, "gyroscopic matrix G", model.coordinates);
     const MatrixX skew = 0.5 * (G - G.transpose());
     // Zero up to rounding relative to its natural size: |Ω|·‖M‖ in a rotating
@@ -199,6 +213,8 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     model.M = symmetric_part(N.transpose() * model.M * N);
     model.K = N.transpose() * model.K * N;
     if (!model.circulatory) model.K = symmetric_part(model.K);
+    const MatrixX absN = N.cwiseAbs();
+    model.K_error = absN.transpose() * model.K_error * absN;
     model.D = symmetric_part(N.transpose() * model.D * N);
     model.G = N.transpose() * model.G * N;
     model.G = 0.5 * (model.G - model.G.transpose());

@@ -14,6 +14,7 @@
 #include <Eigen/Cholesky>
 
 #include <complex>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,8 +29,10 @@ using Cholesky = Eigen::LLT<MatrixX>;
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names);
 
 // K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
-// Fills modes (ascending λ), morse_index, zero_modes, solver, notes.
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass);
+// `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's
+// entries (LinearModel::K_error). Fills modes (ascending λ), morse_index,
+// zero_modes, solver, notes.
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {});
 
 // M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
 // first-order system. Fills modes (ascending ω, then σ), morse_index,

@@ -20,15 +20,21 @@
 //     entry errors as independent, of standard deviation 2ε|K_ij| (resp.
 //     |M_ij|), the standard deviation of δλ is
 //     2ε·sqrt(Σ_ij (x_i K_ij x_j)² + λ² Σ_ij (x_i M_ij x_j)²),
-//     and the estimate takes twice that. The worst case Σ|x_i K_ij x_j| (or the
+//     and the estimate takes twice that. When K comes from differences
+//     (--derivatives) LinearModel::K_error adds their measured error
+//     2|K_h − K_2h| to each entry. The worst case Σ|x_i K_ij x_j| (or the
 //     normwise n·ε·(‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper
 //     modes of a 1000-link chain by four to seven orders of magnitude, because
 //     a mode with many sign changes sums many entries with cancellation.
-//     Entries that are themselves the result of cancellation (a zero mode:
-//     the spin of a body whose stiffness terms cancel exactly) carry an
-//     absolute error of about ε·‖K‖ rather than ε·|K_ij|; a normwise floor
-//     4ε·(‖K‖_F + |λ|‖M‖_F)·‖x‖² covers them, so that such an eigenvalue is a
-//     zero mode and not a divergent one with a rounding-size sign.
+//     An entry that is itself the result of cancellation carries an absolute
+//     error of a few ε times the terms that cancelled, not times |K_ij|: a
+//     joint spring balancing gravity at its buckling load leaves K_ij ≈ 0
+//     with an error of ε·(k + m g l). So K_ij in the sum above is replaced by
+//     E_ij = Σ|terms| of the entry (LinearModel::K_error is 4ε E), and a
+//     normwise floor 4ε·(‖E‖_F + |λ|‖M‖_F)·‖x‖² covers cancellation across
+//     entries (a zero mode: the spin of a body whose stiffness terms cancel
+//     exactly), so that such an eigenvalue is a zero mode and not a divergent
+//     or stable one with a rounding-size value.
 //
 // A zero mode is one with |λ| ≤ its estimate: it cannot be told from 0.
 #include "detail.hpp"
@@ -43,7 +49,7 @@ namespace {
 constexpr double eps = std::numeric_limits<double>::epsilon();
 }  // namespace
 
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass) {
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error) {
   const Eigen::Index n = M.rows();
   const auto L = mass.matrixL();
   const auto U = mass.matrixU();  // Lᵀ
@@ -63,10 +69,12 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX R = K * Phi - M * Phi * lambda.asDiagonal();
   const MatrixX LR = L.solve(R);
   const MatrixX LtPhi = U * Phi;
-  const double normK = K.norm(), normM = M.norm();  // Frobenius ≥ 2-norm
+  // E: the absolute error of K's entries (given, or 4ε|K|).
+  const MatrixX E = K_error.rows() == n && K_error.cols() == n ? K_error : MatrixX(4 * eps * K.cwiseAbs());
+  const double normE = E.norm(), normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
   // Σ_ij (x_i A_ij x_j)² for every column x of Φ: diag(Sᵀ (A∘A) S), S = Φ∘Φ.
   const MatrixX S = Phi.cwiseAbs2();
-  const MatrixX K2S = K.cwiseAbs2() * S, M2S = M.cwiseAbs2() * S;
+  const MatrixX E2S = E.cwiseAbs2() * S, M2S = M.cwiseAbs2() * S;
 
   ModalResult result;
   result.solver = "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
@@ -76,8 +84,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double l = lambda(j);
     const double x2 = Phi.col(j).squaredNorm();
     const double residual_bound = LR.col(j).norm() / LtPhi.col(j).norm();
-    const double data_bound = 4 * eps * std::sqrt(S.col(j).dot(K2S.col(j)) + l * l * S.col(j).dot(M2S.col(j))) +
-                              4 * eps * (normK + std::abs(l) * normM) * x2;
+    const double rM = 4 * eps;
+    const double data_bound = std::sqrt(S.col(j).dot(E2S.col(j)) + rM * rM * l * l * S.col(j).dot(M2S.col(j))) +
+                              (normE + rM * std::abs(l) * normM) * x2;
     const double error = residual_bound + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);

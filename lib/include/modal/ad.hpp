@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cmath>
+#include <complex>
 #include <type_traits>
 
 namespace modal {
@@ -154,6 +155,97 @@ template <class T, int N> bool isfinite(const Dual<T, N>& x) {
   return true;
 }
 
+// --- complex numbers for the complex-step derivative -------------------------
+// f'(x) = Im f(x + ih)/h + O(h²) with no cancellation, so h can be 1e-20 and
+// the result is exact to rounding (Squire & Trapp 1998; Martins, Sturdza &
+// Alonso 2003). Complex is a scalar that Eigen treats as real (NumTraits
+// below): squaredNorm() is Σ z², dot() has no conjugate, so the templated
+// model evaluates the analytic continuation of its functions, which is what
+// the method needs (std::complex would give |z|² and conjugated products).
+// Comparisons and branches use the real part, and abs(z) = ±z by its sign,
+// as in every complex-step implementation. Functions without a convenient
+// analytic form (atan2) are continued to first order in the imaginary part,
+// which is all the method uses (its O(h²) remainder is below 1e-40).
+struct Complex {
+  double re = 0, im = 0;
+  Complex() = default;
+  Complex(double r) : re(r) {}  // NOLINT: real constants convert implicitly
+  Complex(double r, double i) : re(r), im(i) {}
+  explicit Complex(const std::complex<double>& z) : re(z.real()), im(z.imag()) {}
+  std::complex<double> std() const { return {re, im}; }
+
+  Complex& operator+=(const Complex& o) { re += o.re; im += o.im; return *this; }
+  Complex& operator-=(const Complex& o) { re -= o.re; im -= o.im; return *this; }
+  Complex& operator*=(const Complex& o) { *this = Complex(re * o.re - im * o.im, re * o.im + im * o.re); return *this; }
+  Complex& operator/=(const Complex& o) { *this = Complex(std() / o.std()); return *this; }
+};
+
+inline double value(const Complex& z) { return z.re; }
+inline Complex operator+(const Complex& a) { return a; }
+inline Complex operator-(const Complex& a) { return {-a.re, -a.im}; }
+inline Complex operator+(Complex a, const Complex& b) { return a += b; }
+inline Complex operator-(Complex a, const Complex& b) { return a -= b; }
+inline Complex operator*(Complex a, const Complex& b) { return a *= b; }
+inline Complex operator/(Complex a, const Complex& b) { return a /= b; }
+inline Complex operator+(Complex a, double c) { a.re += c; return a; }
+inline Complex operator+(double c, Complex a) { a.re += c; return a; }
+inline Complex operator-(Complex a, double c) { a.re -= c; return a; }
+inline Complex operator-(double c, const Complex& a) { return {c - a.re, -a.im}; }
+inline Complex operator*(const Complex& a, double c) { return {a.re * c, a.im * c}; }
+inline Complex operator*(double c, const Complex& a) { return {a.re * c, a.im * c}; }
+inline Complex operator/(const Complex& a, double c) { return {a.re / c, a.im / c}; }
+inline Complex operator/(double c, const Complex& a) { return Complex(c) / a; }
+#define MODAL_COMPLEX_COMPARE(op)                                                              \
+  inline bool operator op(const Complex& a, const Complex& b) { return a.re op b.re; }          \
+  inline bool operator op(const Complex& a, double b) { return a.re op b; }                     \
+  inline bool operator op(double a, const Complex& b) { return a op b.re; }
+MODAL_COMPLEX_COMPARE(<)
+MODAL_COMPLEX_COMPARE(<=)
+MODAL_COMPLEX_COMPARE(>)
+MODAL_COMPLEX_COMPARE(>=)
+MODAL_COMPLEX_COMPARE(==)
+MODAL_COMPLEX_COMPARE(!=)
+#undef MODAL_COMPLEX_COMPARE
+
+#define MODAL_COMPLEX_FUNCTION(f) \
+  inline Complex f(const Complex& z) { return Complex(std::f(z.std())); }
+MODAL_COMPLEX_FUNCTION(sin)
+MODAL_COMPLEX_FUNCTION(cos)
+MODAL_COMPLEX_FUNCTION(tan)
+MODAL_COMPLEX_FUNCTION(asin)
+MODAL_COMPLEX_FUNCTION(acos)
+MODAL_COMPLEX_FUNCTION(atan)
+MODAL_COMPLEX_FUNCTION(sinh)
+MODAL_COMPLEX_FUNCTION(cosh)
+MODAL_COMPLEX_FUNCTION(tanh)
+MODAL_COMPLEX_FUNCTION(exp)
+MODAL_COMPLEX_FUNCTION(log)
+MODAL_COMPLEX_FUNCTION(sqrt)
+#undef MODAL_COMPLEX_FUNCTION
+inline Complex abs(const Complex& z) { return z.re < 0 ? -z : z; }
+inline Complex fabs(const Complex& z) { return abs(z); }
+inline Complex atan2(const Complex& y, const Complex& x) {
+  const double r2 = x.re * x.re + y.re * y.re;
+  return {std::atan2(y.re, x.re), r2 > 0 ? (x.re * y.im - y.re * x.im) / r2 : 0.0};
+}
+inline Complex pow(const Complex& z, double p) {
+  if (p == 0.0) return Complex(1.0);
+  if (p == std::round(p) && std::abs(p) <= 64) {  // integer powers by products: exact at z.re ≤ 0 too
+    Complex r(1.0), b = p > 0 ? z : Complex(1.0) / z;
+    for (long k = std::lround(std::abs(p)); k > 0; k >>= 1, b *= b)
+      if (k & 1) r *= b;
+    return r;
+  }
+  return Complex(std::pow(z.std(), p));
+}
+inline Complex pow(const Complex& z, const Complex& p) {
+  if (p.im == 0.0) return pow(z, p.re);
+  return exp(p * log(z));
+}
+inline Complex pow(double b, const Complex& p) { return Complex(std::pow(std::complex<double>(b, 0.0), p.std())); }
+inline Complex hypot(const Complex& a, const Complex& b) { return sqrt(a * a + b * b); }
+inline bool isfinite(const Complex& z) { return std::isfinite(z.re) && std::isfinite(z.im); }
+
 namespace ad {
 
 // Value, gradient and Hessian of f: R^N -> R at x, f templated on its scalar.
@@ -184,20 +276,21 @@ SecondOrder<N> hessian(F&& f, const Eigen::Matrix<double, N, 1>& x) {
   return r;
 }
 
-// Value and gradient of f: R^N -> R at x (first-order forward mode).
-template <int N>
+// Value and gradient of f: R^N -> R at x (first-order forward mode). T is
+// the scalar of x: double, or Complex for the gradient at a complex point.
+template <int N, class T = double>
 struct FirstOrder {
-  double value;
-  Eigen::Matrix<double, N, 1> gradient;
+  T value;
+  Eigen::Matrix<T, N, 1> gradient;
 };
 
-template <int N, class F>
-FirstOrder<N> gradient(F&& f, const Eigen::Matrix<double, N, 1>& x) {
-  using S = Dual<double, N>;
+template <int N, class F, class T>
+FirstOrder<N, T> gradient(F&& f, const Eigen::Matrix<T, N, 1>& x) {
+  using S = Dual<T, N>;
   std::array<S, N> xs;
   for (int i = 0; i < N; ++i) xs[static_cast<std::size_t>(i)] = S(x[i], i);
   const S y = f(xs);
-  FirstOrder<N> r;
+  FirstOrder<N, T> r;
   r.value = y.v;
   for (int i = 0; i < N; ++i) r.gradient[i] = y.d[static_cast<std::size_t>(i)];
   return r;
@@ -223,6 +316,24 @@ struct NumTraits<modal::Dual<T, N>> : NumTraits<double> {
   static inline Real dummy_precision() { return Real(1e-12); }
   static inline int digits10() { return NumTraits<double>::digits10(); }
 };
+template <>
+struct NumTraits<modal::Complex> : NumTraits<double> {
+  using Real = modal::Complex;
+  using NonInteger = modal::Complex;
+  using Nested = modal::Complex;
+  using Literal = modal::Complex;
+  enum {
+    IsComplex = 0, IsInteger = 0, IsSigned = 1, RequireInitialization = 1,
+    ReadCost = 1, AddCost = 2, MulCost = 6
+  };
+  static inline Real epsilon() { return Real(std::numeric_limits<double>::epsilon()); }
+  static inline Real dummy_precision() { return Real(1e-12); }
+  static inline int digits10() { return NumTraits<double>::digits10(); }
+};
+template <typename Op>
+struct ScalarBinaryOpTraits<modal::Complex, double, Op> { using ReturnType = modal::Complex; };
+template <typename Op>
+struct ScalarBinaryOpTraits<double, modal::Complex, Op> { using ReturnType = modal::Complex; };
 template <class T, int N, typename Op>
 struct ScalarBinaryOpTraits<modal::Dual<T, N>, double, Op> { using ReturnType = modal::Dual<T, N>; };
 template <class T, int N, typename Op>

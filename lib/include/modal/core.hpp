@@ -64,6 +64,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace modal {
@@ -358,6 +359,15 @@ double potential(const System& s, Workspace& w, const VectorX& q);              
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
 
+// Σ|terms| of ∇∇V entry by entry (n×n, ≥ |∇∇V| componentwise): the sum of
+// the absolute values of the contributions that potential_hessian() adds up
+// (each element's Jᵀ H_e J entries, each tree term, each joint spring). The
+// rounding error of an entry of ∇∇V is a few ε times this, not times |∇∇V|:
+// where terms cancel (a spring balancing gravity at a buckling load) the
+// entry is small and its error is not. Used for the eigenvalues' error
+// estimates. Maps (one expression per entry): |∇∇V|.
+MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q);
+
 // The same matrices assembled sparse (n×n, both triangles; entries that no
 // term touches are left out): the elements' local derivatives and the tree
 // terms are added entry by entry, so no dense n×n matrix is formed. For a scene of particles and
@@ -405,6 +415,47 @@ MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q);
 // held to second order), by the null-space method on the independent
 // equations; then NᵀMN must be positive definite.
 VectorX accelerations(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);
+
+// --- derivatives by differences: a selectable, measured alternative to AD ------
+//
+// The linear model's derivative matrices (K, G) are exact by default. These
+// give the same matrices by differencing the model's first derivatives, so
+// that their cost and accuracy can be compared (results/tradeoff.md):
+//   exact         AD (potential_hessian and friends)
+//   central       (f(q + h e_j) − f(q − h e_j)) / 2h    error O(h²) + O(ε/h)
+//   forward       (f(q + h e_j) − f(q)) / h             error O(h) + O(ε/h)
+//   complex-step  Im f(q + i h e_j) / h                 error O(h²), no cancellation
+// Step rule: h_j = factor × max(|q_j|, u_j), u_j = 1 rad or the length scale,
+// with factor √ε ≈ 1.5e-8 (forward), ε^(1/3) ≈ 6.1e-6 (central), which balance
+// truncation against rounding for derivatives of order one in those units,
+// and 1e-20 × u_j for complex steps (any tiny h: no subtraction). A step of
+// differences is rounded so that (q_j + h) − q_j = h exactly. The rule's
+// units need not fit the scene (a net of 1 cm springs spanning 10 m takes
+// steps relative to 10 m), so the error is not predicted but measured: on
+// request the Jacobian is taken again at 2h and 2|J_h − J_2h| is the
+// estimate of J_h's error (truncation, O(h) forward or O(h²) central, and
+// the rounding of the differenced values, ε/h, both show in it).
+// Complex steps evaluate the templated model in modal::Complex (modal/ad.hpp);
+// they are not available for kinematic maps (std::invalid_argument).
+enum class DerivativeMethod { exact, central, forward, complex_step };
+const char* to_string(DerivativeMethod method);  // "exact", "central", "forward", "complex-step"
+std::optional<DerivativeMethod> parse_derivative_method(std::string_view word);
+// The default step factor of a method (0 for exact).
+double default_step_factor(DerivativeMethod method);
+
+// The generalized force at rest f(q) = ∇V(q) − Q(q, 0) − ∇c(q)ᵀ s (n), whose
+// zero is an equilibrium and whose Jacobian is the stiffness K; s are fixed
+// constraint multipliers (m, N) or empty.
+VectorX rest_force(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers = {});
+// K = ∂f/∂q (n×n) by `method` (exact: ∇∇V − ∂Q/∂q − Σ sᵢ∇∇cᵢ); step_factor
+// 0: the default of the method. With `error` (differences only; exact leaves
+// it alone) the entrywise estimate 2|K_h − K_2h| of K's error (n×n, same
+// units), at the cost of a second set of evaluations.
+MatrixX rest_force_jacobian(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method,
+                            const VectorX& multipliers = {}, double step_factor = 0, MatrixX* error = nullptr);
+// G (n×n, skew) with ∂g/∂q by `method` (exact: gyroscopic_matrix(s, w, q)).
+MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method,
+                          double step_factor = 0);
 
 // --- steady motions (maps with ignorable coordinates) -------------------------
 struct SteadyRate {

@@ -50,6 +50,14 @@ struct LinearModel {
   bool has_gyroscopic = false;
   bool circulatory = false;              // K not symmetric (follower loads)
   double residual = 0;                   // relative equilibrium residual at q
+  // An estimate of the absolute error of K's entries (dof×dof, units of K),
+  // for the eigenvalues' error estimates: 4ε × Σ|terms| of each entry (see
+  // potential_hessian_magnitude: where terms cancel, the error is not that of
+  // the small result), plus, for K from differences, their measured error
+  // 2|K_h − K_2h| (rest_force_jacobian). Empty: 4ε|K| is taken (a model
+  // written by hand).
+  MatrixX K_error;
+  DerivativeMethod derivatives = DerivativeMethod::exact;  // how K and G were obtained
   // Steady motion: rates and momenta of ignorable coordinates (maps analyzed
   // through Routh's reduction); empty otherwise.
   std::vector<SteadyRate> steady;
@@ -70,6 +78,10 @@ struct LinearModel {
 
 struct LinearizeOptions {
   double tolerance = 1e-8;  // largest relative residual accepted as an equilibrium
+  // How K and G are differentiated (modal/core.hpp, DerivativeMethod); the
+  // step factor of differences, 0: the method's default.
+  DerivativeMethod derivatives = DerivativeMethod::exact;
+  double step_factor = 0;
 };
 
 LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions& options = {});
