@@ -574,6 +574,35 @@ prestrain = 0.02
 fixed = "boundary"
 )";
 
+// --derivatives (issue 6, part 1): every method end to end, the note that
+// says what K was computed with, and the misuses refused with status 2.
+TEST_F(Cli, DerivativeMethodsAndTheirMisuse) {
+  for (const char* method : {"exact", "central", "forward", "complex-step"}) {
+    const Outcome r = run({"analyze", models + "double_pendulum.toml", "--derivatives", method});
+    ASSERT_EQ(r.status, 0) << method << ": " << r.err;
+    EXPECT_NE(r.out.find("0.7653668647"), std::string::npos) << method << r.out;  // R1, ω₁ (10 digits hold)
+    EXPECT_EQ(r.out.find("differences (step factor") != std::string::npos, std::string(method) != "exact") << r.out;
+  }
+  const Outcome stepped = run({"analyze", models + "double_pendulum.toml", "--derivatives", "forward", "--step", "1e-4"});
+  ASSERT_EQ(stepped.status, 0) << stepped.err;
+  EXPECT_NE(stepped.out.find("step factor 0.0001"), std::string::npos) << stepped.out;
+  EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--derivatives", "numeric"}).status, 1);
+  const Outcome exact_step = run({"analyze", models + "double_pendulum.toml", "--step", "1e-6"});
+  EXPECT_EQ(exact_step.status, 2);
+  EXPECT_NE(exact_step.err.find("--step sets the step of differences"), std::string::npos) << exact_step.err;
+  const Outcome map = run({"analyze", models + "double_pendulum_map.toml", "--derivatives", "complex-step"});
+  EXPECT_EQ(map.status, 2);
+  EXPECT_NE(map.err.find("not available for kinematic maps"), std::string::npos) << map.err;
+  const std::string net = write("net.toml", small_net);
+  const Outcome sparse = run({"analyze", net, "--solver", "sparse", "--derivatives", "central"});
+  EXPECT_EQ(sparse.status, 2);
+  EXPECT_NE(sparse.err.find("the sparse path assembles K exactly"), std::string::npos) << sparse.err;
+  // --eq-tol: a looser equilibrium tolerance is accepted end to end.
+  const Outcome loose = run({"analyze", models + "double_pendulum.toml", "--eq-tol", "1e-6"});
+  EXPECT_EQ(loose.status, 0) << loose.err;
+  EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--eq-tol", "0.5"}).status, 1);
+}
+
 }  // namespace
 
 // The same scene through both solvers: the 10 lowest eigenvalues agree to

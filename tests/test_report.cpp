@@ -133,8 +133,8 @@ TEST(ReportCsv, ModesTable) {
   ASSERT_EQ(l.size(), 5u);
   EXPECT_EQ(l[0],
             "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,damping_ratio,stability,"
-            "error_estimate");
-  for (std::size_t i = 1; i < l.size(); ++i) EXPECT_EQ(fields(l[i]).size(), 10u) << l[i];
+            "error_estimate,residual_bound");
+  for (std::size_t i = 1; i < l.size(); ++i) EXPECT_EQ(fields(l[i]).size(), 11u) << l[i];
 
   const auto f1 = fields(l[1]);
   EXPECT_EQ(f1[0], "1");
@@ -147,6 +147,7 @@ TEST(ReportCsv, ModesTable) {
   EXPECT_EQ(std::strtod(f1[6].c_str(), nullptr), m.period);
   EXPECT_EQ(f1[8], "stable");
   EXPECT_EQ(std::strtod(f1[9].c_str(), nullptr), 1e-15);
+  EXPECT_EQ(f1[10], "");  // no residual bound set (NaN): an empty field
 
   const auto div = fields(l[3]);  // equilibrium 2, mode 1: divergent
   EXPECT_EQ(div[0], "2");

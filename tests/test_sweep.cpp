@@ -21,6 +21,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -359,6 +360,192 @@ TEST(Cli, SweepExitStatuses) {
   EXPECT_EQ(run_modal("sweep " + (scene.parent_path() / "missing.toml").string() + " --vary k=0:1:3", out), 2) << out;
   // Every point fails numerically (no inertia anywhere): exit 4.
   EXPECT_EQ(run_modal("sweep " + scene.string() + " --set m=0 --vary k=1:2:3", out), 4) << out;
+}
+
+// --- convergence in a number of links (sweep --extrapolate) ----------------------
+
+TEST(ParseVary, ExplicitList) {
+  const modal::SweepAxis a = modal::parse_vary("N=10, 20,40,80,160");
+  EXPECT_EQ(a.name, "N");
+  ASSERT_EQ(a.count, 5);
+  EXPECT_EQ(a.from, 10.0);
+  EXPECT_EQ(a.to, 160.0);
+  EXPECT_EQ(a.value(1), 20.0);
+  EXPECT_EQ(a.value(4), 160.0);
+  EXPECT_TRUE(a.integer_valued());
+  const modal::SweepAxis down = modal::parse_vary("k=3,2.5,-1");
+  EXPECT_EQ(down.count, 3);
+  EXPECT_EQ(down.value(2), -1.0);
+  EXPECT_FALSE(down.integer_valued());
+  EXPECT_FALSE(modal::parse_vary("N=10:20:4").integer_valued());  // 13.33…
+  EXPECT_TRUE(modal::parse_vary("N=10:40:4").integer_valued());
+  for (const char* bad : {"N=10,", "N=,10", "N=10,10", "N=10,20,15", "N=a,2", "N=1,inf", "N=1,2:3"}) {
+    EXPECT_THROW(modal::parse_vary(bad), modal::SweepInputError) << bad;
+  }
+}
+
+// An exact power law: the order and the limit come out to rounding, whatever
+// the spacing of N.
+TEST(Richardson, ExactPowerLawAnySpacing) {
+  const std::vector<double> n = {10, 17, 30};
+  std::vector<double> f;
+  for (double x : n) f.push_back(2.5 - 4.0 * std::pow(x, -1.5));
+  const modal::Extrapolation e = modal::richardson(n, f);
+  ASSERT_TRUE(e.asymptotic) << e.reason;
+  EXPECT_NEAR(e.order, 1.5, 1e-9);
+  EXPECT_NEAR(e.value, 2.5, 1e-13);
+  EXPECT_EQ(e.n3, 30.0);
+  // Three points: the error is the correction itself.
+  EXPECT_NEAR(e.error, std::abs(e.value - f.back()), 1e-13);
+  EXPECT_NE(e.error_rule.find("three points"), std::string::npos) << e.error_rule;
+}
+
+// f = a + b N⁻² + c N⁻³: the observed order tends to 2 as N grows and the
+// extrapolated value to a, within the reported error. With N = 16 … 256 the
+// remaining error is about c·N3⁻³·(a few) = 8e-7 (1.4e-6 by the leading-order
+// analysis of the fitted p); the estimate |f∞ − f∞'| is 5.5e-6.
+TEST(Richardson, SecondOrderSequenceWithAThirdOrderTerm) {
+  const double a = 3, b = 5, c = -7;
+  std::vector<double> n, f;
+  for (double x : {16.0, 32.0, 64.0, 128.0, 256.0}) {
+    n.push_back(x);
+    f.push_back(a + b * std::pow(x, -2) + c * std::pow(x, -3));
+  }
+  const modal::Extrapolation e = modal::richardson(n, f);
+  ASSERT_TRUE(e.asymptotic) << e.reason;
+  EXPECT_NEAR(e.order, 2.0, 0.05);
+  EXPECT_LT(std::abs(e.order - 2.0), std::abs(e.previous_order - 2.0));  // p → 2
+  EXPECT_NEAR(e.value, a, 1e-6);
+  EXPECT_LE(std::abs(e.value - a), e.error);
+  EXPECT_LT(e.error, 1e-5);
+  EXPECT_NEAR(e.previous_value, a, 1e-5);
+  EXPECT_NE(e.error_rule.find("previous triple"), std::string::npos) << e.error_rule;
+  // Halving the finest spacing again shrinks the error by about 2³.
+  n.push_back(512);
+  f.push_back(a + b * std::pow(512.0, -2) + c * std::pow(512.0, -3));
+  const modal::Extrapolation finer = modal::richardson(n, f);
+  EXPECT_LT(std::abs(finer.value - a), std::abs(e.value - a) / 5);
+  EXPECT_LE(std::abs(finer.value - a), finer.error);
+}
+
+TEST(Richardson, OutsideTheAsymptoticRangeIsSaidInWords) {
+  const std::vector<double> n = {10, 20, 40, 80};
+  auto reason = [&](const std::vector<double>& f) {
+    const modal::Extrapolation e = modal::richardson(n, f);
+    EXPECT_FALSE(e.asymptotic);
+    EXPECT_TRUE(std::isnan(e.value));  // no number is made up
+    EXPECT_TRUE(std::isnan(e.order));
+    EXPECT_TRUE(std::isnan(e.error));
+    return e.reason;
+  };
+  EXPECT_NE(reason({1.0, 1.5, 1.2, 1.4}).find("change sign"), std::string::npos);         // oscillates
+  EXPECT_NE(reason({1.0, 2.0, 3.5, 5.5}).find("positive order"), std::string::npos);      // grows ever faster
+  EXPECT_NE(reason({0.0, std::log(2.0), std::log(4.0), std::log(8.0)}).find("positive order"), std::string::npos);  // ln N
+  EXPECT_NE(reason({1.0, 1.1, 1.1, 1.1}).find("level of their own error"), std::string::npos);  // converged
+  // The last difference is at the level of the given error estimates.
+  const modal::Extrapolation noisy = modal::richardson(n, {1.0, 1.1, 1.11, 1.1101}, {1e-6, 1e-6, 1e-6, 1e-5});
+  EXPECT_FALSE(noisy.asymptotic);
+  const modal::Extrapolation two = modal::richardson({10, 20}, {1.0, 1.1});
+  EXPECT_FALSE(two.asymptotic);
+  EXPECT_NE(two.reason.find("three values"), std::string::npos) << two.reason;
+  // Misuse.
+  EXPECT_THROW(modal::richardson({10, 20, 20}, {1, 2, 3}), std::invalid_argument);
+  EXPECT_THROW(modal::richardson({10, 20, 40}, {1, 2}), std::invalid_argument);
+  EXPECT_THROW(modal::richardson({0, 20, 40}, {1, 2, 3}), std::invalid_argument);
+}
+
+// A pre-asymptotic first triple: the last one is used, and the error falls
+// back to the correction.
+TEST(Richardson, PreviousTripleOutsideTheRange) {
+  const std::vector<double> n = {5, 10, 20, 40};
+  const modal::Extrapolation e = modal::richardson(n, {1.9, 2.0 - 0.25, 2.0 - 1.0 / 16, 2.0 - 1.0 / 64});
+  ASSERT_TRUE(e.asymptotic) << e.reason;
+  EXPECT_NEAR(e.order, 2.0, 1e-9);
+  EXPECT_NEAR(e.value, 2.0, 1e-13);
+  EXPECT_NE(e.error_rule.find("not in the asymptotic range"), std::string::npos) << e.error_rule;
+}
+
+// REFERENCES.md R3: a chain of N point-mass links hanging from a pivot tends to
+// the continuous chain, ω_k = (j₀,k/2) sqrt(g/L), with an error O(1/N). The
+// extrapolation from N = 10 … 320 must observe p ≈ 1 and land on R3 within its
+// own error estimate, at least 10 times closer than the finest chain (the
+// estimate itself, from the previous triple, is 3–4 times the actual error).
+TEST(Extrapolate, HangingChainTendsToBesselZeros) {
+  const fs::path model = fs::path(MODAL_SOURCE_DIR) / "models" / "hanging_chain.toml";
+  const modal::SweepResult r =
+      modal::sweep(read_file(model), model.string(), {}, modal::parse_vary("N=10,20,40,80,160,320"));
+  for (const modal::SweepPoint& p : r.points) {
+    ASSERT_TRUE(p.ok) << p.value << ": " << p.failure;
+    EXPECT_EQ(p.equilibrium.q.size(), static_cast<Eigen::Index>(p.value));  // each point its own size
+    EXPECT_GT(p.seconds, 0.0);
+  }
+  const double half_zeros[] = {1.202412778848, 2.760039055143, 4.326863956456};  // R3: j₀,k / 2
+  const double g = 9.81, L = 1;
+  const std::vector<modal::ModeConvergence> conv = modal::extrapolate_modes(r, 3);
+  ASSERT_EQ(conv.size(), 3u);
+  for (const modal::ModeConvergence& c : conv) {
+    const double exact = half_zeros[c.mode - 1] * std::sqrt(g / L);
+    const modal::Extrapolation& e = c.extrapolation;
+    ASSERT_TRUE(e.asymptotic) << "mode " << c.mode << ": " << e.reason;
+    ASSERT_EQ(c.n.size(), 6u);
+    EXPECT_EQ(e.n1, 80.0);
+    EXPECT_EQ(e.n3, 320.0);
+    EXPECT_NEAR(e.order, 1.0, 0.1) << "mode " << c.mode;
+    EXPECT_LE(std::abs(e.value - exact), e.error) << "mode " << c.mode << ": " << e.value << " vs " << exact;
+    EXPECT_LT(std::abs(e.value - exact), 0.1 * std::abs(c.omega.back() - exact)) << "mode " << c.mode;
+    EXPECT_LT(e.error, 0.5 * std::abs(c.omega.back() - exact)) << "mode " << c.mode;
+  }
+}
+
+TEST(Extrapolate, NeedsAnIntegerAxisOfThreeValues) {
+  EXPECT_NO_THROW(modal::check_extrapolation_axis(modal::parse_vary("N=10,20,40")));
+  EXPECT_NO_THROW(modal::check_extrapolation_axis(modal::parse_vary("N=40:10:4")));
+  EXPECT_THROW(modal::check_extrapolation_axis(modal::parse_vary("N=10,20")), modal::SweepInputError);
+  EXPECT_THROW(modal::check_extrapolation_axis(modal::parse_vary("N=10:20:4")), modal::SweepInputError);
+  EXPECT_THROW(modal::check_extrapolation_axis(modal::parse_vary("N=0,1,2")), modal::SweepInputError);
+  EXPECT_THROW(modal::check_extrapolation_axis(modal::parse_vary("L=0.5,1,2")), modal::SweepInputError);
+}
+
+TEST(Cli, SweepExtrapolate) {
+  const std::string model = (fs::path(MODAL_SOURCE_DIR) / "models" / "hanging_chain.toml").string();
+  const fs::path csv = write_temp("chain.csv", "");
+  std::string out;
+  ASSERT_EQ(run_modal("sweep " + model + " --vary N=8,16,32,64 --extrapolate --modes 2 --csv " + csv.string(), out),
+            0)
+      << out;
+  EXPECT_NE(out.find("Richardson extrapolation"), std::string::npos) << out;
+  EXPECT_NE(out.find("order p"), std::string::npos) << out;
+  std::istringstream conv(read_file(csv.parent_path() / "chain_convergence.csv"));
+  std::string line;
+  std::getline(conv, line);
+  EXPECT_EQ(line, "N,coordinates,seconds,mode,omega,error_estimate");
+  int rows = 0;
+  while (std::getline(conv, line)) ++rows;
+  EXPECT_EQ(rows, 8);  // 4 points × 2 modes
+  std::istringstream ex(read_file(csv.parent_path() / "chain_extrapolation.csv"));
+  std::getline(ex, line);
+  EXPECT_EQ(line.rfind("mode,n1,n2,n3,omega_n3,order,omega_extrapolated,error,", 0), 0u) << line;
+  ASSERT_TRUE(std::getline(ex, line));
+  EXPECT_EQ(line.rfind("1,16,32,64,", 0), 0u) << line;
+  EXPECT_NE(line.find(",true,"), std::string::npos) << line;
+  const double exact = 1.202412778848 * std::sqrt(9.81);  // R3, mode 1
+  std::vector<std::string> fields;
+  std::istringstream cells(line);
+  for (std::string f; std::getline(cells, f, ',');) fields.push_back(f);
+  ASSERT_GE(fields.size(), 8u);
+  EXPECT_LE(std::abs(std::stod(fields[6]) - exact), std::stod(fields[7])) << line;
+
+  // Input errors: exit 2 before anything runs, saying what is needed.
+  EXPECT_EQ(run_modal("sweep " + model + " --vary N=10,20 --extrapolate", out), 2) << out;
+  EXPECT_NE(out.find("at least three"), std::string::npos) << out;
+  EXPECT_EQ(run_modal("sweep " + model + " --vary N=10:20:4 --extrapolate", out), 2) << out;
+  EXPECT_NE(out.find("not an integer"), std::string::npos) << out;
+  EXPECT_EQ(run_modal("sweep " + model + " --vary L=1,2,3 --vary N=2,3,4 --extrapolate", out), 2) << out;
+  EXPECT_EQ(run_modal("sweep " + model + " --vary N=10,20,15 --extrapolate", out), 2) << out;
+  EXPECT_NE(out.find("strictly"), std::string::npos) << out;
+  // A non-asymptotic mode is reported in words, not as a number (exit 0).
+  EXPECT_EQ(run_modal("sweep " + model + " --vary N=1,2,3 --extrapolate --modes 3", out), 0) << out;
+  EXPECT_NE(out.find("no extrapolation"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -193,7 +194,21 @@ struct SolverChoice {
   double tolerance = 1e-10;     // sparse: Lanczos convergence tolerance
   std::string export_dir;       // --export-matrices
   std::string large_equilibrium = "newton";  // newton | lbfgs (scenes above large_system_coordinates)
+  std::string derivatives = "exact";         // --derivatives: exact | central | forward | complex-step
+  double step_factor = 0;                    // --step: factor of the difference step (0: the method's rule)
+  double equilibrium_tolerance = modal::EquilibriumOptions{}.tolerance;  // --eq-tol
 };
+
+// The linearization options a choice asks for (derivative method and step;
+// an equilibrium accepted at a looser --eq-tol is accepted by the
+// linearization too).
+modal::LinearizeOptions linearize_options(const SolverChoice& choice) {
+  modal::LinearizeOptions lo;
+  lo.derivatives = *modal::parse_derivative_method(choice.derivatives);  // checked by CLI11
+  lo.step_factor = choice.step_factor;
+  lo.tolerance = std::max(lo.tolerance, choice.equilibrium_tolerance);
+  return lo;
+}
 
 // The documented rule: sparse for more than large_system_coordinates
 // coordinates when the sparse model describes the scene, else dense.
@@ -215,7 +230,14 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
   clock.lap("parse+build");
 
   modal::EquilibriumOptions eo;
+  eo.tolerance = choice.equilibrium_tolerance;
   if (choice.large_equilibrium == "lbfgs") eo.large_method = modal::LargeEquilibriumMethod::lbfgs;
+  if (choice.step_factor > 0 && choice.derivatives == "exact")
+    throw InputError("--step sets the step of differences: give --derivatives central, forward or complex-step");
+  const modal::LinearizeOptions lo = linearize_options(choice);
+  if (lo.derivatives == modal::DerivativeMethod::complex_step && sys.is_map())
+    throw InputError("--derivatives complex-step: not available for kinematic maps (their expressions are "
+                     "evaluated in real arithmetic); use exact, central or forward");
   const modal::Equilibrium eq = !at ? modal::find_equilibrium(sys, sys.initial_configuration(), eo)
                                     : equilibrium_at(sys, parse_point("--at", *at, sys));
   clock.lap("equilibrium");
@@ -226,7 +248,11 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     clock.lap("export");
   };
   if (use_sparse(sys, choice)) {
-    const modal::SparseLinearModel lin = modal::linearize_sparse(sys, eq.q);
+    if (lo.derivatives != modal::DerivativeMethod::exact)
+      throw InputError("--derivatives " + choice.derivatives +
+                       ": the sparse path assembles K exactly from the elements' derivatives; differences apply "
+                       "to the dense path (--solver dense)");
+    const modal::SparseLinearModel lin = modal::linearize_sparse(sys, eq.q, lo);
     clock.lap("assembly");
     export_if_asked(lin);
     modal::SparseModalOptions so_sparse;
@@ -239,12 +265,19 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     clock.lap("eigen");
   } else {
     if (choice.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
-    const modal::LinearModel lin = modal::linearize(sys, eq.q);
+    const modal::LinearModel lin = modal::linearize(sys, eq.q, lo);
     clock.lap("linearize");
     export_if_asked(lin);
     modal::ModalOptions mo;
     mo.modes = modes;
     result = modal::solve_modes(lin, mo);
+    if (lo.derivatives != modal::DerivativeMethod::exact)
+      result.notes.push_back(fmt::format(
+          "K{} by {} differences (step factor {:.2g}) instead of exact derivatives; the error estimates include "
+          "their error, measured as 2|K(h) - K(2h)| (largest {:.2g})",
+          lin.has_gyroscopic ? " and G" : "", choice.derivatives,
+          lo.step_factor > 0 ? lo.step_factor : modal::default_step_factor(lo.derivatives),
+          lin.K_error.cwiseAbs().maxCoeff()));
     clock.lap("eigen");
   }
 
@@ -487,6 +520,85 @@ std::string map_csv(const modal::StabilityMap& map) {
   return out.str();
 }
 
+// FILE.csv → FILE_<suffix>.csv (FILE → FILE_<suffix>.csv), as critical_path.
+std::string suffixed_path(const std::string& csv, const std::string& suffix) {
+  const std::string critical = critical_path(csv);
+  return critical.substr(0, critical.size() - std::string("_critical.csv").size()) + "_" + suffix + ".csv";
+}
+
+// The frequencies of the lowest modes at every point, with the cost of each
+// point, then the Richardson extrapolation of each mode (modal/sweep.hpp).
+void print_extrapolation(std::ostream& out, const modal::SweepResult& r,
+                         const std::vector<modal::ModeConvergence>& conv) {
+  const std::string& name = r.axis.name;
+  const int width = std::max(8, static_cast<int>(name.size()));
+  out << fmt::format("\nConvergence in {} (ω in rad/s; time: parse, build, equilibrium and all modes of the point)\n",
+                     name);
+  out << fmt::format("{:>{}}  {:>11}  {:>9}", name, width, "coordinates", "time [s]");
+  for (const modal::ModeConvergence& c : conv) out << fmt::format("  {:>17}", fmt::format("ω{}", c.mode));
+  out << '\n';
+  for (const modal::SweepPoint& p : r.points) {
+    if (!p.ok) {
+      out << fmt::format("{:>{}}  failed: {}\n", g(p.value, 10), width, p.failure);
+      continue;
+    }
+    out << fmt::format("{:>{}}  {:>11}  {:>9.3g}", g(p.value, 10), width, p.equilibrium.q.size(), p.seconds);
+    for (const modal::ModeConvergence& c : conv) {
+      const std::size_t k = static_cast<std::size_t>(c.mode - 1);
+      out << fmt::format("  {:>17}", k < p.result.modes.size() ? g(p.result.modes[k].omega, 12) : "-");
+    }
+    out << '\n';
+  }
+  out << fmt::format("\nRichardson extrapolation to {} → ∞ from the last three points of each mode "
+                     "(f∞ = f3 + (f3 − f2)/((N3/N2)^p − 1)):\n",
+                     name);
+  out << fmt::format("{:>4}  {:>16}  {:>9}  {:>17}  {:>17}  {:>8}  {}\n", "mode", fmt::format("{} used", name),
+                     "order p", "ω(N3)", "ω∞", "± error", "error from");
+  for (const modal::ModeConvergence& c : conv) {
+    const modal::Extrapolation& e = c.extrapolation;
+    if (!e.asymptotic) {
+      out << fmt::format("{:>4}  no extrapolation: {}\n", c.mode, e.reason);
+      continue;
+    }
+    out << fmt::format("{:>4}  {:>16}  {:>9.5f}  {:>17}  {:>17}  {:>8.2g}  {}\n", c.mode,
+                       fmt::format("{},{},{}", g(e.n1, 10), g(e.n2, 10), g(e.n3, 10)), e.order,
+                       g(c.omega.back(), 12), g(e.value, 12), e.error, e.error_rule);
+  }
+}
+
+// One row per point and mode: the convergence data behind the extrapolation.
+std::string convergence_csv(const modal::SweepResult& r, const std::vector<modal::ModeConvergence>& conv) {
+  std::ostringstream out;
+  out << modal::csv_field(r.axis.name) << ",coordinates,seconds,mode,omega,error_estimate\n";
+  for (const modal::ModeConvergence& c : conv)
+    for (std::size_t i = 0; i < c.n.size(); ++i) {
+      const auto point = std::find_if(r.points.begin(), r.points.end(),
+                                      [&](const modal::SweepPoint& p) { return p.ok && p.value == c.n[i]; });
+      out << modal::csv_number(c.n[i]) << ',' << point->equilibrium.q.size() << ','
+          << modal::csv_number(point->seconds) << ',' << c.mode << ',' << modal::csv_number(c.omega[i]) << ','
+          << modal::csv_number(c.omega_error[i]) << '\n';
+    }
+  return out.str();
+}
+
+// One row per mode: the extrapolation (empty numbers and the reason in `note`
+// when the mode is not in the asymptotic range).
+std::string extrapolation_csv(const std::vector<modal::ModeConvergence>& conv) {
+  std::ostringstream out;
+  out << "mode,n1,n2,n3,omega_n3,order,omega_extrapolated,error,error_rule,previous_order,previous_extrapolated,"
+         "asymptotic,note\n";
+  for (const modal::ModeConvergence& c : conv) {
+    const modal::Extrapolation& e = c.extrapolation;
+    auto number = [&](double v) { return e.asymptotic && std::isfinite(v) ? modal::csv_number(v) : std::string(); };
+    out << c.mode << ',' << number(e.n1) << ',' << number(e.n2) << ',' << number(e.n3) << ','
+        << number(c.omega.empty() ? std::nan("") : c.omega.back()) << ',' << number(e.order) << ','
+        << number(e.value) << ',' << number(e.error) << ',' << modal::csv_field(e.error_rule) << ','
+        << number(e.previous_order) << ',' << number(e.previous_value) << ',' << (e.asymptotic ? "true" : "false")
+        << ',' << modal::csv_field(e.reason) << '\n';
+  }
+  return out.str();
+}
+
 // Exit status when no point of a sweep worked: the first failure says why.
 template <class Points>
 void require_some_point(const Points& points) {
@@ -498,11 +610,16 @@ void require_some_point(const Points& points) {
   throw modal::NumericalError("every point of the sweep failed; the first: " + first.failure);
 }
 
-int run_sweep(const SceneOptions& so, const std::vector<std::string>& varies, const std::string& csv, int modes) {
+int run_sweep(const SceneOptions& so, const std::vector<std::string>& varies, const std::string& csv, int modes,
+              bool extrapolate) {
   std::vector<modal::SweepAxis> axes;
   for (const std::string& v : varies) axes.push_back(modal::parse_vary(v));
   if (axes.empty() || axes.size() > 2)
     throw InputError(fmt::format("sweep takes one --vary (a sweep) or two (a stability map), got {}", axes.size()));
+  if (extrapolate && axes.size() != 1) throw InputError("--extrapolate works along one --vary, not on a stability map");
+  if (extrapolate) modal::check_extrapolation_axis(axes[0]);  // before the sweep runs
+  constexpr int default_extrapolated_modes = 3;
+  const int extrapolated_modes = modes > 0 ? modes : default_extrapolated_modes;
   std::vector<modal::ParameterOverride> fixed;
   for (const std::string& text : so.sets) fixed.push_back(modal::parse_override(text));
   const std::string text = read_scene_text(so.file);
@@ -517,9 +634,18 @@ int run_sweep(const SceneOptions& so, const std::vector<std::string>& varies, co
     bar.finish();
     require_some_point(r.points);
     print_sweep(std::cout, r, so.file, options.tolerance);
+    std::vector<modal::ModeConvergence> conv;
+    if (extrapolate) {
+      conv = modal::extrapolate_modes(r, extrapolated_modes);
+      print_extrapolation(std::cout, r, conv);
+    }
     if (!csv.empty()) {
       modal::write_text_file(csv, sweep_modes_csv(r));
       modal::write_text_file(critical_path(csv), sweep_critical_csv(r));
+      if (extrapolate) {
+        modal::write_text_file(suffixed_path(csv, "convergence"), convergence_csv(r, conv));
+        modal::write_text_file(suffixed_path(csv, "extrapolation"), extrapolation_csv(conv));
+      }
     }
     return ok;
   }
@@ -665,6 +791,22 @@ int main(int argc, char** argv) {
                           "it stalls) or lbfgs (L-BFGS down to 1e-4 of the starting gradient first, then Newton)")
       ->check(CLI::IsMember({"newton", "lbfgs"}))
       ->capture_default_str();
+  analyze
+      ->add_option("--derivatives", solver_choice.derivatives,
+                   "how K (and G) are differentiated: exact (automatic differentiation), central, forward "
+                   "(differences of the exact forces) or complex-step; dense path only")
+      ->check(CLI::IsMember({"exact", "central", "forward", "complex-step"}))
+      ->capture_default_str();
+  analyze
+      ->add_option("--step", solver_choice.step_factor,
+                   "difference step as a factor of max(|q|, 1 rad or the length scale) (default: sqrt(eps) "
+                   "forward, cbrt(eps) central, 1e-20 complex-step)")
+      ->check(CLI::PositiveNumber);
+  analyze
+      ->add_option("--eq-tol", solver_choice.equilibrium_tolerance,
+                   "equilibrium: accepted relative residual |grad V - Q| / force scale")
+      ->check(CLI::Range(1e-16, 1e-2))
+      ->capture_default_str();
   analyze->add_option("--export-matrices", solver_choice.export_dir,
                       "write M, K (and D, G where present) at the equilibrium as Matrix Market files into DIR")
       ->type_name("DIR");
@@ -687,16 +829,23 @@ int main(int argc, char** argv) {
       "frequencies and stability along a parameter, critical values refined; two --vary: a stability map");
   add_scene_options(sweep, sweep_scene);
   sweep->add_option("--vary", varies,
-                    "vary a parameter over COUNT evenly spaced values (COUNT >= 2); give it twice for a map")
-      ->type_name("N=FROM:TO:COUNT")
+                    "vary a parameter over COUNT evenly spaced values (COUNT >= 2) or over a list of values "
+                    "(N=10,20,40); give it twice for a map")
+      ->type_name("N=FROM:TO:COUNT|N=V1,V2,...")
       ->required()
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   sweep->add_option("--csv", sweep_csv,
                     "one --vary: one row per point and mode, critical values to FILE_critical.csv; "
                     "two: one row per grid point")
       ->type_name("FILE");
-  sweep->add_option("--modes", sweep_modes, "number of lowest modes per point in the CSV (default: all)")
+  sweep->add_option("--modes", sweep_modes,
+                    "number of lowest modes per point in the CSV (default: all), and extrapolated (default: 3)")
       ->check(CLI::PositiveNumber);
+  bool sweep_extrapolate = false;
+  sweep->add_flag("--extrapolate", sweep_extrapolate,
+                  "the parameter is a number of links or elements (integers, at least 3 values): report each "
+                  "mode's observed order of convergence and its Richardson-extrapolated frequency with an error "
+                  "estimate; with --csv also FILE_convergence.csv and FILE_extrapolation.csv");
 
   CLI::App* check = app.add_subcommand("check", "validate the scene and print a summary");
   add_scene_options(check, check_scene);
@@ -744,7 +893,7 @@ int main(int argc, char** argv) {
       return run_analyze(analyze_scene, modes, at_option->count() ? std::optional<std::string>(at) : std::nullopt, analyze_csv, analyze_json, require_stable, timing, solver_choice);
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene, check_all);
-    if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes);
+    if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes, sweep_extrapolate);
     if (*simulate) {
       if (simulate_at_option->count()) simulate_args.at = simulate_at;
       if (simulate_velocity_option->count()) simulate_args.velocity = simulate_velocity;

@@ -70,10 +70,11 @@
 // σ + 1/ν from the Ritz value: forming K − σM rounds every entry, which moves
 // the Ritz values by about ε·max|K_ii| (5e-11 relative for the lowest mode of
 // a 2000-mass chain), while the Rayleigh quotient uses K itself (1e-14);
-// error_estimate = ‖Kφ − λMφ‖_{M⁻¹}
+// residual_bound = ‖Kφ − λMφ‖_{M⁻¹}
 // = sqrt(rᵀM⁻¹r), r = Kφ − λMφ (by the M-factor): for the symmetric-definite
 // pencil some eigenvalue lies within it of λ (the residual bound in the
-// M-inner product). A mode is a zero mode when |λ| is within that estimate or
+// M-inner product), plus the rounding level of evaluating φᵀKφ below and
+// ε|λ|; error_estimate is the same (K and M are assembled exactly). A mode is a zero mode when |λ| is within that estimate or
 // within the rounding level of evaluating φᵀKφ, 4ε(‖K‖₁ + |λ|‖M‖₁)‖φ‖₂²
 // (‖·‖₁ bounds the 2-norm of a symmetric matrix), and divergent when λ < 0
 // beyond both.
@@ -726,15 +727,17 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   relative_residual = scale > 0 ? r.norm() / scale : 0.0;
 
   Mode mode;
+  const double estimate = error + rounding + eps * std::abs(lambda);
   if (std::abs(lambda) <= std::max(error, rounding)) {
-    mode = detail::make_mode(0.0, error, ModeKind::zero);
+    mode = detail::make_mode(0.0, estimate, ModeKind::zero);
   } else if (lambda < 0) {  // divergent: s = +√(−λ) real
-    mode = detail::make_mode(std::sqrt(-lambda), error, ModeKind::divergent);
+    mode = detail::make_mode(std::sqrt(-lambda), estimate, ModeKind::divergent);
   } else {
-    mode = detail::make_mode({0.0, std::sqrt(lambda)}, error, ModeKind::oscillatory);
+    mode = detail::make_mode({0.0, std::sqrt(lambda)}, estimate, ModeKind::oscillatory);
     mode.damping_ratio = 0;
   }
   mode.omega2 = lambda;
+  mode.residual_bound = error + rounding + eps * std::abs(lambda);
   if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
   mode.shape = phi.cast<std::complex<double>>();
   return mode;

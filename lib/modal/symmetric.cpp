@@ -12,7 +12,10 @@
 //     In the standard form, C y − λ y = L⁻¹ r with y = Lᵀ x, and for a symmetric
 //     matrix some eigenvalue lies within ‖C y − λ y‖₂ / ‖y‖₂ of λ (the residual
 //     bound, e.g. Parlett, The Symmetric Eigenvalue Problem, thm 4.5.1). Hence
-//     |λ − λ_true| ≤ ‖L⁻¹ r‖₂ / ‖Lᵀ x‖₂.
+//     |λ − λ_true| ≤ ‖L⁻¹ r‖₂ / ‖Lᵀ x‖₂, to which the rounding of forming r
+//     in floating point ((n + 2)ε(|K||x| + |λ||M||x|) componentwise, through
+//     L⁻¹) and of λ itself (ε|λ|) are added: Mode::residual_bound, rigorous
+//     for the matrices as formed (to first order in ε).
 //  2. What the data carry. M and K are assembled in floating point, entry by
 //     entry, so their errors are componentwise, of a few ε relative to each
 //     entry. For an M-normalized x, first-order perturbation of the pencil
@@ -69,6 +72,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX R = K * Phi - M * Phi * lambda.asDiagonal();
   const MatrixX LR = L.solve(R);
   const MatrixX LtPhi = U * Phi;
+  // The rounding of R itself: |fl(R) − R| ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|)
+  // componentwise (Higham, Accuracy and Stability, §3.5), carried through L⁻¹.
+  const MatrixX absPhi = Phi.cwiseAbs();
+  const MatrixX LRround = L.solve(MatrixX(K.cwiseAbs() * absPhi + M.cwiseAbs() * absPhi * lambda.cwiseAbs().asDiagonal()));
   // E: the absolute error of K's entries (given, or 4ε|K|).
   const MatrixX E = K_error.rows() == n && K_error.cols() == n ? K_error : MatrixX(4 * eps * K.cwiseAbs());
   const double normE = E.norm(), normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
@@ -83,7 +90,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   for (Eigen::Index j = 0; j < n; ++j) {
     const double l = lambda(j);
     const double x2 = Phi.col(j).squaredNorm();
-    const double residual_bound = LR.col(j).norm() / LtPhi.col(j).norm();
+    // Rigorous for the matrices as formed, to first order in ε: the residual
+    // bound, the rounding of evaluating the residual, and λ's own rounding.
+    const double residual_bound = (LR.col(j).norm() + (n + 2) * eps * LRround.col(j).norm()) / LtPhi.col(j).norm() +
+                                  eps * std::abs(l);
     const double rM = 4 * eps;
     const double data_bound = std::sqrt(S.col(j).dot(E2S.col(j)) + rM * rM * l * l * S.col(j).dot(M2S.col(j))) +
                               (normE + rM * std::abs(l) * normM) * x2;
@@ -106,6 +116,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       mode.damping_ratio = 0;
     }
     mode.omega2 = l;  // the computed λ, sign and all, whatever the kind
+    mode.residual_bound = residual_bound;
     if (mode.kind == ModeKind::divergent) ++result.morse_index;
     if (mode.kind == ModeKind::zero) ++result.zero_modes;
 

@@ -80,7 +80,7 @@ std::string csv_field(std::string_view text) {
 
 void write_modes_csv(std::ostream& out, const Report& report) {
   out << "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,damping_ratio,"
-         "stability,error_estimate\n";
+         "stability,error_estimate,residual_bound\n";
   for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
     const auto& modes = report.equilibria[e].result.modes;
     for (std::size_t k = 0; k < modes.size(); ++k) {
@@ -89,7 +89,7 @@ void write_modes_csv(std::ostream& out, const Report& report) {
           << csv_number(m.growth_rate) << ',' << csv_number(m.omega) << ','
           << csv_number(m.frequency_hz) << ',' << csv_number(m.period) << ','
           << csv_number(m.damping_ratio) << ',' << csv_field(mode_stability(m.kind)) << ','
-          << csv_number(m.error_estimate) << '\n';
+          << csv_number(m.error_estimate) << ',' << csv_number(m.residual_bound) << '\n';
     }
   }
 }

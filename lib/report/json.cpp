@@ -1,6 +1,7 @@
 // JSON output of the report stage.
 #include "modal/report.hpp"
 
+#include <cmath>
 #include <complex>
 #include <numbers>
 
@@ -52,6 +53,7 @@ Json mode_json(std::size_t index, const Mode& m) {
   j["period"] = m.period;  // ∞ (zero frequency) is written as null
   j["damping_ratio"] = m.damping_ratio;
   j["error_estimate"] = m.error_estimate;
+  if (std::isfinite(m.residual_bound)) j["residual_bound"] = m.residual_bound;
   j["kind"] = to_string(m.kind);
   j["stability"] = mode_stability(m.kind);
   std::vector<double> re, im;

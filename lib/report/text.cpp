@@ -165,20 +165,23 @@ void print_analysis(std::ostream& out, const Report& report) {
   out << '\n';
   auto row = [&](std::string mode, std::string omega2, std::string growth, std::string omega,
                  std::string f, std::string period, std::string zeta, std::string error,
-                 std::string kind) {
+                 std::string bound, std::string kind) {
     std::string line = fmt::format("  {:>4}  {:>20}", mode, omega2);
     if (sigma) line += fmt::format("  {:>18}", growth);
     line += fmt::format("  {:>18}  {:>16}  {:>16}", omega, f, period);
     if (first_order) line += fmt::format("  {:>13}", zeta);
-    line += fmt::format("  {:>9}  {}\n", error, kind);
+    line += fmt::format("  {:>9}", error);
+    if (!first_order) line += fmt::format("  {:>9}", bound);
+    line += fmt::format("  {}\n", kind);
     out << line;
   };
   row("mode", "omega^2 [rad2/s2]", "sigma [1/s]", "omega [rad/s]", "f [Hz]", "period [s]",
-      "damping ratio", "error", "kind");
+      "damping ratio", "error", "bound", "kind");
   for (std::size_t k = 0; k < r.modes.size(); ++k) {
     const Mode& m = r.modes[k];
     row(std::to_string(k + 1), num(m.omega2), num(m.growth_rate), num(m.omega), num(m.frequency_hz),
-        m.omega == 0 ? "-" : num(m.period), num(m.damping_ratio, 6), sci(m.error_estimate), to_string(m.kind));
+        m.omega == 0 ? "-" : num(m.period), num(m.damping_ratio, 6), sci(m.error_estimate), sci(m.residual_bound),
+        to_string(m.kind));
   }
   if (r.modes.empty()) out << "  (none)\n";
 

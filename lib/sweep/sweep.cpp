@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -226,6 +227,13 @@ void validate(const std::string& text, const std::string& file, const std::vecto
   for (const SweepAxis* axis : axes) {
     if (axis->count < 2 || !std::isfinite(axis->from) || !std::isfinite(axis->to) || axis->from == axis->to)
       throw SweepInputError("--vary " + axis->name + ": needs finite FROM ≠ TO and COUNT ≥ 2");
+    if (!axis->values.empty()) {
+      bool monotone = axis->values.size() == static_cast<std::size_t>(axis->count);
+      for (int i = 1; monotone && i < axis->count; ++i)
+        monotone = std::isfinite(axis->value(i)) && (axis->value(i) - axis->value(i - 1)) * (axis->to - axis->from) > 0;
+      if (!monotone)
+        throw SweepInputError("--vary " + axis->name + ": a list of values must be finite and strictly monotone");
+    }
     const bool found = std::any_of(scene.parameters.begin(), scene.parameters.end(),
                                    [&](const auto& p) { return p.first == axis->name; });
     if (!found)
@@ -451,8 +459,15 @@ std::vector<CriticalValue> merge_touching(std::vector<CriticalValue> in, double 
 }  // namespace
 
 double SweepAxis::value(int i) const {
+  if (!values.empty()) return values[static_cast<std::size_t>(std::clamp(i, 0, static_cast<int>(values.size()) - 1))];
   if (i >= count - 1) return to;
   return from + (to - from) * (static_cast<double>(i) / static_cast<double>(count - 1));
+}
+
+bool SweepAxis::integer_valued() const {
+  for (int i = 0; i < count; ++i)
+    if (const double v = value(i); !std::isfinite(v) || v != std::floor(v)) return false;
+  return count > 0;
 }
 
 const char* to_string(CriticalKind k) {
@@ -468,7 +483,7 @@ bool CriticalValue::restabilization() const { return unstable(before) && !unstab
 bool CriticalValue::loss() const { return !unstable(before) && unstable(after); }
 
 SweepAxis parse_vary(std::string_view text) {
-  const std::string expected = "--vary expects NAME=FROM:TO:COUNT (e.g. P=0:4:41)";
+  const std::string expected = "--vary expects NAME=FROM:TO:COUNT (e.g. P=0:4:41) or NAME=V1,V2,... (e.g. N=10,20,40)";
   const std::string got = "; got '" + std::string(text) + "'";
   auto trim = [](std::string_view s) {
     while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
@@ -480,15 +495,14 @@ SweepAxis parse_vary(std::string_view text) {
   SweepAxis axis;
   axis.name = std::string(trim(text.substr(0, eq)));
   if (axis.name.empty()) throw SweepInputError(expected + got + " (the parameter name is missing)");
-  std::vector<std::string_view> parts;
-  std::string_view rest = text.substr(eq + 1);
-  for (std::size_t colon; (colon = rest.find(':')) != std::string_view::npos; rest.remove_prefix(colon + 1))
-    parts.push_back(trim(rest.substr(0, colon)));
-  parts.push_back(trim(rest));
-  if (parts.size() != 3)
-    throw SweepInputError(expected + got + " (" + std::to_string(parts.size()) + " part" +
-                          (parts.size() == 1 ? "" : "s") + " after '=', expected FROM:TO:COUNT)");
-  auto number = [&](std::string_view s, const char* what) {
+  auto split = [&](std::string_view rest, char separator) {
+    std::vector<std::string_view> parts;
+    for (std::size_t at; (at = rest.find(separator)) != std::string_view::npos; rest.remove_prefix(at + 1))
+      parts.push_back(trim(rest.substr(0, at)));
+    parts.push_back(trim(rest));
+    return parts;
+  };
+  auto number = [&](std::string_view s, const std::string& what) {
     const std::string str(s);
     char* end = nullptr;
     const double v = str.empty() ? nan : std::strtod(str.c_str(), &end);
@@ -496,6 +510,22 @@ SweepAxis parse_vary(std::string_view text) {
       throw SweepInputError(expected + got + " (" + what + " '" + str + "' is not a finite number)");
     return v;
   };
+  if (text.find(',', eq) != std::string_view::npos) {  // an explicit list
+    const std::vector<std::string_view> items = split(text.substr(eq + 1), ',');
+    for (std::size_t i = 0; i < items.size(); ++i) axis.values.push_back(number(items[i], "value " + std::to_string(i + 1)));
+    const double direction = axis.values[1] - axis.values[0];
+    for (std::size_t i = 1; i < axis.values.size(); ++i)
+      if (!((axis.values[i] - axis.values[i - 1]) * direction > 0))
+        throw SweepInputError(expected + got + " (the values must be strictly increasing or strictly decreasing)");
+    axis.count = static_cast<int>(axis.values.size());
+    axis.from = axis.values.front();
+    axis.to = axis.values.back();
+    return axis;
+  }
+  const std::vector<std::string_view> parts = split(text.substr(eq + 1), ':');
+  if (parts.size() != 3)
+    throw SweepInputError(expected + got + " (" + std::to_string(parts.size()) + " part" +
+                          (parts.size() == 1 ? "" : "s") + " after '=', expected FROM:TO:COUNT)");
   axis.from = number(parts[0], "FROM");
   axis.to = number(parts[1], "TO");
   const std::string_view count = parts[2];
@@ -521,9 +551,11 @@ SweepResult sweep(const std::string& scene_text, const std::string& file,
     const std::size_t k = static_cast<std::size_t>(i);
     SweepPoint& p = result.points[k];
     p.value = axis.value(i);
+    const auto started = std::chrono::steady_clock::now();
     evaluations[k] = evaluate({p.value}, start, Indicator::none);
     ++result.evaluations;
     fill_point(p, evaluations[k], options.modes);
+    p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     if (p.ok) {
       start = &evaluations[k].equilibrium.q;
       if (result.coordinates.empty()) result.coordinates = evaluations[k].coordinates;
@@ -580,6 +612,172 @@ StabilityMap sweep_map(const std::string& scene_text, const std::string& file,
     }
   }
   return map;
+}
+
+namespace {
+
+// ln(eᵗ − 1) for t > 0, without overflow for large t.
+double log_expm1(double t) { return t > 30 ? t + std::log1p(-std::exp(-t)) : std::log(std::expm1(t)); }
+
+// ln[(N1^−p − N2^−p)/(N2^−p − N3^−p)] with u = ln(N2/N1), v = ln(N3/N2): the
+// ratio is (e^{pu} − 1) e^{pv}/(e^{pv} − 1), which increases strictly with p
+// from u/v at p → 0 (modal/sweep.hpp).
+double log_difference_ratio(double p, double u, double v) { return log_expm1(p * u) - log_expm1(p * v) + p * v; }
+
+constexpr double max_order = 100;
+
+struct TripleFit {
+  bool ok = false;
+  std::string reason;
+  double order = nan, value = nan;
+};
+
+// Order and Richardson value of three points n[0] < n[1] < n[2] with values f
+// and error estimates d of f.
+TripleFit fit_triple(const double* n, const double* f, const double* d) {
+  TripleFit t;
+  const double d1 = f[1] - f[0], d2 = f[2] - f[1];
+  const std::string at = " (N = " + short_text(n[0]) + ", " + short_text(n[1]) + ", " + short_text(n[2]) + ")";
+  auto noise_level = [](double diff, double e1, double e2) { return !(std::abs(diff) > 10 * (e1 + e2)); };
+  if (noise_level(d1, d[0], d[1]) || noise_level(d2, d[1], d[2])) {
+    t.reason = "a difference of consecutive values is zero or at the level of their own error estimates" + at +
+               ": the values have converged as far as they can be told apart, or the points are too close";
+    return t;
+  }
+  if ((d1 > 0) != (d2 > 0)) {
+    t.reason = "the differences of consecutive values change sign" + at + ": the values oscillate, not in the "
+               "asymptotic range";
+    return t;
+  }
+  const double u = std::log(n[1] / n[0]), v = std::log(n[2] / n[1]);
+  const double target = std::log(d1 / d2);  // ln[(f1 − f2)/(f2 − f3)]
+  // The relative uncertainty of that ratio from the values' errors: a ratio
+  // within it of the p → 0 limit would give an order (and a value) made of
+  // rounding.
+  const double uncertainty = (d[0] + d[1]) / std::abs(d1) + (d[1] + d[2]) / std::abs(d2);
+  if (!(target - std::log(u / v) > 2 * uncertainty)) {
+    t.reason = "the differences do not shrink fast enough for any positive order" + at + " (|f2 − f1|/|f3 − f2| = " +
+               short_text(d1 / d2) + ", which needs to exceed ln(N2/N1)/ln(N3/N2) = " + short_text(u / v) +
+               "): not in the asymptotic range";
+    return t;
+  }
+  if (!(target < log_difference_ratio(max_order, u, v))) {
+    t.reason = "the differences shrink faster than order " + short_text(max_order) + at +
+               ": convergence is faster than any power these points resolve";
+    return t;
+  }
+  double lo = 0, hi = max_order;  // the ratio at lo is below the target, at hi above
+  while (hi - lo > 1e-13 * hi) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid == lo || mid == hi) break;
+    (log_difference_ratio(mid, u, v) < target ? lo : hi) = mid;
+  }
+  t.order = 0.5 * (lo + hi);
+  t.value = f[2] + d2 / std::expm1(t.order * v);
+  t.ok = true;
+  return t;
+}
+
+}  // namespace
+
+Extrapolation richardson(const std::vector<double>& n, const std::vector<double>& f,
+                         const std::vector<double>& f_error) {
+  if (f.size() != n.size() || (!f_error.empty() && f_error.size() != n.size()))
+    throw std::invalid_argument("richardson: n, f (and f_error when given) must have the same size");
+  for (std::size_t i = 0; i < n.size(); ++i)
+    if (!(n[i] > 0) || !std::isfinite(n[i]) || (i > 0 && !(n[i] > n[i - 1])))
+      throw std::invalid_argument("richardson: n must be finite, positive and strictly increasing");
+  Extrapolation e;
+  const std::size_t size = n.size();
+  if (size < 3) {
+    e.reason = "needs at least three values, got " + std::to_string(size);
+    return e;
+  }
+  // Error of each value: its estimate, and never below its rounding.
+  std::vector<double> d(size);
+  for (std::size_t i = 0; i < size; ++i)
+    d[i] = std::max(f_error.empty() ? 0.0 : std::abs(f_error[i]), 8 * std::numeric_limits<double>::epsilon() * std::abs(f[i]));
+  for (std::size_t i = 0; i < size; ++i)
+    if (!std::isfinite(f[i]) || !std::isfinite(d[i])) {
+      e.reason = "the value at N = " + short_text(n[i]) + " is not finite";
+      return e;
+    }
+  const std::size_t last = size - 3;
+  e.n1 = n[last];
+  e.n2 = n[last + 1];
+  e.n3 = n[last + 2];
+  const TripleFit t = fit_triple(&n[last], &f[last], &d[last]);
+  if (!t.ok) {
+    e.reason = t.reason;
+    return e;
+  }
+  e.asymptotic = true;
+  e.order = t.order;
+  e.value = t.value;
+  const double f3 = f[last + 2];
+  const double r = e.n3 / e.n2, rp = std::pow(r, e.order);
+  const double correction = std::abs(e.value - f3);
+  double model = correction;
+  e.error_rule = "correction |f∞ − f(N3)| (three points: nothing checks the power law)";
+  if (size >= 4) {
+    const TripleFit previous = fit_triple(&n[last - 1], &f[last - 1], &d[last - 1]);
+    if (previous.ok) {
+      e.previous_order = previous.order;
+      e.previous_value = previous.value;
+      const double change = std::abs(e.value - previous.value);
+      const double drift = rp * std::log(r) / (rp - 1) * std::abs(e.order - previous.order) * correction;
+      model = std::max(change, drift);
+      e.error_rule = change >= drift ? "|f∞ − f∞'| of the previous triple" : "sensitivity to the order's drift |p − p'|";
+    } else {
+      e.error_rule = "correction |f∞ − f(N3)| (the previous triple is not in the asymptotic range)";
+    }
+  }
+  const double noise = (rp * d[last + 2] + d[last + 1]) / (rp - 1);
+  e.error = model + noise;
+  if (noise > model) e.error_rule = "the values' own error estimates";
+  return e;
+}
+
+void check_extrapolation_axis(const SweepAxis& axis) {
+  const std::string what = "--extrapolate needs an integer parameter (a number of links, elements, …) with at least "
+                           "three values, such as --vary N=10,20,40,80";
+  if (axis.count < 3)
+    throw SweepInputError(what + "; --vary " + axis.name + " has " + std::to_string(axis.count) + " value" +
+                          (axis.count == 1 ? "" : "s"));
+  for (int i = 0; i < axis.count; ++i) {
+    const double v = axis.value(i);
+    if (!std::isfinite(v) || v != std::floor(v) || v < 1)
+      throw SweepInputError(what + "; " + axis.name + " = " + short_text(v) + " is not an integer ≥ 1");
+  }
+}
+
+std::vector<ModeConvergence> extrapolate_modes(const SweepResult& result, int modes) {
+  check_extrapolation_axis(result.axis);
+  std::vector<const SweepPoint*> sorted;
+  for (const SweepPoint& p : result.points)
+    if (p.ok) sorted.push_back(&p);
+  std::sort(sorted.begin(), sorted.end(), [](const SweepPoint* a, const SweepPoint* b) { return a->value < b->value; });
+  std::vector<ModeConvergence> out;
+  for (int k = 0; k < modes; ++k) {
+    ModeConvergence c;
+    c.mode = k + 1;
+    for (const SweepPoint* p : sorted) {
+      if (static_cast<std::size_t>(k) >= p->result.modes.size()) continue;
+      const Mode& m = p->result.modes[static_cast<std::size_t>(k)];
+      if (!(m.omega > 0) || !std::isfinite(m.omega)) continue;
+      c.n.push_back(p->value);
+      c.omega.push_back(m.omega);
+      // A symmetric problem estimates the error of ω² = λ: δω = δλ/(2ω).
+      c.omega_error.push_back(std::isfinite(m.omega2) ? m.error_estimate / (2 * m.omega) : m.error_estimate);
+    }
+    if (c.n.size() < 3)
+      c.extrapolation.reason = "only " + std::to_string(c.n.size()) + " point" + (c.n.size() == 1 ? "" : "s") +
+                               " of the sweep gave an oscillating mode " + std::to_string(c.mode) + "; three are needed";
+    else
+      c.extrapolation = richardson(c.n, c.omega, c.omega_error);
+    out.push_back(std::move(c));
+  }
+  return out;
 }
 
 }  // namespace modal

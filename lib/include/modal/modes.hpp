@@ -13,6 +13,7 @@
 #include "modal/linearize.hpp"
 
 #include <complex>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -42,7 +43,14 @@ struct Mode {
   double period = 0;          // 2π / ω, s (infinity when ω = 0)
   double damping_ratio = 0;   // −σ / |s| (NaN when s = 0)
   double error_estimate = 0;  // absolute error estimate of the eigenvalue: of omega2
-                              // (rad²/s²) for symmetric problems, of s (rad/s) otherwise
+                              // (rad²/s²) for symmetric problems, of s (rad/s) otherwise;
+                              // covers the solver and the rounding (or differences) of M and K
+  // Symmetric problems: the residual bound ‖Kφ − λMφ‖_{M⁻¹} (rad²/s²), rigorous
+  // for the matrices as formed: an eigenvalue of (K, M) lies within it of
+  // omega2 (Parlett, thm 4.5.1, in the M-inner product). It bounds what the
+  // eigen-solver left, not the errors of K and M (error_estimate has both).
+  // NaN for first-order problems (no such bound for non-normal matrices).
+  double residual_bound = std::numeric_limits<double>::quiet_NaN();
   ModeKind kind = ModeKind::oscillatory;
   Eigen::VectorXcd shape;     // n; symmetric: real, M-normalized, largest |component| positive
 };

@@ -12,7 +12,9 @@
 // built, and the equilibrium found by find_equilibrium() started from the
 // equilibrium of the previous point (the first point from the scene's initial
 // configuration): the branch that starts there is followed continuously, stable
-// or not. Each point is linearized and solved with all modes, which gives its
+// or not. Where the parameter changes the number of coordinates (a number of
+// links), the previous equilibrium does not fit and each such point starts from
+// its scene's initial configuration. Each point is linearized and solved with all modes, which gives its
 // stability class (DESIGN.md §1).
 //
 // Critical values. Wherever consecutive points differ in class, the change is
@@ -41,6 +43,7 @@
 #include "modal/scene.hpp"
 
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -56,17 +59,24 @@ class SweepInputError : public std::runtime_error {
 };
 
 // COUNT evenly spaced values from FROM to TO, both included (COUNT ≥ 2, FROM ≠ TO;
-// TO < FROM sweeps downwards).
+// TO < FROM sweeps downwards), or an explicit list of values.
 struct SweepAxis {
   std::string name;
   double from = 0;
   double to = 0;
   int count = 0;
+  // The explicit list (NAME=V1,V2,…), strictly increasing or strictly
+  // decreasing; then count = its size, from = its first and to = its last
+  // value. Empty: evenly spaced.
+  std::vector<double> values;
   double value(int i) const;  // the i-th value (0 … count − 1); exactly `to` for the last
+  bool integer_valued() const;  // every value is an integer
 };
 
-// "NAME=FROM:TO:COUNT" (FROM, TO finite numbers, COUNT an integer ≥ 2). Throws
-// SweepInputError saying what is wrong and what is expected.
+// "NAME=FROM:TO:COUNT" (FROM, TO finite numbers, COUNT an integer ≥ 2) or
+// "NAME=V1,V2,…" (at least two finite values, strictly monotone; e.g. the
+// numbers of links N=10,20,40,80). Throws SweepInputError saying what is wrong
+// and what is expected.
 SweepAxis parse_vary(std::string_view text);
 
 struct SweepOptions {
@@ -91,6 +101,7 @@ struct SweepPoint {
   bool symmetric = true;     // solved as K φ = λ M φ (no damping, gyroscopic, circulatory terms)
   double max_growth_rate = 0;  // largest σ = Re s of all modes, 1/s (0 for a stable conservative system)
   double min_omega2 = 0;       // smallest ω² − σ² = Re(−s²) of all modes: λ_min for symmetric models
+  double seconds = 0;          // wall time of the point: parse, build, equilibrium, linearization, all modes
 };
 
 enum class CriticalKind {
@@ -157,5 +168,91 @@ struct StabilityMap {
 StabilityMap sweep_map(const std::string& scene_text, const std::string& file,
                        const std::vector<ParameterOverride>& fixed, const SweepAxis& x,
                        const SweepAxis& y, const SweepOptions& options = {});
+
+// --- convergence in a discretization parameter (modal sweep --extrapolate) -------
+//
+//   const modal::SweepResult r = modal::sweep(text, "models/hanging_chain.toml", {}, modal::parse_vary("N=10,20,40,80,160"));
+//   for (const modal::ModeConvergence& c : modal::extrapolate_modes(r, 3))
+//     if (c.extrapolation.asymptotic)
+//       std::cout << c.mode << ": p = " << c.extrapolation.order << ", ω∞ = " << c.extrapolation.value
+//                 << " ± " << c.extrapolation.error << " rad/s\n";
+//   // 1: p = 0.98579, ω∞ = 3.76615 ± 0.00023 rad/s  (R3: (j₀,₁/2) sqrt(g/L) = 3.7660674)
+//
+// A discretized model's value f(N) (N links, elements, …) is assumed to follow
+// f(N) = f∞ + b N^−p + smaller terms for N large enough (the asymptotic range).
+// From the last three points N1 < N2 < N3 (any spacing) the observed order p
+// solves
+//     (f1 − f2)/(f2 − f3) = (N1^−p − N2^−p)/(N2^−p − N3^−p),
+// whose right side increases strictly with p from ln(N2/N1)/ln(N3/N2) (p → 0)
+// to ∞, so p > 0 exists and is unique exactly when the left side exceeds that
+// limit: the differences have one sign and shrink faster than a logarithm
+// would. p is found by bisection on the logarithm of both sides (to 1e-13
+// relative; p ≤ 100). The Richardson value is then
+//     f∞ = f3 + (f3 − f2)/(r^p − 1),  r = N3/N2.
+//
+// Error rule (`error`, with the term that gave it in `error_rule`):
+//  - with a fourth point N0 < N1 whose triple (N0, N1, N2) is in the
+//    asymptotic range too, giving p' and f∞':
+//        max(|f∞ − f∞'|, S |p − p'| |f∞ − f3|),  S = r^p ln r/(r^p − 1).
+//    The first term is the usual check of an extrapolation against the
+//    previous one: as long as the extrapolants' own errors shrink by at least
+//    a factor 2 from one triple to the next, or change sign, it exceeds the
+//    error of f∞. The second is the sensitivity of f∞ to the order
+//    (∂f∞/∂p = −S (f∞ − f3)) times the order's drift between the triples: it
+//    guards against two extrapolants agreeing by accident while the power law
+//    is still bending.
+//  - with only three usable points: |f∞ − f3|, the correction itself. Three
+//    points fix f∞, b and p exactly, so nothing checks the power law; the
+//    estimate only claims that f∞ is no worse than the finest model.
+//  - plus, always, the propagated errors of the inputs themselves (the
+//    modal stage's error estimates, at least 8 ε |f|):
+//    (r^p δ3 + δ2)/(r^p − 1).
+// Not in the asymptotic range (no value is made up; `reason` says which):
+// fewer than three values, a difference f2 − f1 or f3 − f2 of zero or at the
+// level of the inputs' errors (10 δ), differences of opposite signs
+// (oscillation), or differences that do not shrink fast enough for any p > 0
+// (the ratio of the differences not above the p → 0 limit by more than twice
+// its own relative uncertainty from the inputs' errors).
+
+// The extrapolation of one sequence to N → ∞.
+struct Extrapolation {
+  bool asymptotic = false;  // false: no order and no value; `reason` says why
+  std::string reason;       // in words, when !asymptotic
+  double n1 = 0, n2 = 0, n3 = 0;  // the triple used (the last three values)
+  double order = std::numeric_limits<double>::quiet_NaN();  // observed p
+  double value = std::numeric_limits<double>::quiet_NaN();  // f∞, units of f
+  double error = std::numeric_limits<double>::quiet_NaN();  // estimate of |f∞ − the limit|, units of f
+  std::string error_rule;   // which term of the rule gave `error`
+  double previous_order = std::numeric_limits<double>::quiet_NaN();  // p' of (N0, N1, N2), if asymptotic
+  double previous_value = std::numeric_limits<double>::quiet_NaN();  // f∞' of (N0, N1, N2), if asymptotic
+};
+
+// Richardson extrapolation of f(n) to n → ∞ from the last three values (the
+// fourth from last, when there is one, for the error estimate; rule above).
+// n: strictly increasing positive values; f: the values, same size; f_error:
+// absolute error estimates of f (same size, or empty: rounding only). Fewer
+// than three values give !asymptotic; sizes that differ or n not strictly
+// increasing and positive throw std::invalid_argument.
+Extrapolation richardson(const std::vector<double>& n, const std::vector<double>& f,
+                         const std::vector<double>& f_error = {});
+
+// The convergence of one mode's frequency along an integer axis.
+struct ModeConvergence {
+  int mode = 0;                  // 1: the lowest
+  std::vector<double> n;         // the axis values whose point gave this mode, increasing
+  std::vector<double> omega;     // ω (rad/s) there
+  std::vector<double> omega_error;  // its error estimate (rad/s) from the modal stage
+  Extrapolation extrapolation;   // of ω
+};
+
+// Throws SweepInputError unless `axis` can be extrapolated in: integer values
+// ≥ 1, at least three of them.
+void check_extrapolation_axis(const SweepAxis& axis);
+
+// ω of each of the lowest `modes` modes (by index, as solved) at the points
+// that worked and have that mode oscillating (ω > 0), sorted by the axis value,
+// and its Richardson extrapolation. Throws SweepInputError as
+// check_extrapolation_axis().
+std::vector<ModeConvergence> extrapolate_modes(const SweepResult& result, int modes);
 
 }  // namespace modal
