@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev        # dense linear algebra, Eigen 3.4
   libspectra-dev       # sparse/iterative eigen-solvers, Spectra 1.0
   libsuitesparse-dev   # CHOLMOD sparse Cholesky (shift-invert of the sparse eigen-solver)
+  liblapack-dev        # LAPACK interface (dsygvd, the dense symmetric-definite eigen-solver)
   libmumps-seq-dev     # MUMPS sparse LDLᵀ with pivoting: inertia and indefinite shifts of the sparse eigen-solver
   libopenblas0-pthread # optimized BLAS/LAPACK for the dense kernels of CHOLMOD and MUMPS, picked by Debian's
                        # alternatives over the reference BLAS (which spends half of a 10⁶-coordinate analysis in dgemm)

@@ -601,6 +601,12 @@ TEST_F(Cli, DerivativeMethodsAndTheirMisuse) {
   const Outcome loose = run({"analyze", models + "double_pendulum.toml", "--eq-tol", "1e-6"});
   EXPECT_EQ(loose.status, 0) << loose.err;
   EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--eq-tol", "0.5"}).status, 1);
+  // --dense-solver: both solvers end to end, and a bad name is a usage error.
+  const Outcome lapack = run({"analyze", models + "double_pendulum.toml", "--dense-solver", "lapack"});
+  ASSERT_EQ(lapack.status, 0) << lapack.err;
+  EXPECT_NE(lapack.out.find("LAPACK dsygvd"), std::string::npos) << lapack.out;
+  EXPECT_NE(lapack.out.find("0.7653668647"), std::string::npos) << lapack.out;
+  EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--dense-solver", "mkl"}).status, 1);
 }
 
 }  // namespace

@@ -688,4 +688,32 @@ TEST(SymmetricModes, ResidualBoundIsRigorousForTheFormedMatrices) {
   for (const Mode& m : modal::solve_modes(damped).modes) EXPECT_TRUE(std::isnan(m.residual_bound));
 }
 
+// The two dense symmetric solvers (Eigen's QR, LAPACK's dsygvd) agree within
+// their error estimates, give M-orthonormal shapes, and say which ran; the
+// automatic choice follows the documented threshold.
+TEST(SymmetricModes, EigenAndLapackAgree) {
+  const int n = 200;  // a fixed–fixed spring chain (R2): λ_j = 4 (k/m) sin²(jπ/(2(n+1)))
+  MatrixX K = MatrixX::Zero(n, n), M = MatrixX::Identity(n, n);
+  for (int i = 0; i < n; ++i) {
+    K(i, i) = 2;
+    if (i + 1 < n) K(i, i + 1) = K(i + 1, i) = -1;
+  }
+  const LinearModel model = make_model(M, K);
+  modal::ModalOptions eigen_options, lapack_options, automatic;
+  eigen_options.dense_solver = modal::DenseSolver::eigen;
+  lapack_options.dense_solver = modal::DenseSolver::lapack;
+  const ModalResult a = modal::solve_modes(model, eigen_options), b = modal::solve_modes(model, lapack_options);
+  EXPECT_NE(a.solver.find("Eigen"), std::string::npos) << a.solver;
+  EXPECT_NE(b.solver.find("LAPACK dsygvd"), std::string::npos) << b.solver;
+  EXPECT_NE(modal::solve_modes(model, automatic).solver.find(n >= modal::lapack_threshold ? "LAPACK" : "Eigen"),
+            std::string::npos);
+  ASSERT_EQ(a.modes.size(), b.modes.size());
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    const double exact = 4 * std::pow(std::sin((j + 1) * std::numbers::pi / (2.0 * (n + 1))), 2);
+    EXPECT_LE(std::abs(a.modes[j].omega2 - exact), a.modes[j].error_estimate + 4e-16 * exact) << j;
+    EXPECT_LE(std::abs(b.modes[j].omega2 - exact), b.modes[j].error_estimate + 4e-16 * exact) << j;
+  }
+  expect_m_orthonormal_eigenpairs(model, b);
+}
+
 }  // namespace

@@ -197,6 +197,7 @@ struct SolverChoice {
   std::string derivatives = "exact";         // --derivatives: exact | central | forward | complex-step
   double step_factor = 0;                    // --step: factor of the difference step (0: the method's rule)
   double equilibrium_tolerance = modal::EquilibriumOptions{}.tolerance;  // --eq-tol
+  std::string dense_solver = "auto";         // --dense-solver: auto | eigen | lapack
 };
 
 // The linearization options a choice asks for (derivative method and step;
@@ -270,6 +271,8 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     export_if_asked(lin);
     modal::ModalOptions mo;
     mo.modes = modes;
+    for (const auto s : {modal::DenseSolver::automatic, modal::DenseSolver::eigen, modal::DenseSolver::lapack})
+      if (choice.dense_solver == modal::to_string(s)) mo.dense_solver = s;
     result = modal::solve_modes(lin, mo);
     if (lo.derivatives != modal::DerivativeMethod::exact)
       result.notes.push_back(fmt::format(
@@ -790,6 +793,12 @@ int main(int argc, char** argv) {
                           " coordinates: newton (truncated Newton from the start with the sparse Hessian; L-BFGS if "
                           "it stalls) or lbfgs (L-BFGS down to 1e-4 of the starting gradient first, then Newton)")
       ->check(CLI::IsMember({"newton", "lbfgs"}))
+      ->capture_default_str();
+  analyze
+      ->add_option("--dense-solver", solver_choice.dense_solver,
+                   "dense symmetric eigen-solver: eigen (self-adjoint QR), lapack (dsygvd, divide and conquer), or "
+                   "auto: lapack from " + std::to_string(modal::lapack_threshold) + " coordinates")
+      ->check(CLI::IsMember({"auto", "eigen", "lapack"}))
       ->capture_default_str();
   analyze
       ->add_option("--derivatives", solver_choice.derivatives,

@@ -32,7 +32,12 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names);
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's
 // entries (LinearModel::K_error). Fills modes (ascending λ), morse_index,
 // zero_modes, solver, notes.
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {});
+// `solver` picks Eigen's self-adjoint QR or LAPACK's dsygvd (automatic:
+// lapack_wins(n)).
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
+                            DenseSolver solver = DenseSolver::automatic);
+// The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
+bool lapack_wins(Eigen::Index n);
 
 // M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
 // first-order system. Fills modes (ascending ω, then σ), morse_index,

@@ -170,7 +170,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
         "K is not symmetric although the model declares no circulatory forces; "
         "solved as a general (first-order) problem";
   }
-  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass, model.K_error)
+  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass, model.K_error, options.dense_solver)
                      : detail::solve_first_order(M, model.K, C, mass);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
@@ -182,6 +182,15 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   if (options.modes >= 0 && static_cast<std::size_t>(options.modes) < result.modes.size())
     result.modes.resize(static_cast<std::size_t>(options.modes));
   return result;
+}
+
+const char* to_string(DenseSolver s) {
+  switch (s) {
+    case DenseSolver::automatic: return "auto";
+    case DenseSolver::eigen: return "eigen";
+    case DenseSolver::lapack: return "lapack";
+  }
+  return "?";
 }
 
 namespace detail {

@@ -45,28 +45,76 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
+#include <cstddef>
 #include <limits>
+#include <string>
+#include <vector>
+
+// LAPACK (Debian's liblapack3 interface; OpenBLAS's implementation where it is
+// installed): the symmetric-definite generalized eigenproblem by divide and
+// conquer. Character arguments carry their lengths as trailing hidden
+// arguments (gfortran's convention).
+extern "C" void dsygvd_(const int* itype, const char* jobz, const char* uplo, const int* n, double* a,
+                        const int* lda, double* b, const int* ldb, double* w, double* work, const int* lwork,
+                        int* iwork, const int* liwork, int* info, std::size_t jobz_length, std::size_t uplo_length);
 
 namespace modal::detail {
 namespace {
 constexpr double eps = std::numeric_limits<double>::epsilon();
-}  // namespace
 
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error) {
-  const Eigen::Index n = M.rows();
+// Eigen: C = L⁻¹ K L⁻ᵀ = L⁻¹ (L⁻¹ K)ᵀ for symmetric K, symmetrized exactly,
+// tridiagonalized and solved by implicit QR; Φ = L⁻ᵀ Y.
+void eigen_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, MatrixX& Phi) {
   const auto L = mass.matrixL();
-  const auto U = mass.matrixU();  // Lᵀ
-
-  // C = L⁻¹ K L⁻ᵀ = L⁻¹ (L⁻¹ K)ᵀ for symmetric K; symmetrized exactly.
   MatrixX C = L.solve(K);
   C = L.solve(MatrixX(C.transpose()));
   C = 0.5 * (C + C.transpose()).eval();
-
   Eigen::SelfAdjointEigenSolver<MatrixX> eig(C);
   if (eig.info() != Eigen::Success)
     throw NumericalError("the symmetric eigen-solver did not converge (Eigen SelfAdjointEigenSolver)");
-  const VectorX& lambda = eig.eigenvalues();  // ascending
-  const MatrixX Phi = U.solve(eig.eigenvectors());
+  lambda = eig.eigenvalues();  // ascending
+  Phi = mass.matrixU().solve(eig.eigenvectors());
+}
+
+// LAPACK dsygvd (itype 1: K φ = λ M φ, its own Cholesky of M, ΦᵀMΦ = I).
+void lapack_pairs(const MatrixX& M, const MatrixX& K, VectorX& lambda, MatrixX& Phi) {
+  const int n = static_cast<int>(K.rows()), itype = 1;
+  Phi = K;  // overwritten by the eigenvectors
+  MatrixX B = M;
+  lambda.resize(n);
+  int lwork = -1, liwork = -1, info = 0, iwork_size = 0;
+  double work_size = 0;
+  dsygvd_(&itype, "V", "L", &n, Phi.data(), &n, B.data(), &n, lambda.data(), &work_size, &lwork, &iwork_size,
+          &liwork, &info, 1, 1);  // workspace query
+  lwork = static_cast<int>(work_size);
+  liwork = iwork_size;
+  std::vector<double> work(static_cast<std::size_t>(std::max(lwork, 1)));
+  std::vector<int> iwork(static_cast<std::size_t>(std::max(liwork, 1)));
+  dsygvd_(&itype, "V", "L", &n, Phi.data(), &n, B.data(), &n, lambda.data(), work.data(), &lwork, iwork.data(),
+          &liwork, &info, 1, 1);
+  if (info > n)
+    throw NumericalError("LAPACK dsygvd: the mass matrix is not positive definite (leading minor " +
+                         std::to_string(info - n) + ")");
+  if (info != 0)
+    throw NumericalError("LAPACK dsygvd did not converge (info " + std::to_string(info) + ")");
+}
+
+}  // namespace
+
+bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
+
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
+                            DenseSolver solver) {
+  const Eigen::Index n = M.rows();
+  const auto L = mass.matrixL();
+  const auto U = mass.matrixU();  // Lᵀ
+  const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
+  VectorX lambda;
+  MatrixX Phi;
+  if (lapack)
+    lapack_pairs(M, K, lambda, Phi);
+  else
+    eigen_pairs(K, mass, lambda, Phi);
 
   // Residuals of all pairs at once: R = KΦ − MΦΛ (n×n), and L⁻¹R.
   const MatrixX R = K * Phi - M * Phi * lambda.asDiagonal();
@@ -84,7 +132,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX E2S = E.cwiseAbs2() * S, M2S = M.cwiseAbs2() * S;
 
   ModalResult result;
-  result.solver = "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
+  result.solver = lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
+                         : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
   double worst_relative_residual = 0;
   Eigen::Index worst = 0;
   for (Eigen::Index j = 0; j < n; ++j) {

@@ -83,8 +83,18 @@ class SingularMassMatrix : public NumericalError {
   using NumericalError::NumericalError;
 };
 
+// The dense symmetric eigen-solver: Eigen (Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint
+// tridiagonal QR) or LAPACK dsygvd (divide and conquer, through the system's
+// LAPACK: OpenBLAS where installed). automatic: LAPACK from lapack_threshold
+// coordinates, where it is faster (results/tradeoff.md); both agree to
+// rounding and get the same error estimates.
+enum class DenseSolver { automatic, eigen, lapack };
+const char* to_string(DenseSolver s);  // "auto", "eigen", "lapack"
+inline constexpr int lapack_threshold = 150;  // measured crossover: 100 (Eigen faster) … 200 (LAPACK 1.3× faster)
+
 struct ModalOptions {
   int modes = -1;  // how many of the lowest modes to return (-1: all)
+  DenseSolver dense_solver = DenseSolver::automatic;  // symmetric problems
 };
 
 // Eigen-solution of the linear model (sizes from model.M, n×n; model.q and
