@@ -22,7 +22,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   modal::Scene scene;
   try {
-    scene = modal::parse_scene(text, "fuzz.toml");
+    // Generators bounded well below modal's limits: a mutated lattice size
+    // would otherwise spend the run (and its memory limit) building millions
+    // of particles, which is supported, not a finding.
+    modal::SceneLimits limits;
+    limits.particles = 20'000;
+    limits.links = 2'000;
+    scene = modal::parse_scene(text, "fuzz.toml", {}, limits);
   } catch (const modal::SceneError&) {
     return 0;
   } catch (const modal::ExpressionError&) {

@@ -644,4 +644,28 @@ TEST(generators_scale, MillionCoordinates) {
   }
 }
 
+// SceneLimits: a caller's tighter bounds on the generators are refused at the
+// key, like the defaults (the fuzzer reads scenes with such limits).
+TEST(lattice, CallerLimits) {
+  modal::SceneLimits limits;
+  limits.particles = 100;
+  limits.links = 5;
+  const std::string big = lattice("size = [20, 20, 1]\nspacing = 0.1\nmass = 1\nstiffness = 1\n");
+  EXPECT_EQ(parse(big).description.bodies.size(), 400u);  // the defaults allow it
+  try {
+    (void)modal::parse_scene(big, "test.toml", {}, limits);
+    ADD_FAILURE() << "a lattice beyond the caller's limit was read";
+  } catch (const modal::SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("400 particles; at most 100"), std::string::npos) << e.what();
+  }
+  const std::string chain = "[[chain]]\nname = \"c\"\nlinks = 6\nlength = 1\nmass = 1\n";
+  EXPECT_EQ(parse(chain).description.bodies.size(), 6u);
+  try {
+    (void)modal::parse_scene(chain, "test.toml", {}, limits);
+    ADD_FAILURE() << "a chain beyond the caller's limit was read";
+  } catch (const modal::SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("at most 5 links"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace

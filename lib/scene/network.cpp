@@ -31,8 +31,6 @@ namespace modal::scene_detail {
 
 namespace {
 
-constexpr long long max_particles = 5'000'000;
-
 // The name of a generator: `fallback` by default, not empty, not "world".
 void start_block(const Section& s, Generated& g, const std::string& fallback) {
   g.name = s.string("name", fallback);
@@ -119,6 +117,7 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
                 "plane"});
   Generated g;
   start_block(s, g, "lattice");
+  const long long max_particles = reader.limits().particles;
 
   // size = [n1, n2, n3]: positive integers, at most max_particles in all.
   const toml::node* size_node = s.find("size");

@@ -47,7 +47,8 @@ std::string file_stem(const std::string& path) { return std::filesystem::path(pa
 
 // --- Reader -----------------------------------------------------------------
 
-Reader::Reader(std::string file, std::string_view text) : file_(std::move(file)) {
+Reader::Reader(std::string file, std::string_view text, SceneLimits limits)
+    : file_(std::move(file)), limits_(limits) {
   std::size_t start = 0;
   while (start <= text.size()) {
     std::size_t end = text.find('\n', start);

@@ -42,7 +42,8 @@ std::string file_stem(const std::string& path);
 
 class Reader {
  public:
-  Reader(std::string file, std::string_view text);
+  Reader(std::string file, std::string_view text, SceneLimits limits = {});
+  const SceneLimits& limits() const { return limits_; }
 
   const std::string& file() const { return file_; }
   SourceLocation location(const toml::source_region& region) const;
@@ -75,6 +76,7 @@ class Reader {
   std::string file_;
   std::vector<std::string_view> lines_;  // the scene text, line by line
   Parameters parameters_;
+  SceneLimits limits_;
 };
 
 // One table of the scene: reads its keys with defaults and checks.

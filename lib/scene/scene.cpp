@@ -170,7 +170,7 @@ std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table
   const std::string name = s.required_string("name");
   if (name.empty()) s.fail("name", "a chain name must not be empty");
 
-  constexpr double max_links = 100000;
+  const double max_links = reader.limits().links;
   const double links_value = s.required_number("links");
   if (links_value != std::floor(links_value)) s.fail("links", "must be an integer, got " + format_number(links_value));
   if (links_value < 1) s.fail("links", "must be at least 1, got " + format_number(links_value));
@@ -659,7 +659,8 @@ std::vector<const toml::table*> tables_of(const Reader& reader, const toml::tabl
 
 }  // namespace
 
-Scene parse_scene(std::string_view text, const std::string& file_name, const std::vector<ParameterOverride>& overrides) {
+Scene parse_scene(std::string_view text, const std::string& file_name, const std::vector<ParameterOverride>& overrides,
+                  const SceneLimits& limits) {
   toml::table root;
   try {
     root = toml::parse(text, std::string_view(file_name));
@@ -669,7 +670,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
                      std::string(e.description()));
   }
 
-  Reader reader(file_name, text);
+  Reader reader(file_name, text, limits);
   const Section top(reader, root, "", "the top level of the scene");
   top.check_keys({"title", "gravity", "frame_rotation", "parameters", "body", "chain", "particle", "lattice", "network",
                   "spring", "load", "constraint", "coordinates", "point", "potential"});

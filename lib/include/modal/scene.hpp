@@ -56,9 +56,19 @@ struct Scene {
   std::vector<SourceLocation> body_locations;             // parallel to description.bodies
 };
 
+// Upper bounds on what the generators may expand to. The defaults are what
+// modal supports (a 5·10⁶-particle lattice needs about 6 GiB to analyze); a
+// caller that must bound memory and time more tightly (the fuzzer: a mutated
+// size would otherwise exhaust its memory limit) passes smaller ones. Beyond
+// them the scene is refused with a SceneError at the key.
+struct SceneLimits {
+  long long particles = 5'000'000;  // particles of one [[lattice]]
+  int links = 100'000;              // links of one [[chain]]
+};
+
 Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
 Scene parse_scene(std::string_view text, const std::string& file_name,
-                  const std::vector<ParameterOverride>& overrides = {});
+                  const std::vector<ParameterOverride>& overrides = {}, const SceneLimits& limits = {});
 System build_system(const Scene& scene);
 
 }  // namespace modal
