@@ -48,7 +48,9 @@ struct Mode {
   // Symmetric problems: the residual bound ‖Kφ − λMφ‖_{M⁻¹} (rad²/s²), rigorous
   // for the matrices as formed: an eigenvalue of (K, M) lies within it of
   // omega2 (Parlett, thm 4.5.1, in the M-inner product). It bounds what the
-  // eigen-solver left, not the errors of K and M (error_estimate has both).
+  // eigen-solver left, not the errors of K and M. error_estimate covers both
+  // but takes rounding at its typical size: with an ill-conditioned M it can
+  // be far below this worst-case bound.
   // NaN for first-order problems (no such bound for non-normal matrices).
   double residual_bound = std::numeric_limits<double>::quiet_NaN();
   ModeKind kind = ModeKind::oscillatory;
