@@ -609,6 +609,33 @@ TEST_F(Cli, DerivativeMethodsAndTheirMisuse) {
   EXPECT_EQ(run({"analyze", models + "double_pendulum.toml", "--dense-solver", "mkl"}).status, 1);
 }
 
+// modal amplitude (issue 6, part 3) end to end: a scan with the 1 % and 10 %
+// amplitudes, its CSV, and the modes it refuses in words (status 2).
+TEST_F(Cli, AmplitudeScanAndItsRefusals) {
+  const std::string csv = prefix("amp.csv");
+  const Outcome scan = run({"amplitude", models + "inverted_pendulum.toml", "--at", "3.14159", "--amplitudes",
+                            "0.1,0.5,1.5", "--csv", csv});
+  ASSERT_EQ(scan.status, 0) << scan.err;
+  EXPECT_NE(scan.out.find("Frequency departs by 1 % at amplitude 0.4001643"), std::string::npos) << scan.out;
+  EXPECT_NE(scan.out.find("Frequency departs by 10 % at amplitude 1.26932"), std::string::npos) << scan.out;
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "amplitude,oscillates,omega,omega_ratio_minus_1,spread,cycles,simulated_seconds");
+  const Outcome divergent = run({"amplitude", models + "inverted_pendulum.toml"});  // analyzed at the top
+  EXPECT_EQ(divergent.status, 2);
+  EXPECT_NE(divergent.err.find("a divergent mode"), std::string::npos) << divergent.err;
+  const Outcome range = run({"amplitude", models + "double_pendulum.toml", "--mode", "3"});
+  EXPECT_EQ(range.status, 2);
+  EXPECT_NE(range.err.find("the scene has modes 1 to 2"), std::string::npos) << range.err;
+  const Outcome follower = run({"amplitude", models + "ziegler.toml"});
+  EXPECT_EQ(follower.status, 2);
+  EXPECT_NE(follower.err.find("undamped mode"), std::string::npos) << follower.err;
+  const Outcome order = run({"amplitude", models + "double_pendulum.toml", "--amplitudes", "0.5,0.1"});
+  EXPECT_EQ(order.status, 2);
+  EXPECT_EQ(run({"amplitude", models + "double_pendulum.toml", "--amplitudes", "-1"}).status, 1);
+}
+
 }  // namespace
 
 // The same scene through both solvers: the 10 lowest eigenvalues agree to

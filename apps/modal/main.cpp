@@ -742,6 +742,89 @@ int run_simulate(const SceneOptions& so, const SimulateArgs& a) {
   return ok;
 }
 
+// --- amplitude -----------------------------------------------------------------
+
+struct AmplitudeArgs {
+  int mode = 1;
+  std::optional<std::string> at;
+  modal::AmplitudeOptions options;
+  std::string csv;
+};
+
+// The largest scene `amplitude` integrates: each step solves with the dense M.
+constexpr int amplitude_max_coordinates = 2000;
+
+std::string amplitude_csv(const modal::AmplitudeResponse& r) {
+  std::string out = "amplitude,oscillates,omega,omega_ratio_minus_1,spread,cycles,simulated_seconds\n";
+  for (const modal::AmplitudePoint& p : r.points)
+    out += fmt::format("{:.17g},{},{:.17g},{:.17g},{:.17g},{},{:.17g}\n", p.amplitude, p.oscillates ? 1 : 0,
+                       p.omega, p.shift, p.spread, p.cycles, p.seconds);
+  return out;
+}
+
+int run_amplitude(const SceneOptions& so, const AmplitudeArgs& a) {
+  if (!std::is_sorted(a.options.amplitudes.begin(), a.options.amplitudes.end()))
+    throw InputError("--amplitudes must be given in ascending order");
+  const modal::Scene scene = load(so);
+  const modal::System sys = modal::build_system(scene);
+  if (sys.size() > amplitude_max_coordinates)
+    throw InputError(fmt::format("amplitude integrates the nonlinear equations with a dense mass matrix; this scene "
+                                 "has {} coordinates, more than the {} supported",
+                                 sys.size(), amplitude_max_coordinates));
+  const modal::Equilibrium eq = !a.at ? modal::find_equilibrium(sys, sys.initial_configuration())
+                                      : equilibrium_at(sys, parse_point("--at", *a.at, sys));
+  const modal::LinearModel lin = modal::linearize(sys, eq.q);
+  if (!lin.symmetric())
+    throw InputError("amplitude measures the frequency of an undamped mode (K φ = λ M φ); this scene has dampers, "
+                     "gyroscopic terms or follower loads, whose modes are not periodic motions");
+  const modal::ModalResult modes = modal::solve_modes(lin);
+  if (a.mode < 1 || a.mode > static_cast<int>(modes.modes.size()))
+    throw InputError(fmt::format("--mode {}: the scene has modes 1 to {}", a.mode, modes.modes.size()));
+  const modal::Mode& m = modes.modes[static_cast<std::size_t>(a.mode - 1)];
+  if (m.kind != modal::ModeKind::oscillatory)
+    throw InputError(fmt::format("--mode {}: it is {} (omega^2 = {:.6g} rad2/s2): there is no oscillation whose "
+                                 "frequency could be measured",
+                                 a.mode, m.kind == modal::ModeKind::zero ? "a zero mode" : "a divergent mode",
+                                 m.omega2));
+  const modal::AmplitudeResponse r = modal::amplitude_response(sys, eq.q, m.shape.real(), m.omega, a.options);
+
+  const char* unit = r.kind == modal::CoordinateKind::length ? "m" : "rad";
+  std::cout << fmt::format("{}\nscene: {}\n\nMode {}: omega_lin = {:.10g} rad/s (omega^2 = {:.10g} rad2/s2), "
+                           "released from rest at the equilibrium plus amplitude × the shape, its largest component "
+                           "'{}' = amplitude [{}]\n\n",
+                           sys.title(), scene.file, a.mode, r.omega_linear, m.omega2, r.coordinate, unit);
+  std::cout << fmt::format("  {:>16}  {:>18}  {:>14}  {:>9}  {:>6}\n", fmt::format("amplitude [{}]", unit),
+                           "omega [rad/s]", "omega/lin - 1", "spread", "cycles");
+  for (const modal::AmplitudePoint& p : r.points) {
+    if (p.oscillates)
+      std::cout << fmt::format("  {:>16.8g}  {:>18.12g}  {:>14.6e}  {:>9.1e}  {:>6}\n", p.amplitude, p.omega, p.shift,
+                               p.spread, p.cycles);
+    else
+      std::cout << fmt::format("  {:>16.8g}  does not return through the equilibrium within {:.4g} s: the motion "
+                               "has left the well\n",
+                               p.amplitude, p.seconds);
+  }
+  std::cout << '\n';
+  for (const modal::AmplitudeThreshold& t : r.thresholds) {
+    const std::string level = fmt::format("{:g} %", 100 * t.level);
+    if (t.reached && t.note.empty())
+      std::cout << fmt::format("Frequency departs by {} at amplitude {:.8g} ± {:.1e} {}\n", level, t.amplitude,
+                               t.error, unit);
+    else if (t.reached)
+      std::cout << fmt::format("Frequency departs by {} at amplitude ≤ {:.8g} {}: {}\n", level, t.amplitude, unit,
+                               t.note);
+    else
+      std::cout << fmt::format("Frequency departs by {}: {} (largest amplitude {:.8g} {})\n", level, t.note,
+                               t.amplitude, unit);
+  }
+  std::cout << fmt::format("({} motions integrated, rk8pd at tolerance {:g}; spread: largest deviation of one "
+                           "period from their mean, the uncertainty of omega where modes exchange energy)\n",
+                           r.evaluations, a.options.tolerance);
+  std::cout.flush();
+  if (!a.csv.empty()) modal::write_text_file(a.csv, amplitude_csv(r));
+  return ok;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -888,6 +971,39 @@ int main(int argc, char** argv) {
   simulate->add_option("--csv", simulate_args.csv, "write the trajectory to FILE instead of standard output")
       ->type_name("FILE");
 
+  SceneOptions amplitude_scene;
+  AmplitudeArgs amplitude_args;
+  std::string amplitude_at;
+  CLI::App* amplitude = app.add_subcommand(
+      "amplitude",
+      "release a mode from rest at growing amplitudes, integrate the nonlinear equations and measure its frequency: "
+      "where does the linear model stop holding?");
+  add_scene_options(amplitude, amplitude_scene);
+  amplitude->add_option("--mode", amplitude_args.mode, "the mode (1 = the lowest)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  CLI::Option* amplitude_at_option =
+      amplitude->add_option("--at", amplitude_at, "the equilibrium near this point: q1,q2,... (default: the initial one)");
+  amplitude
+      ->add_option("--amplitudes", amplitude_args.options.amplitudes,
+                   "amplitudes to measure, ascending, in the unit of the shape's largest component (rad or m)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  amplitude
+      ->add_option("--max-amplitude", amplitude_args.options.max_amplitude,
+                   "largest amplitude of the default scan (default: 2.5 rad, or half the length scale)")
+      ->check(CLI::PositiveNumber);
+  amplitude->add_option("--points", amplitude_args.options.points, "amplitudes in the default scan (log-spaced)")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 1000));
+  amplitude->add_option("--cycles", amplitude_args.options.cycles, "periods measured per amplitude")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
+  amplitude->add_option("--tolerance", amplitude_args.options.tolerance, "integrator error bound per step")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-15, 1e-3));
+  amplitude->add_option("--csv", amplitude_args.csv, "write the scan as CSV")->type_name("FILE");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -903,6 +1019,10 @@ int main(int argc, char** argv) {
     if (*equilibria) return run_equilibria(equilibria_scene, starts, equilibria_csv, equilibria_json);
     if (*check) return run_check(check_scene, check_all);
     if (*sweep) return run_sweep(sweep_scene, varies, sweep_csv, sweep_modes, sweep_extrapolate);
+    if (*amplitude) {
+      if (amplitude_at_option->count()) amplitude_args.at = amplitude_at;
+      return run_amplitude(amplitude_scene, amplitude_args);
+    }
     if (*simulate) {
       if (simulate_at_option->count()) simulate_args.at = simulate_at;
       if (simulate_velocity_option->count()) simulate_args.velocity = simulate_velocity;

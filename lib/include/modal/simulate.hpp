@@ -111,4 +111,78 @@ struct Trajectory {
 // the ignorable coordinate turns freely, its momentum conserved.
 Trajectory simulate(const System& system, const VectorX& q0, const VectorX& qd0, const SimulationOptions& options);
 
+// --- validity of the linearization: frequency against amplitude -------------------
+//
+//   modal::AmplitudeResponse r = modal::amplitude_response(sys, eq.q, shape, omega, {});
+//   // r.points: amplitude → measured ω; r.thresholds: where ω departs by 1 % and 10 %
+//
+// A mode of the linear model is released from rest at q̄ + a φ̂ (φ̂ the mode
+// shape scaled so that its largest component is 1: the amplitude a is in the
+// unit of that coordinate, rad or m; with constraints the point is brought
+// onto them) and the nonlinear equations are integrated (simulate(), rk8pd).
+// The modal coordinate η(t) = φᵀM(q̄)(q − q̄) (φ M-normalized) starts at its
+// maximum; its downward zero crossings are located to ~1e-13 of the period by
+// Newton's method on the crossing time (re-integrating from the last sample
+// before it, with η̇ = φᵀM q̇), and the period is the mean spacing of
+// `cycles` + 1 successive crossings: ω = 2π/T. A one-degree-of-freedom motion
+// is exactly periodic; a mode of a larger system exchanges energy with the
+// others at finite amplitude, and the spread of the individual periods about
+// their mean is reported as the measurement's uncertainty.
+//
+// Accuracy: the integrator's tolerance (default 1e-12) bounds the error of a
+// period to about 1e-11 relative; the crossing times are refined until the
+// Newton step is below 1e-13 of the period. R8 (the simple pendulum, whose
+// period is 2K(sin(θ₀/2))/π times the linear one) is reproduced to 1e-9
+// (tests/test_amplitude.cpp).
+struct AmplitudeOptions {
+  // Amplitudes to measure (> 0, ascending); empty: `points` values from
+  // 1e-3 × max_amplitude to max_amplitude, evenly spaced in log.
+  std::vector<double> amplitudes;
+  double max_amplitude = 0;  // 0: 2.5 rad for an angle or rotation, 0.5 × length scale for a length
+  int points = 10;
+  int cycles = 4;            // periods measured per amplitude (≥ 1)
+  double tolerance = 1e-12;  // integrator (SimulationOptions::tolerance)
+  std::vector<double> levels{0.01, 0.1};  // departures |ω/ω_lin − 1| whose amplitudes are sought
+  double amplitude_tolerance = 1e-6;      // relative, of the amplitudes found for the levels
+};
+
+struct AmplitudePoint {
+  double amplitude = 0;     // of the largest component of the shape, in its unit
+  bool oscillates = false;  // false: η did not return through zero (the motion left the well)
+  double omega = 0;         // measured ω = 2π/T, rad/s (0 when it does not oscillate)
+  double shift = 0;         // ω/ω_lin − 1
+  double spread = 0;        // largest |T_i/T − 1| of the individual periods (0 for one DOF)
+  int cycles = 0;           // periods measured
+  double seconds = 0;       // simulated time, s
+};
+
+struct AmplitudeThreshold {
+  double level = 0;        // |ω/ω_lin − 1| sought, e.g. 0.01
+  bool reached = false;    // within the amplitudes measured
+  double amplitude = 0;    // where it is reached (refined), or the largest measured when not
+  double error = 0;        // half the width of the final amplitude bracket
+  std::string note;        // in words, when not reached or when the motion stopped oscillating first
+};
+
+struct AmplitudeResponse {
+  double omega_linear = 0;       // rad/s
+  std::string coordinate;        // the coordinate of the shape's largest component (the amplitude's unit)
+  CoordinateKind kind = CoordinateKind::angle;
+  std::vector<AmplitudePoint> points;
+  std::vector<AmplitudeThreshold> thresholds;
+  long evaluations = 0;          // motions integrated
+};
+
+// The frequency of the nonlinear motion from q̄ + a φ̂ at rest (see above).
+// `shape` (n) is the mode shape in the coordinates (as ModalResult gives it),
+// omega_linear its linear frequency (> 0). Throws std::invalid_argument for
+// wrong sizes, a non-positive frequency or amplitude, NumericalError when the
+// integration fails.
+AmplitudePoint measure_frequency(const System& system, const VectorX& equilibrium, const VectorX& shape,
+                                 double omega_linear, double amplitude, const AmplitudeOptions& options = {});
+
+// The scan over amplitudes and the amplitudes at options.levels.
+AmplitudeResponse amplitude_response(const System& system, const VectorX& equilibrium, const VectorX& shape,
+                                     double omega_linear, const AmplitudeOptions& options = {});
+
 }  // namespace modal

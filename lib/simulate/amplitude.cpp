@@ -1,0 +1,218 @@
+// lib/simulate/amplitude.cpp — the frequency of a mode's nonlinear motion
+// against its amplitude (modal/simulate.hpp, "validity of the linearization").
+#include "modal/simulate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace modal {
+namespace {
+
+// What one measurement needs: the start direction φ̂ (largest component 1)
+// and the weight w = M(q̄) φ̂ of the modal coordinate η = wᵀ(q − q̄) (a
+// multiple of φᵀM(q − q̄); the scale does not move its zeros).
+struct Setup {
+  VectorX equilibrium, direction, weight;
+  double period = 0;  // 2π/ω_lin, s
+  int dominant = 0;
+};
+
+Setup prepare(const System& s, const VectorX& equilibrium, const VectorX& shape, double omega_linear) {
+  const Eigen::Index n = s.size();
+  if (equilibrium.size() != n || shape.size() != n)
+    throw std::invalid_argument("amplitude: the equilibrium and the shape need " + std::to_string(n) +
+                                " coordinates, got " + std::to_string(equilibrium.size()) + " and " +
+                                std::to_string(shape.size()));
+  if (!equilibrium.allFinite() || !shape.allFinite() || shape.cwiseAbs().maxCoeff() == 0)
+    throw std::invalid_argument("amplitude: the equilibrium and the shape must be finite, the shape not zero");
+  if (!(omega_linear > 0) || !std::isfinite(omega_linear))
+    throw std::invalid_argument("amplitude: the linear frequency must be positive and finite (an oscillating mode)");
+  Setup su;
+  su.equilibrium = equilibrium;
+  Eigen::Index dominant = 0;
+  shape.cwiseAbs().maxCoeff(&dominant);
+  su.dominant = static_cast<int>(dominant);
+  su.direction = shape / shape[dominant];
+  Workspace w(s);
+  su.weight = mass_matrix(s, w, equilibrium) * su.direction;
+  su.period = 2 * std::numbers::pi / omega_linear;
+  return su;
+}
+
+double modal_coordinate(const Setup& su, const VectorX& q) { return su.weight.dot(q - su.equilibrium); }
+
+// The time after (q, q̇) at which η crosses zero, from a first guess, by
+// Newton's method with η̇ = wᵀq̇: each iterate integrates from (q, q̇) afresh.
+double refine_crossing(const System& s, const Setup& su, const VectorX& q, const VectorX& qd, double guess,
+                       const AmplitudeOptions& o, long& evaluations) {
+  double dt = guess;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    if (!(dt > 0)) dt = 1e-9 * su.period;
+    SimulationOptions so;
+    so.duration = dt;
+    so.interval = dt;
+    so.tolerance = o.tolerance;
+    const Trajectory tr = simulate(s, q, qd, so);
+    ++evaluations;
+    const double eta = modal_coordinate(su, tr.q.back()), rate = su.weight.dot(tr.qd.back());
+    if (rate == 0) break;
+    const double step = -eta / rate;
+    dt += step;
+    if (std::abs(step) <= 1e-13 * su.period) break;
+  }
+  return dt;
+}
+
+AmplitudePoint measure(const System& s, const Setup& su, double amplitude, const AmplitudeOptions& o,
+                       long& evaluations) {
+  if (!(amplitude > 0) || !std::isfinite(amplitude))
+    throw std::invalid_argument("amplitude: amplitudes must be positive and finite");
+  if (o.cycles < 1) throw std::invalid_argument("amplitude: at least one cycle must be measured");
+  AmplitudePoint p;
+  p.amplitude = amplitude;
+  VectorX q = su.equilibrium + amplitude * su.direction;
+  if (s.has_constraints()) {
+    Workspace w(s);
+    const ConstraintProjection projected = project_onto_constraints(s, w, q);
+    if (!(projected.violation <= 1e-10 * s.length_scale()))
+      throw NumericalError("amplitude: the mode shape at amplitude " + std::to_string(amplitude) +
+                           " cannot be brought onto the constraints (‖c‖ = " + std::to_string(projected.violation) +
+                           " m remains)");
+    q = projected.q;
+  }
+  VectorX qd = VectorX::Zero(s.size());
+  // Samples 64 per linear period, integrated in chunks of 8 periods, for at
+  // most 20 linear periods per cycle wanted: a motion that has not come back
+  // through η = 0 by then has left the well (or is slower than any mode here).
+  const double interval = su.period / 64, chunk = 8 * su.period, limit = 20.0 * (o.cycles + 1) * su.period;
+  std::vector<double> crossings;
+  double start = 0;
+  while (crossings.size() < static_cast<std::size_t>(o.cycles + 1) && start < limit) {
+    SimulationOptions so;
+    so.duration = chunk;
+    so.interval = interval;
+    so.tolerance = o.tolerance;
+    const Trajectory tr = simulate(s, q, qd, so);
+    ++evaluations;
+    for (std::size_t i = 1; i < tr.size() && crossings.size() < static_cast<std::size_t>(o.cycles + 1); ++i) {
+      const double before = modal_coordinate(su, tr.q[i - 1]), after = modal_coordinate(su, tr.q[i]);
+      if (!(before > 0 && after <= 0)) continue;
+      const double guess = (tr.time[i] - tr.time[i - 1]) * before / (before - after);
+      crossings.push_back(start + tr.time[i - 1] + refine_crossing(s, su, tr.q[i - 1], tr.qd[i - 1], guess, o, evaluations));
+    }
+    q = tr.q.back();
+    qd = tr.qd.back();
+    start += tr.time.back();
+  }
+  p.seconds = start;
+  if (crossings.size() < static_cast<std::size_t>(o.cycles + 1)) return p;  // did not oscillate
+  p.oscillates = true;
+  p.cycles = o.cycles;
+  const double period = (crossings.back() - crossings.front()) / o.cycles;
+  p.omega = 2 * std::numbers::pi / period;
+  p.shift = p.omega * su.period / (2 * std::numbers::pi) - 1;
+  for (std::size_t i = 1; i < crossings.size(); ++i)
+    p.spread = std::max(p.spread, std::abs((crossings[i] - crossings[i - 1]) / period - 1));
+  return p;
+}
+
+// The amplitude where |shift| reaches `level` inside [lo, hi] (|shift(lo)| <
+// level ≤ |shift(hi)|): regula falsi on log a with the Illinois modification,
+// a bisection step whenever two steps have not halved the bracket.
+AmplitudeThreshold refine_level(const System& s, const Setup& su, double level, AmplitudePoint lo, AmplitudePoint hi,
+                                const AmplitudeOptions& o, long& evaluations) {
+  AmplitudeThreshold t;
+  t.level = level;
+  t.reached = true;
+  double x0 = std::log(lo.amplitude), x1 = std::log(hi.amplitude);
+  double f0 = std::abs(lo.shift) - level, f1 = std::abs(hi.shift) - level;
+  int side = 0;
+  double width = x1 - x0;
+  for (int k = 0; k < 60 && std::exp(x1) - std::exp(x0) > o.amplitude_tolerance * std::exp(x1); ++k) {
+    double x = (f1 != f0) ? x1 - f1 * (x1 - x0) / (f1 - f0) : 0.5 * (x0 + x1);
+    if (k % 2 == 1) {  // every other step: has the bracket halved?
+      if (x1 - x0 > 0.5 * width) x = 0.5 * (x0 + x1);
+      width = x1 - x0;
+    }
+    const double margin = 0.01 * (x1 - x0);
+    x = std::clamp(x, x0 + margin, x1 - margin);
+    const AmplitudePoint p = measure(s, su, std::exp(x), o, evaluations);
+    if (!p.oscillates) {  // the well ends before the level: shrink from above
+      x1 = x;
+      f1 = 1.0;
+      continue;
+    }
+    const double f = std::abs(p.shift) - level;
+    if (f < 0) {
+      x0 = x;
+      f0 = f;
+      if (side == -1) f1 *= 0.5;
+      side = -1;
+    } else {
+      x1 = x;
+      f1 = f;
+      if (side == 1) f0 *= 0.5;
+      side = 1;
+    }
+  }
+  t.amplitude = 0.5 * (std::exp(x0) + std::exp(x1));
+  t.error = 0.5 * (std::exp(x1) - std::exp(x0));
+  return t;
+}
+
+}  // namespace
+
+AmplitudePoint measure_frequency(const System& system, const VectorX& equilibrium, const VectorX& shape,
+                                 double omega_linear, double amplitude, const AmplitudeOptions& options) {
+  long evaluations = 0;
+  return measure(system, prepare(system, equilibrium, shape, omega_linear), amplitude, options, evaluations);
+}
+
+AmplitudeResponse amplitude_response(const System& system, const VectorX& equilibrium, const VectorX& shape,
+                                     double omega_linear, const AmplitudeOptions& options) {
+  const Setup su = prepare(system, equilibrium, shape, omega_linear);
+  AmplitudeResponse r;
+  r.omega_linear = omega_linear;
+  const Coordinate& c = system.coordinates()[static_cast<std::size_t>(su.dominant)];
+  r.coordinate = c.name;
+  r.kind = c.kind;
+  std::vector<double> amplitudes = options.amplitudes;
+  if (amplitudes.empty()) {
+    const double top = options.max_amplitude > 0 ? options.max_amplitude
+                       : c.kind == CoordinateKind::length ? 0.5 * system.length_scale()
+                                                          : 2.5;
+    const int count = std::max(options.points, 2);
+    for (int i = 0; i < count; ++i) amplitudes.push_back(top * std::pow(1e-3, 1.0 - double(i) / (count - 1)));
+  }
+  if (!std::is_sorted(amplitudes.begin(), amplitudes.end()))
+    throw std::invalid_argument("amplitude: the amplitudes must be given in ascending order");
+  for (const double a : amplitudes) r.points.push_back(measure(system, su, a, options, r.evaluations));
+
+  for (const double level : options.levels) {
+    AmplitudeThreshold t;
+    t.level = level;
+    std::size_t i = 0;
+    while (i < r.points.size() && r.points[i].oscillates && std::abs(r.points[i].shift) < level) ++i;
+    if (i == r.points.size()) {
+      t.amplitude = r.points.empty() ? 0 : r.points.back().amplitude;
+      t.note = "not reached up to the largest amplitude measured";
+    } else if (!r.points[i].oscillates) {
+      t.amplitude = r.points[i].amplitude;
+      t.note = "the motion stops oscillating about the equilibrium (it leaves the well) before the frequency "
+               "departs this far";
+    } else if (i == 0) {
+      t.reached = true;
+      t.amplitude = r.points[0].amplitude;
+      t.note = "already at the smallest amplitude measured: give smaller ones";
+    } else {
+      t = refine_level(system, su, level, r.points[i - 1], r.points[i], options, r.evaluations);
+    }
+    r.thresholds.push_back(t);
+  }
+  return r;
+}
+
+}  // namespace modal
