@@ -44,6 +44,17 @@ Setup prepare(const System& s, const VectorX& equilibrium, const VectorX& shape,
 
 double modal_coordinate(const Setup& su, const VectorX& q) { return su.weight.dot(q - su.equilibrium); }
 
+// One integration from (q, q̇) over `duration`, sampled every `interval`.
+Trajectory integrate(const System& s, const VectorX& q, const VectorX& qd, double duration, double interval,
+                     const AmplitudeOptions& o, long& evaluations) {
+  SimulationOptions so;
+  so.duration = duration;
+  so.interval = interval;
+  so.tolerance = o.tolerance;
+  ++evaluations;
+  return simulate(s, q, qd, so);
+}
+
 // The time after (q, q̇) at which η crosses zero, from a first guess, by
 // Newton's method with η̇ = wᵀq̇: each iterate integrates from (q, q̇) afresh.
 double refine_crossing(const System& s, const Setup& su, const VectorX& q, const VectorX& qd, double guess,
@@ -51,12 +62,7 @@ double refine_crossing(const System& s, const Setup& su, const VectorX& q, const
   double dt = guess;
   for (int iteration = 0; iteration < 20; ++iteration) {
     if (!(dt > 0)) dt = 1e-9 * su.period;
-    SimulationOptions so;
-    so.duration = dt;
-    so.interval = dt;
-    so.tolerance = o.tolerance;
-    const Trajectory tr = simulate(s, q, qd, so);
-    ++evaluations;
+    const Trajectory tr = integrate(s, q, qd, dt, dt, o, evaluations);
     const double eta = modal_coordinate(su, tr.q.back()), rate = su.weight.dot(tr.qd.back());
     if (rate == 0) break;
     const double step = -eta / rate;
@@ -91,12 +97,7 @@ AmplitudePoint measure(const System& s, const Setup& su, double amplitude, const
   std::vector<double> crossings;
   double start = 0;
   while (crossings.size() < static_cast<std::size_t>(o.cycles + 1) && start < limit) {
-    SimulationOptions so;
-    so.duration = chunk;
-    so.interval = interval;
-    so.tolerance = o.tolerance;
-    const Trajectory tr = simulate(s, q, qd, so);
-    ++evaluations;
+    const Trajectory tr = integrate(s, q, qd, chunk, interval, o, evaluations);
     for (std::size_t i = 1; i < tr.size() && crossings.size() < static_cast<std::size_t>(o.cycles + 1); ++i) {
       const double before = modal_coordinate(su, tr.q[i - 1]), after = modal_coordinate(su, tr.q[i]);
       if (!(before > 0 && after <= 0)) continue;
