@@ -261,6 +261,7 @@ int run_analyze(const SceneOptions& so, int modes, const std::optional<std::stri
     so_sparse.shift = choice.shift;
     so_sparse.tolerance = choice.tolerance;
     so_sparse.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
+    so_sparse.K_systematic_error = lin.K_systematic_error;     // a loose equilibrium's share of the error
     result = modal::solve_sparse_modes(lin.K, lin.M, so_sparse);
     for (const auto& [phase, seconds] : result.timings) clock.add(phase, seconds);
     clock.lap("eigen");

@@ -13,6 +13,9 @@
 // follower loads do); its relative residual is ‖∇V − Q‖₂ / force_scale(q̄).
 #include "modal/linearize.hpp"
 
+#include <Eigen/QR>
+#include <Eigen/SparseCholesky>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -178,7 +181,28 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   if (model.circulatory) terms += generalized_force_jacobian(s, ws, q).cwiseAbs();
   if (s.has_constraints()) terms += multiplier_term.cwiseAbs();
   model.K_error = 4 * std::numeric_limits<double>::epsilon() * terms;
-  if (difference_error.size() > 0) model.K_error += difference_error;
+  if (difference_error.size() > 0) {
+    model.K_error += difference_error;
+    model.K_systematic_error = difference_error;
+  }
+  // A loose equilibrium: K changes by |K(q + δq) − K(q)| on the way to the
+  // equilibrium, δq = −K⁻¹r (least squares where K is singular).
+  if (model.residual > negligible_equilibrium_residual) {
+    const MatrixX K0 = rest_force_jacobian(s, ws, q, DerivativeMethod::exact, multipliers);
+    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(K0);
+    cod.setThreshold(1e3 * std::numeric_limits<double>::epsilon());
+    const VectorX dq = -cod.solve(gradient);
+    if (dq.allFinite()) {
+      try {
+        const MatrixX change = (rest_force_jacobian(s, ws, q + dq, DerivativeMethod::exact, multipliers) - K0).cwiseAbs();
+        if (change.allFinite()) {
+          model.K_error += change;
+          model.K_systematic_error = model.K_systematic_error.size() > 0 ? MatrixX(model.K_systematic_error + change) : change;
+        }
+      } catch (const NumericalError&) {  // the corrected point is singular: no estimate
+      }
+    }
+  }
   const MatrixX M = mass_matrix(s, ws, q);
   require_finite(M, "mass matrix M", model.coordinates);
   model.M = symmetric_part(M);
@@ -215,6 +239,8 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     if (!model.circulatory) model.K = symmetric_part(model.K);
     const MatrixX absN = N.cwiseAbs();
     model.K_error = absN.transpose() * model.K_error * absN;
+    if (model.K_systematic_error.size() > 0)
+      model.K_systematic_error = absN.transpose() * model.K_systematic_error * absN;
     model.D = symmetric_part(N.transpose() * model.D * N);
     model.G = N.transpose() * model.G * N;
     model.G = 0.5 * (model.G - model.G.transpose());
@@ -248,6 +274,18 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
   model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   model.K = sparse_potential_hessian(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
+  if (model.residual > negligible_equilibrium_residual) {  // see equilibrium_stiffness_change in the header
+    Eigen::SimplicialLDLT<SparseMatrix> ldlt(model.K);
+    if (ldlt.info() == Eigen::Success) {
+      const VectorX dq = -ldlt.solve(gradient);
+      if (dq.allFinite()) {
+        try {
+          model.K_systematic_error = (sparse_potential_hessian(s, ws, q + dq) - model.K).cwiseAbs();
+        } catch (const NumericalError&) {
+        }
+      }
+    }
+  }
   for (const SparseMatrix* A : {&model.K, &model.M})
     for (Eigen::Index k = 0; k < A->outerSize(); ++k)
       for (SparseMatrix::InnerIterator it(*A, k); it; ++it)

@@ -34,8 +34,10 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names);
 // zero_modes, solver, notes.
 // `solver` picks Eigen's self-adjoint QR or LAPACK's dsygvd (automatic:
 // lapack_wins(n)).
+// `K_systematic_error` (n×n or empty) is the part of K_error measured from
+// differences (LinearModel::K_systematic_error).
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
-                            DenseSolver solver = DenseSolver::automatic);
+                            const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 

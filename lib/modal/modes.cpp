@@ -170,7 +170,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
         "K is not symmetric although the model declares no circulatory forces; "
         "solved as a general (first-order) problem";
   }
-  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass, model.K_error, options.dense_solver)
+  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass, model.K_error,
+                                                     model.K_systematic_error, options.dense_solver)
                      : detail::solve_first_order(M, model.K, C, mass);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;

@@ -712,7 +712,7 @@ struct Norms {
 // M-normalized with its largest component positive, residual error bound,
 // kind (see the header comment); `relative_residual` for the diagnostics.
 Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
-                      VectorX phi, double& relative_residual) {
+                      const SparseMatrix& systematic, VectorX phi, double& relative_residual) {
   VectorX Mphi = M * phi;
   const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
   phi *= scale_phi;
@@ -727,8 +727,10 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   relative_residual = scale > 0 ? r.norm() / scale : 0.0;
 
   Mode mode;
-  const double estimate = error + rounding + eps * std::abs(lambda);
-  if (std::abs(lambda) <= std::max(error, rounding)) {
+  const VectorX a = phi.cwiseAbs();
+  const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
+  const double estimate = error + rounding + eps * std::abs(lambda) + systematic_part;
+  if (std::abs(lambda) <= std::max(error + systematic_part, rounding)) {
     mode = detail::make_mode(0.0, estimate, ModeKind::zero);
   } else if (lambda < 0) {  // divergent: s = +√(−λ) real
     mode = detail::make_mode(std::sqrt(-lambda), estimate, ModeKind::divergent);
@@ -756,7 +758,9 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
   std::vector<std::string> names;
   for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
   const detail::Cholesky mass = detail::factor_mass(Md, names);
-  ModalResult all = detail::solve_symmetric(Md, Kd, mass);
+  const MatrixX systematic =
+      options.K_systematic_error.rows() == n ? MatrixX(options.K_systematic_error) : MatrixX();
+  ModalResult all = detail::solve_symmetric(Md, Kd, mass, {}, systematic);
 
   ModalResult result;
   result.stability = classify(all.modes);  // every mode is known
@@ -998,10 +1002,11 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   }
 
   // ---- modes (λ: Rayleigh quotients, which may reorder nearly equal Ritz values)
+  const SparseMatrix& systematic = options.K_systematic_error;
   std::vector<std::pair<Mode, double>> built;  // mode, relative residual
   for (auto& pair : pairs) {
     double relative_residual = 0;
-    Mode mode = make_sparse_mode(K, M, *mass, norms, std::move(pair.second), relative_residual);
+    Mode mode = make_sparse_mode(K, M, *mass, norms, systematic, std::move(pair.second), relative_residual);
     built.emplace_back(std::move(mode), relative_residual);
   }
   std::stable_sort(built.begin(), built.end(),

@@ -31,8 +31,9 @@
 //     |M_ij|), the standard deviation of δλ is
 //     2ε·sqrt(Σ_ij (x_i K_ij x_j)² + λ² Σ_ij (x_i M_ij x_j)²),
 //     and the estimate takes twice that. When K comes from differences
-//     (--derivatives) LinearModel::K_error adds their measured error
-//     2|K_h − K_2h| to each entry. The worst case Σ|x_i K_ij x_j| (or the
+//     (--derivatives), their measured error D = 2|K_h − K_2h| is systematic
+//     (smooth from entry to entry, not independent) and is added as |x|ᵀD|x|;
+//     the normwise floor below is for rounding only. The worst case Σ|x_i K_ij x_j| (or the
 //     normwise n·ε·(‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper
 //     modes of a 1000-link chain by four to seven orders of magnitude, because
 //     a mode with many sign changes sums many entries with cancellation.
@@ -113,7 +114,7 @@ void lapack_pairs(const MatrixX& M, const MatrixX& K, VectorX& lambda, MatrixX& 
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
-                            DenseSolver solver) {
+                            const MatrixX& K_systematic_error, DenseSolver solver) {
   const Eigen::Index n = M.rows();
   const auto L = mass.matrixL();
   const auto U = mass.matrixU();  // Lᵀ
@@ -181,7 +182,12 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     return std::min(linear, quadratic) + rounding_factor * quotient_rounding(j) + eps * std::abs(lambda(j));
   };
   // E: the absolute error of K's entries (given, or 4ε|K|).
-  const MatrixX E = K_error.rows() == n && K_error.cols() == n ? K_error : MatrixX(4 * eps * K.cwiseAbs());
+  // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
+  // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
+  const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
+  const MatrixX D = differences ? K_systematic_error : MatrixX::Zero(n, n);
+  const MatrixX E = K_error.rows() == n && K_error.cols() == n ? MatrixX((K_error - D).cwiseMax(0.0))
+                                                              : MatrixX(4 * eps * K.cwiseAbs());
   const double normE = E.norm(), normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
   // Σ_ij (x_i A_ij x_j)² for every column x of Φ: diag(Sᵀ (A∘A) S), S = Φ∘Φ.
   const MatrixX S = Phi.cwiseAbs2();
@@ -199,8 +205,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double residual_bound = with_gap(bound, nn, j);
     const double residual_estimate = with_gap(typical, std::sqrt(nn), j);
     const double rM = 4 * eps;
+    const double difference_bound = differences ? absPhi.col(j).dot(D * absPhi.col(j)) : 0.0;
     const double data_bound = std::sqrt(S.col(j).dot(E2S.col(j)) + rM * rM * l * l * S.col(j).dot(M2S.col(j))) +
-                              (normE + rM * std::abs(l) * normM) * x2;
+                              difference_bound + (normE + rM * std::abs(l) * normM) * x2;
     const double error = residual_estimate + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);

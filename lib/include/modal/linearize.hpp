@@ -57,6 +57,12 @@ struct LinearModel {
   // 2|K_h − K_2h| (rest_force_jacobian). Empty: 4ε|K| is taken (a model
   // written by hand).
   MatrixX K_error;
+  // The part of K_error that is systematic (dof×dof; empty when there is
+  // none): the measured error of differences, and the change of K between q
+  // and the equilibrium nearest it when q is one only to a loose tolerance
+  // (equilibrium_stiffness_change). Unlike rounding it is smooth from entry to
+  // entry, so the eigenvalues' estimates add it without cancellation.
+  MatrixX K_systematic_error;
   DerivativeMethod derivatives = DerivativeMethod::exact;  // how K and G were obtained
   // Steady motion: rates and momenta of ignorable coordinates (maps analyzed
   // through Routh's reduction); empty otherwise.
@@ -97,6 +103,9 @@ struct SparseLinearModel {
   SparseMatrix M;                        // mass, n×n
   SparseMatrix K;                        // stiffness, n×n
   double residual = 0;                   // relative equilibrium residual at q
+  // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
+  // the residual is negligible. For the eigenvalues' error estimates.
+  SparseMatrix K_systematic_error;
   int size() const { return static_cast<int>(q.size()); }
 };
 // Why the sparse model cannot describe s (a map, constraints, follower loads,
@@ -105,5 +114,16 @@ std::optional<std::string> sparse_unsupported(const System& s);
 // Throws std::invalid_argument when sparse_unsupported(s), NotAnEquilibrium
 // as linearize().
 SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const LinearizeOptions& options = {});
+
+// An equilibrium accepted at a loose tolerance is not the equilibrium, and K
+// there differs from K at the equilibrium: with the residual force r at q and
+// the Newton correction δq = −K⁻¹r, |K(q + δq) − K(q)| entry by entry. Zero
+// (empty) when the relative residual is below negligible_equilibrium_residual
+// (1e-14, the level a Newton polish reaches). The relative residual alone
+// says little: a pre-tensioned net's force scale counts its springs at 100 %
+// strain, and at 4e-12 its lowest λ was still 8.7e-9 off (results/tradeoff.md). Dense: least-squares δq where K is
+// singular; sparse: a sparse LDLᵀ of K (skipped, with an empty result, when
+// it fails). Both linearize functions add it to the model's systematic error.
+inline constexpr double negligible_equilibrium_residual = 1e-14;
 
 }  // namespace modal

@@ -120,6 +120,10 @@ struct SparseModalOptions {
   // pattern saves the ordering step. Empty, or not a permutation of 0..n−1:
   // CHOLMOD chooses (AMD or METIS).
   std::vector<int> fill_reducing_order;
+  // A systematic error of K's entries (n×n, ≥ 0, e.g. SparseLinearModel::
+  // K_systematic_error), added to each mode's error estimate as |φ|ᵀE|φ|.
+  // Empty: none.
+  SparseMatrix K_systematic_error;
 };
 
 // The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k
