@@ -749,3 +749,29 @@ diagonals = true
   EXPECT_EQ(zero, 6);
   EXPECT_EQ(read_csv(p + "_equilibria.csv").rows[0].at("stability"), "marginal");
 }
+
+// modal amplitude on a constrained scene (a particle on a rod): the amplitude
+// is bob.x in metres, held exactly on the circle, so the 1 % and 10 %
+// amplitudes are l sin θ₀ of the hinge pendulum's (0.38956969, 0.95490205);
+// a displacement the rod does not allow is a numerical failure in words (4);
+// a motion that goes over the top is said to; a zero mode is refused (2).
+TEST_F(Cli, AmplitudeConstrainedOverTheTopAndZeroModes) {
+  const Outcome rod = run({"amplitude", models + "particle_pendulum.toml", "--amplitudes", "0.1,0.99"});
+  ASSERT_EQ(rod.status, 0) << rod.err;
+  EXPECT_NE(rod.out.find("'bob.x' = amplitude [m]"), std::string::npos) << rod.out;
+  EXPECT_NE(rod.out.find("Frequency departs by 1 % at amplitude 0.38956969"), std::string::npos) << rod.out;
+  EXPECT_NE(rod.out.find("Frequency departs by 10 % at amplitude 0.95490205"), std::string::npos) << rod.out;
+  const Outcome beyond = run({"amplitude", models + "particle_pendulum.toml", "--amplitudes", "0.5,1.5"});
+  EXPECT_EQ(beyond.status, 4);
+  EXPECT_NE(beyond.err.find("'bob.x' cannot be moved by 1.5"), std::string::npos) << beyond.err;
+  const Outcome over =
+      run({"amplitude", models + "inverted_pendulum.toml", "--at", "3.14159", "--amplitudes", "0.1,3.3"});
+  ASSERT_EQ(over.status, 0) << over.err;
+  EXPECT_NE(over.out.find("has left the well"), std::string::npos) << over.out;
+  EXPECT_NE(over.out.find("Frequency departs by 1 % at amplitude 0.40016432"), std::string::npos) << over.out;
+  const Outcome zero = run({"amplitude", models + "spherical_pendulum.toml", "--mode", "1"});
+  EXPECT_EQ(zero.status, 2);
+  EXPECT_NE(zero.err.find("a zero mode"), std::string::npos) << zero.err;
+  // A CSV file that cannot be written is refused before integrating (2).
+  EXPECT_EQ(run({"amplitude", models + "particle_pendulum.toml", "--csv", "/nonexistent-dir/amp.csv"}).status, 2);
+}

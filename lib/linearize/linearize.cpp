@@ -274,7 +274,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
   model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   model.K = sparse_potential_hessian(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
-  if (model.residual > negligible_equilibrium_residual) {  // see equilibrium_stiffness_change in the header
+  if (model.residual > sparse_equilibrium_correction_residual) {  // see the header
     Eigen::SimplicialLDLT<SparseMatrix> ldlt(model.K);
     if (ldlt.info() == Eigen::Success) {
       const VectorX dq = -ldlt.solve(gradient);

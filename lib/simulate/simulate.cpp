@@ -1,6 +1,8 @@
 // Nonlinear time integration (modal/simulate.hpp): GSL odeiv2, rk8pd.
 #include "modal/simulate.hpp"
 
+#include "messages.hpp"
+
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
 
@@ -9,7 +11,6 @@
 #include <exception>
 #include <limits>
 #include <memory>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -17,11 +18,7 @@ namespace modal {
 
 namespace {
 
-std::string number(double v) {  // 6 significant digits, for messages
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+using simulate_detail::number;
 
 void check_options(const System& s, const VectorX& q0, const VectorX& qd0, const SimulationOptions& o) {
   const auto n = static_cast<Eigen::Index>(s.size());

@@ -125,5 +125,12 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
 // singular; sparse: a sparse LDLᵀ of K (skipped, with an empty result, when
 // it fails). Both linearize functions add it to the model's systematic error.
 inline constexpr double negligible_equilibrium_residual = 1e-14;
+// The sparse path takes the correction only above this residual: its LDLᵀ of
+// K can cost more than the eigen-solution (5 s for an 11 520-coordinate
+// lattice, where the default equilibrium ends at 2e-13 and its effect on the
+// eigenvalues was measured at 8e-15, results/tradeoff.md). Between the
+// default equilibrium tolerance (1e-12) and this, `modal analyze` says in a
+// note that the estimates leave it out.
+inline constexpr double sparse_equilibrium_correction_residual = 1e-11;
 
 }  // namespace modal
