@@ -17,7 +17,9 @@
 # Writes results/sparse_scaling.csv, results/sparse_scaling_eigenvalues.csv (both
 # tools' eigenvalues, case by case), results/sparse_scaling.png and, with the 10⁶
 # net, results/sparse_target.csv (the plain `modal analyze NET --modes 10`
-# process, TARGET_RUNS times: the 60 s / 8 GiB target's measurement). Needs
+# process, TARGET_RUNS times: the 60 s / 8 GiB target's measurement).
+# TARGET_ONLY=1 repeats only that measurement (about 1 minute per run) and
+# leaves the scaling table, its eigenvalues and the plot as they are. Needs
 # /usr/bin/time and python3 with scipy and matplotlib (Debian: time,
 # python3-scipy, python3-matplotlib).
 set -euo pipefail
@@ -30,8 +32,9 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 csv=results/sparse_scaling.csv
 eigen_csv=results/sparse_scaling_eigenvalues.csv  # every eigenvalue of both tools, to check the agreement
-echo "scene,n,index,modal_omega2,scipy_omega2,modal_error_estimate" > "$eigen_csv"
-echo "scene,n,parse_build_s,equilibrium_s,assembly_s,export_s,factorization_s,eigen_solution_s,total_s,peak_MiB,scipy_eigsh_s,scipy_read_s,ratio_eigsh_over_modal,max_rel_diff,lambda1" > "$csv"
+target_only=${TARGET_ONLY:-0}
+[ "$target_only" = 1 ] || echo "scene,n,index,modal_omega2,scipy_omega2,modal_error_estimate" > "$eigen_csv"
+[ "$target_only" = 1 ] || echo "scene,n,parse_build_s,equilibrium_s,assembly_s,export_s,factorization_s,eigen_solution_s,total_s,peak_MiB,scipy_eigsh_s,scipy_read_s,ratio_eigsh_over_modal,max_rel_diff,lambda1" > "$csv"
 
 net_scene() {  # N×N net, boundary fixed: 3 (N − 2)² coordinates
   cat > "$1" <<EOF
@@ -110,6 +113,7 @@ lattice_sizes=(7 15 32 70)
 scenes=${SCENES:-net lattice}
 lattice_max_exp=${LATTICE_MAX_EXP:-$max_exp}
 for i in $(seq 0 $((max_exp - 3))); do
+  [ "$target_only" = 1 ] && break
   case " $scenes " in *" net "*) run_case net "${net_sizes[$i]}" ;; esac
   if [ $((i + 3)) -le "$lattice_max_exp" ]; then
     case " $scenes " in *" lattice "*) run_case lattice "${lattice_sizes[$i]}" ;; esac
@@ -135,6 +139,7 @@ if [ "$max_exp" -ge 6 ] && case " $scenes " in *" net "*) true ;; *) false ;; es
     echo "done: target run $run" >&2
   done
 fi
+[ "$target_only" = 1 ] && { echo "wrote $target" >&2; exit 0; }
 
 "$py" - "$csv" <<'EOF'
 import csv, sys
