@@ -766,16 +766,35 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   return scene;
 }
 
-Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides) {
+std::string read_scene_file(const std::string& path) {
+  const SourceLocation where{path, 0, 0};
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw SceneError(SourceLocation{path, 0, 0}, "", "cannot read the scene file: it is a directory");
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status))
+    throw SceneError(where, "", "cannot open the scene file: " + (ec ? ec.message() : std::string("no such file")));
+  if (std::filesystem::is_directory(status))
+    throw SceneError(where, "", "cannot read the scene file: it is a directory");
+  if (!std::filesystem::is_regular_file(status))
+    throw SceneError(where, "", "cannot read the scene file: it is not a regular file (a pipe, socket or device); "
+                                "give a file");
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > max_scene_bytes)
+    throw SceneError(where, "", "the scene file has " + std::to_string(size) + " bytes, more than the " +
+                                    std::to_string(max_scene_bytes >> 20) +
+                                    " MiB a scene may have (large scenes are written with generators such as "
+                                    "[[lattice]], or as a [[network]] of CSV files)");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw SceneError(SourceLocation{path, 0, 0}, "", std::string("cannot open the scene file: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw SceneError(SourceLocation{path, 0, 0}, "", std::string("cannot read the scene file: ") + std::strerror(errno));
-  return parse_scene(text.str(), path, overrides);
+  if (!in) throw SceneError(where, "", std::string("cannot open the scene file: ") + std::strerror(errno));
+  std::string text;
+  text.resize(static_cast<std::size_t>(size));
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad() || static_cast<std::size_t>(in.gcount()) != text.size() || in.peek() != std::char_traits<char>::eof())
+    throw SceneError(where, "", "cannot read the scene file: it changed while it was read");
+  return text;
+}
+
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides) {
+  return parse_scene(read_scene_file(path), path, overrides);
 }
 
 System build_system(const Scene& scene) { return System(scene.description); }

@@ -19,6 +19,7 @@
 #include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
 #include "modal/simulate.hpp"
+#include "modal/sweep.hpp"
 
 #include <iosfwd>
 #include <stdexcept>
@@ -151,5 +152,91 @@ void print_equilibria(std::ostream& out, const Report& report);
 void print_summary(std::ostream& out, const std::string& scene_file,
                    const std::vector<std::pair<std::string, double>>& parameters,
                    const System& system, std::size_t list_limit = 0);
+
+// --- studies: sweeps, maps, convergence, amplitude scans, simulations -----------
+// `modal sweep`: the points (class, largest growth rate, the three lowest ω²,
+// or ω for first-order models), the critical values with their errors and
+// the notes. `tolerance` is the relative width the critical values were
+// refined to (SweepOptions::tolerance).
+void print_sweep(std::ostream& out, const SweepResult& result, const std::string& scene_file, double tolerance);
+// A critical value in words: "P = 2.08578643 ± 1e-11  flutter (stable → flutter:
+// loss of stability)  ω = 0.84 rad/s".
+std::string describe_critical(const CriticalValue& critical, const std::string& parameter);
+// Header "<parameter>,mode,omega2,growth_rate,omega,frequency_hz,period,
+// damping_ratio,stability,error_estimate": one row per point and mode ("failed"
+// and empty numbers for a point that failed).
+std::string sweep_modes_csv(const SweepResult& result);
+// Header "parameter,value,error,kind,omega,before,after": one row per critical value.
+std::string sweep_critical_csv(const SweepResult& result);
+// `modal sweep` with two --vary: the grid as characters (o stable,
+// a asymptotically stable, m marginal, D divergence, F flutter, ? failed),
+// the second parameter upwards, and the first failures in words.
+void print_map(std::ostream& out, const StabilityMap& map, const std::string& scene_file);
+// Header "<x>,<y>,stability,max_growth_rate,min_omega2": one row per grid point.
+std::string map_csv(const StabilityMap& map);
+// `sweep --extrapolate`: ω of the lowest modes at every point with the
+// point's cost, then each mode's observed order and Richardson value.
+void print_extrapolation(std::ostream& out, const SweepResult& result, const std::vector<ModeConvergence>& modes);
+// Header "<parameter>,coordinates,seconds,mode,omega,error_estimate".
+std::string convergence_csv(const SweepResult& result, const std::vector<ModeConvergence>& modes);
+// Header "mode,n1,n2,n3,omega_n3,order,omega_extrapolated,error,error_rule,
+// previous_order,previous_extrapolated,asymptotic,note": one row per mode.
+std::string extrapolation_csv(const std::vector<ModeConvergence>& modes);
+// `modal amplitude`: the scan (amplitude, ω, ω/ω_lin − 1, spread, cycles),
+// the departure amplitudes, and how it was integrated (`tolerance`).
+void print_amplitude(std::ostream& out, const std::string& title, const std::string& scene_file, int mode,
+                     double omega2, const AmplitudeResponse& response, double tolerance);
+// Header "amplitude,oscillates,omega,omega_ratio_minus_1,spread,cycles,simulated_seconds".
+std::string amplitude_csv(const AmplitudeResponse& response);
+// `modal simulate`'s summary (on stderr): steps, samples, and how well the
+// energy (or the energy balance with the work W) held.
+void print_simulation_summary(std::ostream& out, const Trajectory& trajectory, const SimulationOptions& options);
+
+// `--timing`: one line per phase (name, milliseconds; names indented by two
+// spaces are sub-phases of the phase that follows them), the total of the
+// phases, and the peak resident memory of the process (Linux VmHWM).
+void print_timings(std::ostream& out, const std::vector<std::pair<std::string, double>>& seconds);
+
+// Progress of long work (sweeps, …) on a terminal: "sweep [#####     ] 12/40
+// 3.1 s, about 7 s left", redrawn in place, shown only when `out` is a
+// terminal (stderr by default) and the work has taken more than a second;
+// silent in pipes, files and CI. finish() clears the line.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label);
+  void update(int done, int total);
+  void finish();
+  ~ProgressBar();
+
+ private:
+  std::string label_;
+  bool terminal_ = false;
+  bool shown_ = false;
+  double start_ = 0;  // s, steady clock
+};
+
+// --- output files: checked before computing, written all or none ---------------
+// Refuses (ReportError, naming the path and the reason) an output that is a
+// directory, that lies in a directory that does not exist or cannot be
+// written, that is also one of `inputs` (the scene file, its data files), or
+// that is given twice. Call it before a long computation, so that a bad path
+// costs nothing.
+void check_output_paths(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs = {});
+// The files one run writes. commit() writes each to a temporary file beside
+// its target and, only when all were written completely, renames them into
+// place: either every file is replaced or none (on failure the temporaries
+// are removed and ReportError names the file and the reason).
+class OutputFiles {
+ public:
+  void add(std::string path, std::string content);
+  bool empty() const { return files_.empty(); }
+  std::vector<std::string> commit();
+
+ private:
+  std::vector<std::pair<std::string, std::string>> files_;
+};
+// Flushes `out` and throws ReportError("<what>: writing failed …") when the
+// stream failed (a full disk, a closed pipe): output is never lost silently.
+void check_written(std::ostream& out, const std::string& what);
 
 }  // namespace modal

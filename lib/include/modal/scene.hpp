@@ -9,6 +9,7 @@
 
 #include "modal/core.hpp"
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -66,6 +67,14 @@ struct SceneLimits {
   int links = 100'000;              // links of one [[chain]]
 };
 
+// The text of a scene file. Refuses, with a SceneError naming the file, what
+// is not a regular file (a directory, a FIFO, a device such as /dev/zero:
+// they could block or never end) and a file larger than max_scene_bytes
+// (scene files are small: generators expand large scenes, and networks read
+// their nodes and edges from separate CSV files).
+inline constexpr std::size_t max_scene_bytes = 16u << 20;  // 16 MiB
+std::string read_scene_file(const std::string& path);
+// read_scene_file + parse_scene.
 Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
 Scene parse_scene(std::string_view text, const std::string& file_name,
                   const std::vector<ParameterOverride>& overrides = {}, const SceneLimits& limits = {});

@@ -1,0 +1,231 @@
+// modal/pipeline.hpp — everything the `modal` command does, as a library: load
+// a scene, run an analysis, a survey of equilibria, a sweep, a simulation or an
+// amplitude scan with one options value, and write any result as text, CSV or
+// JSON. The command line is a thin shell over these functions, so a C++
+// program (or the Python module) gets exactly what the CLI prints.
+//
+//   modal::Model model = modal::load_model("models/double_pendulum.toml", {"m2=2"});
+//   modal::AnalysisOptions options;
+//   options.modes = 2;
+//   modal::Analysis a = modal::analyze(model, options);
+//   for (const modal::Mode& m : a.result().modes)
+//     std::cout << m.omega2 << " ± " << m.error_estimate << " rad²/s²\n";
+//   modal::Outputs files;
+//   files.csv = "out/dp";                         // out/dp_modes.csv, _shapes.csv, _equilibria.csv
+//   modal::write_analysis(std::cout, a, files);   // the table `modal analyze` prints, and the files
+//
+// Data flow (one way): Model (scene text → Scene → System, constant) →
+// Analysis / EquilibriumSurvey / SweepStudy / Simulation / AmplitudeStudy
+// (plain values) → write_*. Units are SI throughout: ω² in rad²/s², ω in
+// rad/s, coordinates in rad or m as their kind says.
+//
+// Errors are exceptions whose what() is the message the CLI prints (after
+// "modal: "), each mapped to the CLI's exit status by exit_status():
+//   SceneError (file:line:column: key: reason), SweepInputError, InputError,
+//   ReportError                                  → ExitStatus::bad_input (2)
+//   NumericalError and its kinds (SingularMassMatrix, NotAnEquilibrium, …)
+//                                                → ExitStatus::numerical (4)
+#pragma once
+
+#include "modal/equilibrium.hpp"
+#include "modal/linearize.hpp"
+#include "modal/modes.hpp"
+#include "modal/report.hpp"
+#include "modal/scene.hpp"
+#include "modal/simulate.hpp"
+#include "modal/sweep.hpp"
+
+#include <exception>
+#include <iosfwd>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace modal {
+
+// The documented exit statuses of the `modal` command.
+enum class ExitStatus : int { ok = 0, usage = 1, bad_input = 2, unstable = 3, numerical = 4 };
+
+// Bad input that is not in a scene file: a point given with --at that is not
+// an equilibrium, option values that do not fit the scene, combinations of
+// options that do not go together. Exit status 2.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The exit status for an exception thrown by any modal function (see above;
+// std::bad_alloc and anything unknown count as numerical failures).
+ExitStatus exit_status(const std::exception& error);
+// The one line the CLI prints for it: a SceneError as it is
+// ("file:line:column: key: reason"), a NumericalError as "modal: numerical
+// failure: …", out of memory as "modal: out of memory …", others "modal: …".
+std::string error_message(const std::exception& error);
+
+// --- the model -------------------------------------------------------------------
+
+// A scene and the system built from it, with the text it came from (sweeps
+// re-read the text at every parameter value). Constant once made; copyable.
+struct Model {
+  std::string text;                          // the scene file's text
+  std::vector<ParameterOverride> overrides;  // --set, in order
+  Scene scene;
+  System system;
+};
+
+// Reads and builds a scene file (read_scene_file: regular files only, at most
+// max_scene_bytes); `set` are "NAME=VALUE" overrides (VALUE may be an
+// expression over the other parameters). Throws SceneError.
+Model load_model(const std::string& path, const std::vector<std::string>& set = {});
+// The same from text in memory; `name` stands for the file in messages (and
+// relative data files, such as a network's CSV, are resolved against its
+// directory).
+Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set = {});
+
+// "q1,q2,..." (one finite number per coordinate of `system`, as for --at or
+// --velocity) → n values; InputError naming `option` and the coordinates
+// when the text does not fit.
+VectorX parse_coordinates(const System& system, const std::string& option, const std::string& text);
+
+// --- analyze ---------------------------------------------------------------------
+
+// Which eigen-solver `analyze` uses: automatic = sparse above
+// large_system_coordinates coordinates when the sparse model describes the
+// scene (no dampers, followers, constraints, rotating frame or map), else dense.
+enum class SolverChoice { automatic, dense, sparse };
+const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse"
+
+struct AnalysisOptions {
+  int modes = -1;                // lowest modes to report; -1: all (dense), 10 (sparse)
+  std::optional<VectorX> at;     // analyze the equilibrium at this point (n values; it must be
+                                 // one, to 1e-3 in configuration distance) instead of the one
+                                 // nearest the scene's initial configuration
+  SolverChoice solver = SolverChoice::automatic;
+  std::optional<double> shift;   // sparse: modes nearest σ, rad²/s² (unset: the lowest)
+  double tolerance = 1e-10;      // sparse: relative convergence tolerance of the Lanczos iteration
+  DenseSolver dense_solver = DenseSolver::automatic;
+  DerivativeMethod derivatives = DerivativeMethod::exact;  // how K (and G) are differentiated; dense only
+  double step_factor = 0;        // differences: step as a factor of max(|q|, 1 rad or the length scale);
+                                 // 0: the method's default
+  double equilibrium_tolerance = EquilibriumOptions{}.tolerance;  // accepted relative residual
+  LargeEquilibriumMethod large_equilibrium = LargeEquilibriumMethod::newton;
+};
+
+// One analyzed equilibrium: the report values (names, parameters, the
+// equilibrium and its modes), the linear model as solved (dense or sparse),
+// and the wall time of each phase.
+struct Analysis {
+  Report report;                              // report.equilibria has exactly one entry
+  std::optional<LinearModel> linear;          // the dense path's model (M, K, D, G; constrained: projected)
+  std::optional<SparseLinearModel> sparse;    // the sparse path's model (M, K)
+  std::vector<std::pair<std::string, double>> timings;  // phase → seconds, in order (indented names:
+                                                        // sub-phases of the phase that follows)
+  const Equilibrium& equilibrium() const { return report.equilibria.front().equilibrium; }
+  const ModalResult& result() const { return report.equilibria.front().result; }
+  // Divergence or flutter: what --require-stable refuses.
+  bool unstable() const;
+};
+
+// Finds the equilibrium (or polishes options.at), linearizes there and solves
+// for the modes, choosing the solver as documented. Throws InputError for
+// options that do not fit the scene, NumericalError when no equilibrium or no
+// modes can be had.
+Analysis analyze(const Model& model, const AnalysisOptions& options = {});
+
+// --- equilibria -------------------------------------------------------------------
+
+struct EquilibriumSurvey {
+  Report report;                       // every equilibrium found that could be analyzed, with its modes
+  std::vector<std::string> unanalyzed; // equilibria found whose linear model does not exist, in words
+};
+// Enumerates the equilibria from `options.starts` deterministic starts
+// (find_equilibria) and analyzes each with the dense solvers.
+EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& options = {});
+
+// --- sweep ------------------------------------------------------------------------
+
+struct SweepStudyOptions {
+  int modes = -1;           // modes kept per point (-1: all); with extrapolate, modes extrapolated (-1: 3)
+  bool extrapolate = false; // one integer axis (a number of links): observed order and Richardson values
+  SweepOptions sweep;       // tolerance, refinement, progress callback
+};
+struct SweepStudy {
+  std::string scene_file;
+  std::vector<SweepAxis> axes;                 // one (a sweep) or two (a stability map)
+  std::optional<SweepResult> result;           // one axis
+  std::optional<StabilityMap> map;             // two axes
+  std::vector<ModeConvergence> convergence;    // extrapolate
+  double tolerance = 0;                        // the critical values' relative refinement
+};
+// A sweep along one axis or a stability map over two (axes from parse_vary).
+// Throws SweepInputError or InputError for axes that do not fit, and
+// InputError / NumericalError when every point failed (the first failure says why).
+SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const SweepStudyOptions& options = {});
+
+// --- simulate ---------------------------------------------------------------------
+
+struct SimulationRequest {
+  double duration = 0;                   // s, > 0
+  std::optional<VectorX> at;             // initial configuration, taken as given (default: the scene's
+                                         // initial values, brought onto the constraints if any)
+  std::optional<VectorX> velocity;       // initial velocities (default: 0)
+  std::optional<double> interval;        // output spacing, s (default: duration / 1000)
+  double tolerance = SimulationOptions{}.tolerance;
+};
+struct Simulation {
+  Trajectory trajectory;
+  SimulationOptions options;             // as integrated
+  std::vector<std::string> notes;        // e.g. the start was brought onto the constraints
+};
+// Throws InputError for a request out of range.
+Simulation simulate(const Model& model, const SimulationRequest& request);
+
+// --- amplitude --------------------------------------------------------------------
+
+// The largest scene `amplitude` integrates (each step solves with the dense M).
+inline constexpr int amplitude_max_coordinates = 2000;
+struct AmplitudeRequest {
+  int mode = 1;                          // 1 = the lowest
+  std::optional<VectorX> at;             // the equilibrium near this point (default: the initial one)
+  AmplitudeOptions options;
+};
+struct AmplitudeStudy {
+  std::string title, scene_file;
+  int mode = 1;
+  double omega2 = 0;                     // of the linear mode, rad²/s²
+  AmplitudeResponse response;
+  double tolerance = 0;                  // of the integration
+};
+AmplitudeStudy amplitude(const Model& model, const AmplitudeRequest& request);
+
+// --- writing results --------------------------------------------------------------
+
+// Where a result goes besides the text. Paths are checked by check_outputs
+// before computing and written all or none (OutputFiles).
+struct Outputs {
+  std::string csv;       // analyze: PREFIX (PREFIX_modes.csv, _shapes.csv, _equilibria.csv);
+                         // sweep: FILE (+ FILE_critical.csv, with extrapolation also
+                         // FILE_convergence.csv and FILE_extrapolation.csv); others: FILE
+  std::string json;      // analyze, equilibria
+  std::string matrices;  // analyze: a directory for M, K (D, G, N) in Matrix Market
+};
+enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
+// The files `command` will write for `outputs` (the sweep's extra files only
+// when `extrapolate`).
+std::vector<std::string> output_files(Command command, const Outputs& outputs, bool extrapolate = false);
+// check_output_paths on output_files, against the scene file as input.
+void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate = false);
+
+// Text to `text` (checked: a failed write throws ReportError), files as asked.
+void write_analysis(std::ostream& text, const Analysis& analysis, const Outputs& outputs = {});
+void write_equilibria(std::ostream& text, const EquilibriumSurvey& survey, const Outputs& outputs = {});
+void write_sweep(std::ostream& text, const SweepStudy& study, const Outputs& outputs = {});
+void write_amplitude(std::ostream& text, const AmplitudeStudy& study, const Outputs& outputs = {});
+// The trajectory CSV to outputs.csv, or to `text` when none is given.
+void write_simulation(std::ostream& text, const Simulation& simulation, const Outputs& outputs = {});
+// `modal check`: the summary of the scene (lists cut at `list_limit` rows; 0: all).
+void write_summary(std::ostream& text, const Model& model, std::size_t list_limit = 100);
+
+}  // namespace modal

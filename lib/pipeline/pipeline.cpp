@@ -1,0 +1,497 @@
+// lib/pipeline/pipeline.cpp — the whole pipeline behind one header
+// (modal/pipeline.hpp): what every `modal` subcommand computes and writes.
+#include "modal/pipeline.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <new>
+#include <ostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace modal {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point& last) {
+  const Clock::time_point now = Clock::now();
+  const double s = std::chrono::duration<double>(now - last).count();
+  last = now;
+  return s;
+}
+
+std::string join_names(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+std::string format_point(const std::vector<std::string>& names, const VectorX& q) {
+  std::string out;
+  for (Eigen::Index i = 0; i < q.size(); ++i)
+    out += fmt::format("{}{} = {:.10g}", i ? ", " : "", names[static_cast<std::size_t>(i)], q[i]);
+  return out;
+}
+
+std::vector<ParameterOverride> parse_overrides(const std::vector<std::string>& set) {
+  std::vector<ParameterOverride> overrides;
+  overrides.reserve(set.size());
+  for (const std::string& text : set) overrides.push_back(parse_override(text));
+  return overrides;
+}
+
+// The equilibrium at a point the user gave (polished), or InputError saying
+// how far it is from one and where the nearest is.
+Equilibrium equilibrium_at(const System& sys, const VectorX& at, const EquilibriumOptions& options) {
+  constexpr double accept = 1e-3;  // configuration distance (angles mod 2π, lengths / length scale)
+  const auto names = sys.coordinate_names();
+  if (at.size() != sys.size())
+    throw InputError(fmt::format("--at expects {} values ({}), got {}", sys.size(), join_names(names), at.size()));
+  std::optional<Equilibrium> e = polish_equilibrium(sys, at, options);
+  if (e && configuration_distance(sys, e->q, at) <= accept) return *e;
+
+  Workspace ws(sys);
+  const double scale = force_scale(sys, ws, at);
+  const double residual = equilibrium_residual(sys, ws, at).norm();
+  const double relative = scale > 0 ? residual / scale : residual;
+  std::string nearest;
+  if (e) {
+    nearest = fmt::format("nearest equilibrium found at {}", format_point(names, e->q));
+  } else {
+    try {
+      const Equilibrium f = find_equilibrium(sys, at, options);
+      nearest = fmt::format("nearest equilibrium found at {}", format_point(names, f.q));
+    } catch (const NumericalError& ex) {
+      nearest = fmt::format("no equilibrium found near it ({})", ex.what());
+    }
+  }
+  throw InputError(fmt::format("--at: the point is not an equilibrium (relative residual {:.3g}); {}", relative,
+                               nearest));
+}
+
+// The documented rule: sparse for more than large_system_coordinates
+// coordinates when the sparse model describes the scene, else dense.
+bool use_sparse(const System& sys, SolverChoice choice) {
+  if (choice == SolverChoice::dense) return false;
+  const auto why = sparse_unsupported(sys);
+  if (choice == SolverChoice::sparse) {
+    if (why) throw InputError("--solver sparse: the sparse solver does not apply to this scene: " + *why);
+    return true;
+  }
+  return !why && sys.size() > large_system_coordinates;
+}
+
+// Exit status when no point of a sweep worked: the first failure says why.
+template <class Points>
+void require_some_point(const Points& points) {
+  for (const auto& p : points)
+    if (p.ok) return;
+  if (points.empty()) return;
+  const auto& first = points.front();
+  if (first.scene_error) throw InputError("every point of the sweep failed; the first: " + first.failure);
+  throw NumericalError("every point of the sweep failed; the first: " + first.failure);
+}
+
+// FILE.csv → FILE_<suffix>.csv (FILE → FILE_<suffix>.csv).
+std::string suffixed_path(const std::string& csv, const std::string& suffix) {
+  const std::string ext = ".csv";
+  const bool has_ext = csv.size() > ext.size() && csv.compare(csv.size() - ext.size(), ext.size(), ext) == 0;
+  return (has_ext ? csv.substr(0, csv.size() - ext.size()) : csv) + "_" + suffix + ".csv";
+}
+
+Outputs csv_only(const Outputs& o) {
+  Outputs c;
+  c.csv = o.csv;
+  return c;
+}
+
+template <class Writer>
+std::string to_text(Writer writer, const Report& report) {
+  std::ostringstream out;
+  writer(out, report);
+  return out.str();
+}
+
+}  // namespace
+
+// --- errors -------------------------------------------------------------------------
+
+ExitStatus exit_status(const std::exception& error) {
+  if (dynamic_cast<const SceneError*>(&error) || dynamic_cast<const SweepInputError*>(&error) ||
+      dynamic_cast<const InputError*>(&error) || dynamic_cast<const ReportError*>(&error))
+    return ExitStatus::bad_input;
+  return ExitStatus::numerical;
+}
+
+std::string error_message(const std::exception& error) {
+  if (dynamic_cast<const SceneError*>(&error)) return error.what();
+  if (dynamic_cast<const std::bad_alloc*>(&error))
+    return "modal: out of memory: the computation needed more memory than this machine could give it";
+  if (exit_status(error) == ExitStatus::bad_input) return std::string("modal: ") + error.what();
+  return std::string("modal: numerical failure: ") + error.what();
+}
+
+// --- the model -------------------------------------------------------------------------
+
+Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set) {
+  std::vector<ParameterOverride> overrides = parse_overrides(set);
+  Scene scene = parse_scene(text, name, overrides);
+  System system = build_system(scene);
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system)};
+}
+
+Model load_model(const std::string& path, const std::vector<std::string>& set) {
+  std::vector<ParameterOverride> overrides = parse_overrides(set);  // a bad --set before reading anything
+  std::string text = read_scene_file(path);
+  Scene scene = parse_scene(text, path, overrides);
+  System system = build_system(scene);
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system)};
+}
+
+VectorX parse_coordinates(const System& sys, const std::string& option, const std::string& text) {
+  const auto names = sys.coordinate_names();
+  const std::string expected = fmt::format("{} expects {} comma-separated number{} ({})", option, names.size(),
+                                           names.size() == 1 ? "" : "s", join_names(names));
+  std::vector<double> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      throw InputError(fmt::format("{}; '{}' is not a number", expected, item));
+    }
+    while (used < item.size() && std::isspace(static_cast<unsigned char>(item[used]))) ++used;
+    if (used != item.size() || !std::isfinite(v))
+      throw InputError(fmt::format("{}; '{}' is not a finite number", expected, item));
+    values.push_back(v);
+  }
+  if (!text.empty() && text.back() == ',') throw InputError(expected + "; got a trailing comma");
+  if (values.size() != names.size()) throw InputError(fmt::format("{}; got {}", expected, values.size()));
+  return Eigen::Map<const VectorX>(values.data(), static_cast<Eigen::Index>(values.size()));
+}
+
+// --- analyze ---------------------------------------------------------------------------
+
+const char* to_string(SolverChoice choice) {
+  switch (choice) {
+    case SolverChoice::automatic: return "auto";
+    case SolverChoice::dense: return "dense";
+    case SolverChoice::sparse: return "sparse";
+  }
+  return "?";
+}
+
+bool Analysis::unstable() const {
+  const Stability s = result().stability;
+  return s == Stability::divergence || s == Stability::flutter;
+}
+
+Analysis analyze(const Model& model, const AnalysisOptions& options) {
+  const System& sys = model.system;
+  Analysis a;
+  Clock::time_point last = Clock::now();
+
+  EquilibriumOptions eo;
+  eo.tolerance = options.equilibrium_tolerance;
+  eo.large_method = options.large_equilibrium;
+  if (options.step_factor > 0 && options.derivatives == DerivativeMethod::exact)
+    throw InputError("--step sets the step of differences: give --derivatives central, forward or complex-step");
+  if (options.derivatives == DerivativeMethod::complex_step && sys.is_map())
+    throw InputError("--derivatives complex-step: not available for kinematic maps (their expressions are "
+                     "evaluated in real arithmetic); use exact, central or forward");
+  LinearizeOptions lo;
+  lo.derivatives = options.derivatives;
+  lo.step_factor = options.step_factor;
+  // An equilibrium accepted at a looser tolerance is accepted by the linearization too.
+  lo.tolerance = std::max(lo.tolerance, options.equilibrium_tolerance);
+  const bool sparse = use_sparse(sys, options.solver);
+  if (sparse && options.derivatives != DerivativeMethod::exact)
+    throw InputError(std::string("--derivatives ") + to_string(options.derivatives) +
+                     ": the sparse path assembles K exactly from the elements' derivatives; differences apply to the "
+                     "dense path (--solver dense)");
+  if (!sparse && options.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
+
+  const Equilibrium eq = !options.at ? find_equilibrium(sys, sys.initial_configuration(), eo)
+                                     : equilibrium_at(sys, *options.at, eo);
+  a.timings.emplace_back("equilibrium", seconds_since(last));
+  ModalResult result;
+  if (sparse) {
+    a.sparse = linearize_sparse(sys, eq.q, lo);
+    a.timings.emplace_back("assembly", seconds_since(last));
+    const SparseLinearModel& lin = *a.sparse;
+    SparseModalOptions so;
+    if (options.modes > 0) so.modes = options.modes;
+    so.shift = options.shift;
+    so.tolerance = options.tolerance;
+    so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
+    so.K_systematic_error = lin.K_systematic_error;     // a loose equilibrium's share of the error
+    result = solve_sparse_modes(lin.K, lin.M, so);
+    if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_systematic_error.nonZeros() == 0)
+      result.notes.push_back(fmt::format(
+          "the equilibrium's relative residual {:.1e} is above the rounding level, and the error it causes "
+          "(K differs from K at the equilibrium) is not in the estimates: the sparse path takes it only above {:g}, "
+          "where a factorization of K is worth it; tighten --eq-tol, or --solver dense includes it",
+          lin.residual, sparse_equilibrium_correction_residual));
+    for (const auto& [phase, seconds] : result.timings) a.timings.emplace_back("  " + phase, seconds);
+    a.timings.emplace_back("eigen", seconds_since(last));
+  } else {
+    a.linear = linearize(sys, eq.q, lo);
+    a.timings.emplace_back("linearize", seconds_since(last));
+    const LinearModel& lin = *a.linear;
+    ModalOptions mo;
+    mo.modes = options.modes;
+    mo.dense_solver = options.dense_solver;
+    result = solve_modes(lin, mo);
+    if (lo.derivatives != DerivativeMethod::exact)
+      result.notes.push_back(fmt::format(
+          "K{} by {} differences (step factor {:.2g}) instead of exact derivatives; the error estimates include "
+          "their error, measured as 2|K(h) - K(2h)| (largest {:.2g})",
+          lin.has_gyroscopic ? " and G" : "", to_string(lo.derivatives),
+          lo.step_factor > 0 ? lo.step_factor : default_step_factor(lo.derivatives),
+          lin.K_error.cwiseAbs().maxCoeff()));
+    a.timings.emplace_back("eigen", seconds_since(last));
+  }
+  a.report = make_report(sys, model.scene.file, model.scene.parameters);
+  a.report.equilibria.push_back({eq, std::move(result)});
+  return a;
+}
+
+// --- equilibria --------------------------------------------------------------------------
+
+EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& options) {
+  const System& sys = model.system;
+  EquilibriumSurvey survey;
+  survey.report = make_report(sys, model.scene.file, model.scene.parameters);
+  const auto names = sys.coordinate_names();
+  for (const Equilibrium& e : find_equilibria(sys, options)) {
+    try {
+      survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q))});
+    } catch (const NumericalError& error) {
+      survey.unanalyzed.push_back(fmt::format("an equilibrium at {} was found but cannot be analyzed: {}",
+                                              format_point(names, e.q), error.what()));
+    }
+  }
+  return survey;
+}
+
+// --- sweep ---------------------------------------------------------------------------------
+
+SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const SweepStudyOptions& options) {
+  if (axes.empty() || axes.size() > 2)
+    throw InputError(fmt::format("sweep takes one --vary (a sweep) or two (a stability map), got {}", axes.size()));
+  if (options.extrapolate && axes.size() != 1)
+    throw InputError("--extrapolate works along one --vary, not on a stability map");
+  if (options.extrapolate) check_extrapolation_axis(axes[0]);  // before the sweep runs
+  SweepStudy study;
+  study.scene_file = model.scene.file;
+  study.axes = axes;
+  SweepOptions so = options.sweep;
+  so.modes = options.modes;
+  study.tolerance = so.tolerance;
+  if (axes.size() == 1) {
+    study.result = modal::sweep(model.text, model.scene.file, model.overrides, axes[0], so);
+    require_some_point(study.result->points);
+    if (options.extrapolate) {
+      constexpr int default_extrapolated_modes = 3;
+      study.convergence =
+          extrapolate_modes(*study.result, options.modes > 0 ? options.modes : default_extrapolated_modes);
+    }
+    return study;
+  }
+  study.map = sweep_map(model.text, model.scene.file, model.overrides, axes[0], axes[1], so);
+  require_some_point(study.map->points);
+  return study;
+}
+
+// --- simulate --------------------------------------------------------------------------------
+
+Simulation simulate(const Model& model, const SimulationRequest& request) {
+  const System& sys = model.system;
+  Simulation s;
+  s.options.duration = request.duration;
+  s.options.interval = request.interval.value_or(0.0);
+  s.options.tolerance = request.tolerance;
+  if (!std::isfinite(request.duration) || request.duration <= 0)
+    throw InputError(fmt::format("--duration must be a finite number > 0 (seconds), got {:g}", request.duration));
+  if (request.interval && !(std::isfinite(*request.interval) && *request.interval > 0))
+    throw InputError(fmt::format("--interval must be a finite number > 0 (seconds), got {:g}", *request.interval));
+  if (!(request.tolerance > 0 && request.tolerance < 1))
+    throw InputError(fmt::format("--tolerance must lie in (0, 1), got {:g}", request.tolerance));
+  for (const auto& [given, option] : {std::pair{&request.at, "--at"}, std::pair{&request.velocity, "--velocity"}})
+    if (*given && (*given)->size() != sys.size())
+      throw InputError(fmt::format("{} expects {} values ({}), got {}", option, sys.size(),
+                                   join_names(sys.coordinate_names()), (*given)->size()));
+  VectorX q0 = request.at ? *request.at : sys.initial_configuration();
+  if (!request.at && sys.has_constraints()) {
+    // The scene's initial values are a guess for searches; a motion must start on the constraints.
+    Workspace ws(sys);
+    const ConstraintProjection p = project_onto_constraints(sys, ws, q0);
+    if (!(p.violation <= 1e-12 * sys.length_scale()))
+      throw NumericalError(fmt::format(
+          "simulate: the initial configuration cannot be brought onto the constraints (‖c‖ = {:.3g} m remains); "
+          "give a start with --at",
+          p.violation));
+    if ((p.q - q0).norm() > 0)
+      s.notes.push_back(fmt::format("the initial configuration was brought onto the constraints (moved by {:.3g} in "
+                                    "coordinate units)",
+                                    (p.q - q0).norm()));
+    q0 = p.q;
+  }
+  const VectorX qd0 = request.velocity ? *request.velocity : VectorX::Zero(sys.size());
+  try {
+    s.trajectory = modal::simulate(sys, q0, qd0, s.options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  return s;
+}
+
+// --- amplitude -------------------------------------------------------------------------------
+
+AmplitudeStudy amplitude(const Model& model, const AmplitudeRequest& request) {
+  const System& sys = model.system;
+  const auto& amplitudes = request.options.amplitudes;
+  if (!std::is_sorted(amplitudes.begin(), amplitudes.end()))
+    throw InputError("--amplitudes must be given in ascending order");
+  if (sys.size() > amplitude_max_coordinates)
+    throw InputError(fmt::format("amplitude integrates the nonlinear equations with a dense mass matrix; this scene "
+                                 "has {} coordinates, more than the {} supported",
+                                 sys.size(), amplitude_max_coordinates));
+  const Equilibrium eq = !request.at ? find_equilibrium(sys, sys.initial_configuration())
+                                     : equilibrium_at(sys, *request.at, EquilibriumOptions{});
+  const LinearModel lin = linearize(sys, eq.q);
+  if (!lin.symmetric())
+    throw InputError("amplitude measures the frequency of an undamped mode (K φ = λ M φ); this scene has dampers, "
+                     "gyroscopic terms or follower loads, whose modes are not periodic motions");
+  const ModalResult modes = solve_modes(lin);
+  if (request.mode < 1 || request.mode > static_cast<int>(modes.modes.size()))
+    throw InputError(fmt::format("--mode {}: the scene has modes 1 to {}", request.mode, modes.modes.size()));
+  const Mode& m = modes.modes[static_cast<std::size_t>(request.mode - 1)];
+  if (m.kind != ModeKind::oscillatory)
+    throw InputError(fmt::format("--mode {}: it is {} (omega^2 = {:.6g} rad2/s2): there is no oscillation whose "
+                                 "frequency could be measured",
+                                 request.mode, m.kind == ModeKind::zero ? "a zero mode" : "a divergent mode",
+                                 m.omega2));
+  AmplitudeStudy study;
+  study.title = sys.title();
+  study.scene_file = model.scene.file;
+  study.mode = request.mode;
+  study.omega2 = m.omega2;
+  study.tolerance = request.options.tolerance;
+  study.response = amplitude_response(sys, eq.q, m.shape.real(), m.omega, request.options);
+  return study;
+}
+
+// --- writing results -----------------------------------------------------------------------------
+
+std::vector<std::string> output_files(Command command, const Outputs& o, bool extrapolate) {
+  std::vector<std::string> files;
+  if (!o.csv.empty()) {
+    switch (command) {
+      case Command::analyze:
+        files = {o.csv + "_modes.csv", o.csv + "_shapes.csv", o.csv + "_equilibria.csv"};
+        break;
+      case Command::sweep:
+        files = {o.csv, suffixed_path(o.csv, "critical")};
+        if (extrapolate) {
+          files.push_back(suffixed_path(o.csv, "convergence"));
+          files.push_back(suffixed_path(o.csv, "extrapolation"));
+        }
+        break;
+      default: files = {o.csv};
+    }
+  }
+  if (!o.json.empty()) files.push_back(o.json);
+  return files;
+}
+
+void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate) {
+  check_output_paths(output_files(command, outputs, extrapolate), {scene_file});
+}
+
+void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
+  print_analysis(text, a.report);
+  check_written(text, "standard output");
+  if (!o.matrices.empty()) {
+    if (a.linear) export_matrices(o.matrices, *a.linear);
+    if (a.sparse) export_matrices(o.matrices, *a.sparse);
+  }
+  OutputFiles files;
+  if (!o.csv.empty()) {
+    const std::vector<std::string> paths = output_files(Command::analyze, csv_only(o));
+    files.add(paths[0], to_text(write_modes_csv, a.report));
+    files.add(paths[1], to_text(write_shapes_csv, a.report));
+    files.add(paths[2], to_text(write_equilibria_csv, a.report));
+  }
+  if (!o.json.empty()) files.add(o.json, analysis_json(a.report));
+  files.commit();
+}
+
+void write_equilibria(std::ostream& text, const EquilibriumSurvey& survey, const Outputs& o) {
+  print_equilibria(text, survey.report);
+  check_written(text, "standard output");
+  OutputFiles files;
+  if (!o.csv.empty()) files.add(o.csv, to_text(write_equilibria_csv, survey.report));
+  if (!o.json.empty()) files.add(o.json, equilibria_json(survey.report));
+  files.commit();
+}
+
+void write_sweep(std::ostream& text, const SweepStudy& study, const Outputs& o) {
+  OutputFiles files;
+  if (study.result) {
+    const SweepResult& r = *study.result;
+    print_sweep(text, r, study.scene_file, study.tolerance);
+    const bool extrapolated = !study.convergence.empty();
+    if (extrapolated) print_extrapolation(text, r, study.convergence);
+    if (!o.csv.empty()) {
+      const std::vector<std::string> paths = output_files(Command::sweep, csv_only(o), extrapolated);
+      files.add(paths[0], sweep_modes_csv(r));
+      files.add(paths[1], sweep_critical_csv(r));
+      if (extrapolated) {
+        files.add(paths[2], convergence_csv(r, study.convergence));
+        files.add(paths[3], extrapolation_csv(study.convergence));
+      }
+    }
+  } else if (study.map) {
+    print_map(text, *study.map, study.scene_file);
+    if (!o.csv.empty()) files.add(o.csv, map_csv(*study.map));
+  }
+  check_written(text, "standard output");
+  files.commit();
+}
+
+void write_amplitude(std::ostream& text, const AmplitudeStudy& study, const Outputs& o) {
+  print_amplitude(text, study.title, study.scene_file, study.mode, study.omega2, study.response, study.tolerance);
+  check_written(text, "standard output");
+  OutputFiles files;
+  if (!o.csv.empty()) files.add(o.csv, amplitude_csv(study.response));
+  files.commit();
+}
+
+void write_simulation(std::ostream& text, const Simulation& s, const Outputs& o) {
+  if (o.csv.empty()) {
+    write_trajectory_csv(text, s.trajectory);
+    check_written(text, "standard output");
+    return;
+  }
+  std::ostringstream csv;
+  write_trajectory_csv(csv, s.trajectory);
+  OutputFiles files;
+  files.add(o.csv, csv.str());
+  files.commit();
+}
+
+void write_summary(std::ostream& text, const Model& model, std::size_t list_limit) {
+  print_summary(text, model.scene.file, model.scene.parameters, model.system, list_limit);
+  check_written(text, "standard output");
+}
+
+}  // namespace modal

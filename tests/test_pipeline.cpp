@@ -1,0 +1,244 @@
+// The pipeline API (modal/pipeline.hpp): the same results as the stages it
+// strings together, checked against closed forms; errors carry the CLI's exit
+// status and message; outputs are checked before computing and written all or
+// none; scene files are read safely.
+#include "modal/pipeline.hpp"
+
+#include "program.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+using modal::test::slurp;
+
+namespace {
+
+const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
+
+class Pipeline : public modal::test::ProgramTest {
+ protected:
+  Pipeline() : ProgramTest("modal_pipeline_") {}
+  void write(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+};
+
+// Options values set field by field (GCC 12 warns about designated
+// initializers that leave members out).
+modal::Outputs outputs(const std::string& csv, const std::string& json = "") {
+  modal::Outputs o;
+  o.csv = csv;
+  o.json = json;
+  return o;
+}
+modal::SimulationRequest for_seconds(double duration) {
+  modal::SimulationRequest r;
+  r.duration = duration;
+  return r;
+}
+
+// R1: ω² = g/(2 m1 l1 l2)[(m1+m2)(l1+l2) ∓ √((m1+m2)((m1+m2)(l1+l2)² − 4 m1 l1 l2))].
+double r1(double m1, double m2, double l1, double l2, double g, int sign) {
+  const double s = m1 + m2, l = l1 + l2;
+  return g / (2 * m1 * l1 * l2) * (s * l + sign * std::sqrt(s * (s * l * l - 4 * m1 * l1 * l2)));
+}
+
+TEST_F(Pipeline, AnalyzeMatchesTheClosedFormWithOverrides) {
+  for (const auto& [m2, l2] : {std::pair{1.0, 1.0}, std::pair{3.0, 0.5}, std::pair{0.25, 2.0}}) {
+    const modal::Model model = modal::load_model(
+        models + "double_pendulum.toml", {"m2=" + std::to_string(m2), "l2=" + std::to_string(l2)});
+    const modal::Analysis a = modal::analyze(model);
+    ASSERT_TRUE(a.linear.has_value());
+    EXPECT_FALSE(a.sparse.has_value());
+    ASSERT_EQ(a.result().modes.size(), 2u);
+    for (int k = 0; k < 2; ++k) {
+      const modal::Mode& m = a.result().modes[static_cast<std::size_t>(k)];
+      const double exact = r1(1, m2, 1, l2, 1, k == 0 ? -1 : 1);
+      EXPECT_NEAR(m.omega2, exact, 1e-13 * exact);
+      EXPECT_LE(std::abs(m.omega2 - exact), std::max(m.error_estimate, 4e-16 * exact));
+    }
+    EXPECT_EQ(a.result().stability, modal::Stability::stable);
+    EXPECT_FALSE(a.unstable());
+  }
+}
+
+TEST_F(Pipeline, ModelFromTextEqualsModelFromFile) {
+  const std::string text = slurp(models + "double_pendulum.toml");
+  const modal::Analysis a = modal::analyze(modal::model_from_text(text, "dp.toml"), [] {
+    modal::AnalysisOptions o;
+    o.modes = 1;
+    return o;
+  }());
+  ASSERT_EQ(a.result().modes.size(), 1u);
+  EXPECT_NEAR(a.result().modes[0].omega2, 2 - std::sqrt(2.0), 1e-14);
+  EXPECT_EQ(a.report.scene_file, "dp.toml");
+}
+
+TEST_F(Pipeline, AtAnalyzesTheGivenEquilibriumOrRefusesWithExitStatus2) {
+  const modal::Model model = modal::load_model(models + "double_pendulum.toml");
+  modal::AnalysisOptions o;
+  o.at = modal::parse_coordinates(model.system, "--at", "3.141592653589793,0");
+  const modal::Analysis a = modal::analyze(model, o);
+  EXPECT_EQ(a.result().stability, modal::Stability::divergence);
+  EXPECT_EQ(a.result().morse_index, 2);
+  EXPECT_TRUE(a.unstable());
+
+  o.at = modal::parse_coordinates(model.system, "--at", "0.5,0");
+  try {
+    (void)modal::analyze(model, o);
+    FAIL() << "a point that is no equilibrium was accepted";
+  } catch (const modal::InputError& e) {
+    EXPECT_EQ(modal::exit_status(e), modal::ExitStatus::bad_input);
+    EXPECT_NE(std::string(e.what()).find("not an equilibrium"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(modal::parse_coordinates(model.system, "--at", "1,2,3"), modal::InputError);
+  EXPECT_THROW(modal::parse_coordinates(model.system, "--at", "1,nan"), modal::InputError);
+}
+
+TEST_F(Pipeline, ErrorsCarryTheCliExitStatusAndMessage) {
+  const fs::path bad = dir / "bad.toml";
+  write(bad, "title = \"x\"\n[[body]]\nname = \"a\"\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = -1\n");
+  try {
+    (void)modal::load_model(bad.string());
+    FAIL();
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(modal::exit_status(e), modal::ExitStatus::bad_input);
+    EXPECT_EQ(modal::error_message(e).rfind(bad.string() + ":6:", 0), 0u) << modal::error_message(e);
+  }
+  const modal::NumericalError numerical("no equilibrium");
+  EXPECT_EQ(modal::exit_status(numerical), modal::ExitStatus::numerical);
+  EXPECT_EQ(modal::error_message(numerical), "modal: numerical failure: no equilibrium");
+  const std::bad_alloc oom;
+  EXPECT_EQ(modal::exit_status(oom), modal::ExitStatus::numerical);
+  EXPECT_NE(modal::error_message(oom).find("out of memory"), std::string::npos);
+}
+
+TEST_F(Pipeline, EquilibriaSweepAmplitudeAndSimulateThroughTheApi) {
+  const modal::Model dp = modal::load_model(models + "double_pendulum.toml");
+  const modal::EquilibriumSurvey survey = modal::equilibria(dp);
+  EXPECT_EQ(survey.report.equilibria.size(), 4u);  // R1
+
+  const modal::Model ziegler = modal::load_model(models + "ziegler.toml");
+  const modal::SweepStudy study = modal::sweep(ziegler, {modal::parse_vary("P=0:4:9")});
+  ASSERT_TRUE(study.result.has_value());
+  bool flutter = false;
+  for (const modal::CriticalValue& c : study.result->critical)
+    if (c.kind == modal::CriticalKind::flutter && std::abs(c.value - (3.5 - std::sqrt(2.0))) <= c.error + 1e-12)
+      flutter = true;
+  EXPECT_TRUE(flutter) << "Ziegler's flutter load 7/2 − √2 not found";
+
+  modal::AmplitudeRequest request;
+  request.options.amplitudes = {0.01, 0.02};
+  const modal::AmplitudeStudy amp = modal::amplitude(dp, request);
+  ASSERT_EQ(amp.response.points.size(), 2u);
+  EXPECT_NEAR(amp.omega2, 2 - std::sqrt(2.0), 1e-14);
+
+  const modal::Simulation sim = modal::simulate(dp, for_seconds(1.0));
+  EXPECT_LT(sim.trajectory.max_energy_error, 1e-9);
+  EXPECT_THROW(modal::simulate(dp, for_seconds(-1.0)), modal::InputError);
+}
+
+TEST_F(Pipeline, OutputsThatCollideOrCannotBeWrittenAreRefusedBeforeComputing) {
+  const std::string scene = models + "double_pendulum.toml";
+  EXPECT_THROW(modal::check_outputs(modal::Command::analyze, outputs("", scene), scene), modal::ReportError);
+  EXPECT_THROW(modal::check_outputs(modal::Command::analyze, outputs((dir / "a").string(), (dir / "a_modes.csv").string()),
+                                    scene),
+               modal::ReportError);
+  EXPECT_THROW(modal::check_outputs(modal::Command::equilibria, outputs((dir / "no/such/dir/x.csv").string()), scene),
+               modal::ReportError);
+  EXPECT_THROW(modal::check_outputs(modal::Command::equilibria, outputs(dir.string()), scene), modal::ReportError);
+  EXPECT_NO_THROW(modal::check_outputs(modal::Command::analyze, outputs((dir / "ok").string()), scene));
+  EXPECT_TRUE(fs::is_empty(dir)) << "checking must not leave files behind";
+}
+
+TEST_F(Pipeline, FilesAreWrittenAllOrNone) {
+  const fs::path a = dir / "a.csv", locked = dir / "locked";
+  write(a, "old\n");
+  fs::create_directory(locked);
+  modal::OutputFiles files;
+  files.add(a.string(), "new\n");
+  files.add((locked / "b.csv").string(), "new\n");
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+  const bool root = geteuid() == 0;  // root writes anywhere: use a missing directory instead
+  if (root) {
+    modal::OutputFiles other;
+    other.add(a.string(), "new\n");
+    other.add((dir / "missing" / "b.csv").string(), "new\n");
+    EXPECT_THROW(other.commit(), modal::ReportError);
+  } else {
+    EXPECT_THROW(files.commit(), modal::ReportError);
+  }
+  fs::permissions(locked, fs::perms::owner_all);
+  EXPECT_EQ(slurp(a), "old\n") << "a failed run replaced an earlier result";
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".modal-"), std::string::npos) << "temporary left behind";
+
+  modal::OutputFiles good;
+  good.add(a.string(), "new\n");
+  good.add((dir / "c.csv").string(), "c\n");
+  EXPECT_EQ(good.commit().size(), 2u);
+  EXPECT_EQ(slurp(a), "new\n");
+  EXPECT_EQ(slurp(dir / "c.csv"), "c\n");
+}
+
+TEST_F(Pipeline, SceneFilesThatAreNotRegularFilesAreRefused) {
+  for (const std::string& path : {std::string("/dev/zero"), dir.string()}) {
+    try {
+      (void)modal::load_model(path);
+      FAIL() << path << " was read";
+    } catch (const modal::SceneError& e) {
+      EXPECT_EQ(modal::exit_status(e), modal::ExitStatus::bad_input);
+    }
+  }
+  const fs::path fifo = dir / "scene.fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_THROW(modal::load_model(fifo.string()), modal::SceneError);  // refused, not blocked on
+  const fs::path big = dir / "big.toml";
+  {
+    std::ofstream out(big, std::ios::binary);
+    const std::string line = "# " + std::string(1022, 'x') + "\n";
+    for (std::size_t i = 0; i <= modal::max_scene_bytes / line.size(); ++i) out << line;
+  }
+  try {
+    (void)modal::load_model(big.string());
+    FAIL();
+  } catch (const modal::SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("MiB"), std::string::npos) << e.what();
+  }
+}
+
+// The CLI end to end on the same guarantees: refusals before computing,
+// a failed stdout is an error, option errors read as sentences.
+TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
+  const std::string scene = models + "double_pendulum.toml";
+  auto r = run({"analyze", scene, "--json", scene});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("overwrite an input"), std::string::npos) << r.err;
+  r = run({"analyze", scene, "--csv", (dir / "missing" / "x").string()});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+  r = run({"analyze", "/dev/zero"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+  r = run({"analyze", scene, "--modes", "0"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("must be a whole number ≥ 1, got '0'"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("1.79769"), std::string::npos) << r.err;
+
+  if (fs::exists("/dev/full")) {
+    const std::string cmd = modal::test::quote(MODAL_BINARY) + " analyze " + modal::test::quote(scene) +
+                            " > /dev/full 2> " + modal::test::quote((dir / "err.txt").string());
+    const int raw = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(raw));
+    EXPECT_EQ(WEXITSTATUS(raw), 2);
+    EXPECT_NE(slurp(dir / "err.txt").find("standard output: writing failed"), std::string::npos);
+  }
+}
+
+}  // namespace
