@@ -21,24 +21,20 @@
 
 namespace {
 
-// The memory policy of the process, for the large scenes of the sparse path
-// (docs/design.md, "Memory policy"): glibc keeps freed memory in a heap backed
-// by transparent huge pages. glibc reads these settings only when a process
-// starts, so when GLIBC_TUNABLES is unset modal sets it and executes itself
-// once more; a GLIBC_TUNABLES the user set is respected. Not under the
-// sanitizers, which bring their own allocator.
-void tune_allocator(char** argv) {
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
-  if (std::getenv("GLIBC_TUNABLES") != nullptr) return;
-  if (setenv("GLIBC_TUNABLES",
-             "glibc.malloc.hugetlb=1:glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=1000000000000", 1) != 0)
-    return;
-  execv("/proc/self/exe", argv);
-  unsetenv("GLIBC_TUNABLES");  // not executed again (no /proc): the default allocator, equally correct
-#else
-  (void)argv;
-#endif
+// The process's memory (docs/design.md, "Memory policy"): a 10⁶-coordinate
+// analysis allocates and frees buffers of tens to hundreds of MB thousands of
+// times. The program runs on jemalloc, told here (read when it starts: no
+// environment variable, no second execution) to keep freed memory for reuse
+// instead of returning it to the system, and to back its large extents with
+// transparent huge pages, so that a reuse costs no page faults. Small scenes
+// do not notice. (Threads: scripts/setup-debian.sh selects OpenBLAS's OpenMP
+// build, which starts its threads at the first parallel BLAS call rather
+// than when it is loaded.)
+#if defined(MODAL_JEMALLOC)
+extern "C" {
+const char* malloc_conf = "thp:always,metadata_thp:auto,dirty_decay_ms:-1,muzzy_decay_ms:-1";
 }
+#endif
 
 // Option checks whose messages read as sentences ("--modes must be a whole
 // number ≥ 1, got 0"), not CLI11's "Value 0 not in range 0 to 1.79e308".
@@ -107,7 +103,6 @@ double since(std::chrono::steady_clock::time_point& last) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  tune_allocator(argv);
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
   // message and the help of the command that failed.
@@ -325,8 +320,8 @@ int main(int argc, char** argv) {
       }
     } else if (*equilibria) {
       modal::check_outputs(modal::Command::equilibria, equilibria_out, equilibria_scene.file);
-      const modal::EquilibriumSurvey survey =
-          modal::equilibria(modal::load_model(equilibria_scene.file, equilibria_scene.sets), eo);
+      const modal::Model model = modal::load_model(equilibria_scene.file, equilibria_scene.sets);
+      const modal::EquilibriumSurvey survey = modal::equilibria(model, eo);
       modal::write_equilibria(std::cout, survey, equilibria_out);
       for (const std::string& note : survey.unanalyzed) std::cerr << "modal: " << note << '\n';
     } else if (*check) {
