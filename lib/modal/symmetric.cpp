@@ -68,9 +68,41 @@ extern "C" void dsygvd_(const int* itype, const char* jobz, const char* uplo, co
                         const int* lda, double* b, const int* ldb, double* w, double* work, const int* lwork,
                         int* iwork, const int* liwork, int* info, std::size_t jobz_length, std::size_t uplo_length);
 
+// BLAS (OpenBLAS where installed, threaded for large products): the n×n
+// products and triangular solves of the error estimates below, which with
+// Eigen's single-threaded kernels took several times as long as dsygvd itself
+// on a 1000-link chain.
+extern "C" void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
+                       const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,
+                       const double* beta, double* c, const int* ldc, std::size_t transa_length,
+                       std::size_t transb_length);
+extern "C" void dtrsm_(const char* side, const char* uplo, const char* transa, const char* diag, const int* m,
+                       const int* n, const double* alpha, const double* a, const int* lda, double* b, const int* ldb,
+                       std::size_t side_length, std::size_t uplo_length, std::size_t transa_length,
+                       std::size_t diag_length);
+
 namespace modal::detail {
 namespace {
 constexpr double eps = std::numeric_limits<double>::epsilon();
+
+// C = A B (column-major, sizes from A and B).
+MatrixX product(const MatrixX& A, const MatrixX& B) {
+  const int m = static_cast<int>(A.rows()), n = static_cast<int>(B.cols()), k = static_cast<int>(A.cols());
+  MatrixX C(m, n);
+  if (m == 0 || n == 0) return C;
+  if (k == 0) return C.setZero();
+  const double one = 1, zero = 0;
+  dgemm_("N", "N", &m, &n, &k, &one, A.data(), &m, B.data(), &k, &zero, C.data(), &m, 1, 1);
+  return C;
+}
+
+// B ← L⁻¹ B for the lower triangle L of `L` (n×n; the upper triangle is not read).
+void solve_lower(const MatrixX& L, MatrixX& B) {
+  const int n = static_cast<int>(L.rows()), m = static_cast<int>(B.cols());
+  if (n == 0 || m == 0) return;
+  const double one = 1;
+  dtrsm_("L", "L", "N", "N", &n, &m, &one, L.data(), &n, B.data(), &n, 1, 1, 1, 1);
+}
 
 // Eigen: C = L⁻¹ K L⁻ᵀ = L⁻¹ (L⁻¹ K)ᵀ for symmetric K, symmetrized exactly,
 // tridiagonalized and solved by implicit QR; Φ = L⁻ᵀ Y.
@@ -116,8 +148,6 @@ bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver) {
   const Eigen::Index n = M.rows();
-  const auto L = mass.matrixL();
-  const auto U = mass.matrixU();  // Lᵀ
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda;
   MatrixX Phi;
@@ -131,32 +161,41 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // for the matrices as formed, while the solver's λ carries the error of its
   // transformation (L⁻¹KL⁻ᵀ, or LAPACK's, with an ill-conditioned M: 5e-7
   // relative on a 320-link cantilever in relative angles). Re-sorted.
-  MatrixX KPhi = K * Phi, MPhi = M * Phi;
+  MatrixX KPhi = product(K, Phi), MPhi = product(M, Phi);
+  VectorX phiMphi(n);  // φᵀMφ = ‖Lᵀφ‖² per column
   {
     VectorX rq(n);
-    for (Eigen::Index j = 0; j < n; ++j) rq(j) = Phi.col(j).dot(KPhi.col(j)) / Phi.col(j).dot(MPhi.col(j));
+    for (Eigen::Index j = 0; j < n; ++j) {
+      phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
+      rq(j) = Phi.col(j).dot(KPhi.col(j)) / phiMphi(j);
+    }
     std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
     std::iota(order.begin(), order.end(), Eigen::Index{0});
     std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return rq(a) < rq(b); });
-    const MatrixX P = Phi, KP = KPhi, MP = MPhi;
-    for (Eigen::Index k = 0; k < n; ++k) {
-      const Eigen::Index from = order[static_cast<std::size_t>(k)];
-      lambda(k) = rq(from);
-      Phi.col(k) = P.col(from);
-      KPhi.col(k) = KP.col(from);
-      MPhi.col(k) = MP.col(from);
+    if (!std::is_sorted(order.begin(), order.end())) {
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(n);
+      for (Eigen::Index k = 0; k < n; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
+      Phi = Phi * P;  // column k ← column order[k]
+      KPhi = KPhi * P;
+      MPhi = MPhi * P;
+      rq = P.transpose() * rq;
+      phiMphi = P.transpose() * phiMphi;
     }
+    lambda = rq;
   }
 
-  // Residuals of all pairs at once: R = KΦ − MΦΛ (n×n), and L⁻¹R.
-  const MatrixX R = KPhi - MPhi * lambda.asDiagonal();
-  const MatrixX LR = L.solve(R);
-  const MatrixX LtPhi = U * Phi;
-  // The rounding of R itself: |fl(R) − R| ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|)
-  // componentwise (Higham, Accuracy and Stability, §3.5), carried through L⁻¹.
+  // Residuals of all pairs at once, R = KΦ − MΦΛ (n×n), and beside them the
+  // rounding of R itself, |fl(R) − R| ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|)
+  // componentwise (Higham, Accuracy and Stability, §3.5): both carried
+  // through L⁻¹ in one triangular solve.
   const MatrixX absPhi = Phi.cwiseAbs();
-  const MatrixX absKM = K.cwiseAbs() * absPhi + M.cwiseAbs() * absPhi * lambda.cwiseAbs().asDiagonal();
-  const MatrixX LRround = L.solve(absKM);
+  MatrixX both(n, 2 * n);
+  both.leftCols(n) = KPhi - MPhi * lambda.asDiagonal();
+  both.rightCols(n) = product(K.cwiseAbs(), absPhi) + product(M.cwiseAbs(), absPhi) * lambda.cwiseAbs().asDiagonal();
+  const MatrixX R = both.leftCols(n);  // for the relative residual below
+  VectorX absKM_dot(n);                // |φ|ᵀ(|K| + |λ||M|)|φ|, before the solve overwrites it
+  for (Eigen::Index j = 0; j < n; ++j) absKM_dot(j) = absPhi.col(j).dot(both.col(n + j));
+  solve_lower(mass.matrixLLT(), both);  // its lower triangle is L
 
   // Per mode, the linear residual bound δ (rigorous for the matrices as
   // formed) and its typical-size counterpart (see the header comment), then
@@ -167,31 +206,45 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   VectorX bound(n), typical(n), quotient_rounding(n);
   const double nn = static_cast<double>(n + 2);
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = LtPhi.col(j).norm();
-    const double residual = LR.col(j).norm() / norm, rounding = eps * LRround.col(j).norm() / norm;
+    const double norm = std::sqrt(phiMphi(j));
+    const double residual = both.col(j).norm() / norm, rounding = eps * both.col(n + j).norm() / norm;
     bound(j) = residual + nn * rounding;
     typical(j) = residual + std::sqrt(nn) * rounding;
-    quotient_rounding(j) = eps * absPhi.col(j).dot(absKM.col(j)) / Phi.col(j).dot(MPhi.col(j));
+    quotient_rounding(j) = eps * absKM_dot(j) / phiMphi(j);
   }
+  both.resize(0, 0);
+  // The nearest other eigenvalue's interval: λ is sorted, so the minimum of
+  // |λ_k − λ_j| − δ_k is attained among the neighbours until |λ_k − λ_j|
+  // alone exceeds the best gap found plus the largest δ (a scan outwards,
+  // O(n) in all for well separated spectra, not O(n²)).
+  const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
   auto with_gap = [&](const VectorX& delta, double rounding_factor, Eigen::Index j) {
     double gap = std::numeric_limits<double>::infinity();
-    for (Eigen::Index k = 0; k < n; ++k)
-      if (k != j) gap = std::min(gap, std::abs(lambda(k) - lambda(j)) - delta(k));
+    for (Eigen::Index k = j - 1; k >= 0; --k) {
+      const double d = std::abs(lambda(k) - lambda(j));
+      if (d - largest_delta > gap) break;
+      gap = std::min(gap, d - delta(k));
+    }
+    for (Eigen::Index k = j + 1; k < n; ++k) {
+      const double d = std::abs(lambda(k) - lambda(j));
+      if (d - largest_delta > gap) break;
+      gap = std::min(gap, d - delta(k));
+    }
     const double linear = delta(j);
     const double quadratic = gap > linear ? linear * linear / gap : linear;
     return std::min(linear, quadratic) + rounding_factor * quotient_rounding(j) + eps * std::abs(lambda(j));
   };
-  // E: the absolute error of K's entries (given, or 4ε|K|).
   // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
   // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
   const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
-  const MatrixX D = differences ? K_systematic_error : MatrixX::Zero(n, n);
-  const MatrixX E = K_error.rows() == n && K_error.cols() == n ? MatrixX((K_error - D).cwiseMax(0.0))
-                                                              : MatrixX(4 * eps * K.cwiseAbs());
+  const MatrixX E = K_error.rows() == n && K_error.cols() == n
+                        ? (differences ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0)) : K_error)
+                        : MatrixX(4 * eps * K.cwiseAbs());
   const double normE = E.norm(), normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
   // Σ_ij (x_i A_ij x_j)² for every column x of Φ: diag(Sᵀ (A∘A) S), S = Φ∘Φ.
   const MatrixX S = Phi.cwiseAbs2();
-  const MatrixX E2S = E.cwiseAbs2() * S, M2S = M.cwiseAbs2() * S;
+  const MatrixX E2S = product(E.cwiseAbs2(), S), M2S = product(M.cwiseAbs2(), S);
+  const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
 
   ModalResult result;
   result.solver = lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
@@ -205,7 +258,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double residual_bound = with_gap(bound, nn, j);
     const double residual_estimate = with_gap(typical, std::sqrt(nn), j);
     const double rM = 4 * eps;
-    const double difference_bound = differences ? absPhi.col(j).dot(D * absPhi.col(j)) : 0.0;
+    const double difference_bound = differences ? absPhi.col(j).dot(DabsPhi.col(j)) : 0.0;
     const double data_bound = std::sqrt(S.col(j).dot(E2S.col(j)) + rM * rM * l * l * S.col(j).dot(M2S.col(j))) +
                               difference_bound + (normE + rM * std::abs(l) * normM) * x2;
     const double error = residual_estimate + data_bound;
@@ -231,8 +284,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     if (mode.kind == ModeKind::divergent) ++result.morse_index;
     if (mode.kind == ModeKind::zero) ++result.zero_modes;
 
-    VectorX shape = Phi.col(j);
-    shape /= std::sqrt(shape.dot(M * shape));  // M-normalized to rounding
+    VectorX shape = Phi.col(j) / std::sqrt(phiMphi(j));  // M-normalized to rounding
     if (shape(dominant_index(shape.cast<std::complex<double>>())) < 0) shape = -shape;
     mode.shape = shape.cast<std::complex<double>>();
     result.modes.push_back(std::move(mode));
