@@ -214,26 +214,37 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
   auto value = [&](const Mode& m) { return symmetric ? std::complex<double>(m.omega2, 0) : m.s; };
   double scale = 0;
   for (const Mode& m : modes) scale = std::max(scale, std::abs(value(m)));
+  // Modes are one eigenvalue when every member of the group lies within the
+  // error estimates of the first (the group's whole spread, not a chain of
+  // neighbours each close to the next: 300 distinct eigenvalues of a long
+  // chain, each within its estimate of the next, are not one eigenvalue), or
+  // when they agree to rounding level normwise (64ε of the largest |λ|).
   auto close = [&](const Mode& a, const Mode& b) {
     const double gap = std::abs(value(a) - value(b));
-    return gap <= a.error_estimate + b.error_estimate || gap <= 1e-8 * scale;
+    return gap <= a.error_estimate + b.error_estimate || gap <= 64 * std::numeric_limits<double>::epsilon() * scale;
   };
   for (std::size_t first = 0; first < modes.size();) {
     std::size_t last = first;
-    while (last + 1 < modes.size() && close(modes[last], modes[last + 1])) ++last;
+    while (last + 1 < modes.size() && close(modes[last], modes[last + 1]) && close(modes[first], modes[last + 1]))
+      ++last;
     if (last > first) {
       std::ostringstream out;
-      out << "modes " << first + 1 << "–" << last + 1 << " share the eigenvalue ";
+      // Said as what is known: the values lie within each other's error
+      // estimates, so they cannot be told apart at the stated accuracy; a
+      // true repeat (by symmetry) and two close eigenvalues look alike here.
+      out << "modes " << first + 1 << "–" << last + 1 << " are not resolved: their eigenvalues ";
       if (symmetric)
-        out << "λ ≈ " << format_number(modes[first].omega2, 10)
-            << ": their shapes are one M-orthonormal basis of the eigenspace, not unique "
-               "(any M-orthonormal combination of them is equally valid)";
+        out << "(λ ≈ " << format_number(modes[first].omega2, 10)
+            << ") lie within each other's error estimates, so they may be one repeated eigenvalue; if so, their "
+               "shapes are one M-orthonormal basis of the eigenspace, not unique (any M-orthonormal combination "
+               "of them is equally valid)";
       else
-        out << "s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
+        out << "(s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
             << format_number(std::abs(modes[first].s.imag()), 8)
-            << "i: their shapes span the invariant subspace and are not unique; if the eigenvalue is "
-               "defective (coalescing modes, as at critical damping or at the onset of flutter) it is "
-               "accurate only to about the square root of the rounding level";
+            << "i) lie within each other's error estimates; if they are one eigenvalue, their shapes span the "
+               "invariant subspace and are not unique, and if it is defective (coalescing modes, as at critical "
+               "damping or at the onset of flutter) it is accurate only to about the square root of the rounding "
+               "level";
       notes.push_back(out.str());
     }
     first = last + 1;
