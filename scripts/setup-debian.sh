@@ -10,9 +10,9 @@ packages=(
   libsuitesparse-dev   # CHOLMOD sparse Cholesky (shift-invert of the sparse eigen-solver)
   liblapack-dev        # LAPACK interface (dsygvd, the dense symmetric-definite eigen-solver)
   libmumps-seq-dev     # MUMPS sparse LDLᵀ with pivoting: inertia and indefinite shifts of the sparse eigen-solver
-  libopenblas0-openmp  # optimized BLAS/LAPACK for the dense kernels of CHOLMOD and MUMPS (the reference BLAS
-                       # spends half of a 10⁶-coordinate analysis in dgemm); the OpenMP build starts its threads at
-                       # the first parallel call, not when loaded (the pthread build costs every run ~2-5 ms)
+  libopenblas0-pthread # optimized BLAS/LAPACK for the dense kernels of CHOLMOD and MUMPS (the reference BLAS
+                       # spends half of a 10⁶-coordinate analysis in dgemm); the pthread build, not the OpenMP one,
+                       # which starts no threads on load but made a 10⁵-coordinate net's equilibrium 1.8× slower
   libjemalloc-dev      # the program's allocator: freed memory kept for reuse on huge pages (large scenes)
   libnlopt-cxx-dev     # NLopt with its C++ API (equilibrium searches)
   libgsl-dev           # GSL: ODE integration (energy conservation, simulation)
@@ -43,11 +43,11 @@ else
 fi
 
 # Debian's alternatives choose which BLAS/LAPACK libblas.so.3, liblapack.so.3 and libopenblas.so.0
-# are; when OpenBLAS's pthread build is installed too it would win by priority.
-# Select the OpenMP build (see above) where it is not already the choice.
+# are; another BLAS installed beside OpenBLAS's pthread build (its OpenMP
+# build, say) may have been chosen. Select the pthread build (see above).
 arch=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -dumpmachine)
 for lib in libblas.so.3 liblapack.so.3 libopenblas.so.0; do
-  target=/usr/lib/$arch/openblas-openmp/$lib
+  target=/usr/lib/$arch/openblas-pthread/$lib
   current=$(readlink -f "/usr/lib/$arch/$lib" || true)
   if [ -e "$target" ] && [ "$current" != "$(readlink -f "$target")" ]; then
     echo "setup: selecting $target for $lib"

@@ -27,9 +27,7 @@ namespace {
 // environment variable, no second execution) to keep freed memory for reuse
 // instead of returning it to the system, and to back its large extents with
 // transparent huge pages, so that a reuse costs no page faults. Small scenes
-// do not notice. (Threads: scripts/setup-debian.sh selects OpenBLAS's OpenMP
-// build, which starts its threads at the first parallel BLAS call rather
-// than when it is loaded.)
+// do not notice.
 #if defined(MODAL_JEMALLOC)
 extern "C" {
 const char* malloc_conf = "thp:always,metadata_thp:auto,dirty_decay_ms:-1,muzzy_decay_ms:-1";
