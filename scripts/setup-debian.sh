@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
+  ccache               # scripts/test.sh compiles through it: a repeated test run rebuilds only what changed
   libeigen3-dev        # dense linear algebra, Eigen 3.4
   libspectra-dev       # sparse/iterative eigen-solvers, Spectra 1.0
   libsuitesparse-dev   # CHOLMOD sparse Cholesky (shift-invert of the sparse eigen-solver)

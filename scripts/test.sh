@@ -9,17 +9,25 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=${MODAL_JOBS:-$(nproc)}
+# Compiles go through ccache where it is installed (setup-debian.sh installs
+# it), with paths taken relative to this checkout, so that a fresh clone on a
+# machine that built modal before recompiles only what changed.
+launcher=()
+if command -v ccache > /dev/null; then
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
+fi
 
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMODAL_BUILD_BENCH=ON
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMODAL_BUILD_BENCH=ON "${launcher[@]}"
 cmake --build build -j"$jobs"
 ctest --test-dir build --output-on-failure -j"$jobs"
 
-cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_SANITIZE=ON -DMODAL_BUILD_BENCH=OFF
+cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_SANITIZE=ON -DMODAL_BUILD_BENCH=OFF "${launcher[@]}"
 cmake --build build-sanitize -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-sanitize --output-on-failure -j"$jobs"
 
-cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_FUZZ=ON \
+cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_FUZZ=ON "${launcher[@]}" \
   -DMODAL_BUILD_TESTS=OFF -DMODAL_BUILD_BENCH=OFF
 cmake --build build-fuzz -j"$jobs" --target fuzz_scene
 mkdir -p build-fuzz/corpus build-fuzz/findings
