@@ -66,6 +66,9 @@ double lbfgs_objective(unsigned n, const double* x, double* grad, void* data) {
 // CHOLMOD's supernodal Cholesky factor, with the pivot order its analysis chose.
 class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> {
  public:
+  // A matrix that is not positive definite is an answer here (the damped
+  // method then shifts it), not a warning for the user's terminal.
+  SupernodalLlt() { cholmod().print = 0; }
   // order[k] = the k-th coordinate; empty before an analysis.
   std::vector<int> ordering() const {
     if (m_cholmodFactor == nullptr || m_cholmodFactor->Perm == nullptr) return {};
@@ -79,6 +82,26 @@ class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lo
 class NewtonSteps {
  public:
   int factorizations = 0, cg_iterations = 0;
+
+  // −A⁻¹ r by a fresh supernodal Cholesky factorization of A (the symbolic
+  // analysis kept while the pattern stays); empty when A is not positive
+  // definite. The factor is kept as the preconditioner of later steps.
+  VectorX solve_positive(const SparseMatrix& A, const VectorX& r) {
+    refactor_ = false;
+    have_factor_ = false;
+    if (!same_pattern(A)) {
+      llt_.analyzePattern(A);
+      outer_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+      inner_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+    }
+    ++factorizations;
+    llt_.factorize(A);
+    if (llt_.info() != Eigen::Success) return {};
+    VectorX d = -llt_.solve(r);
+    if (!d.allFinite()) return {};
+    have_factor_ = true;
+    return d;
+  }
 
   // The pivot order of the last symbolic analysis of ∇∇V (empty: none).
   std::vector<int> ordering() const { return llt_.ordering(); }
@@ -230,6 +253,90 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       if (!accepted) return;  // at the rounding floor, or stalled
     }
   };
+  // Damped Newton (Levenberg–Marquardt on V) for degenerate and indefinite
+  // starts, where ∇∇V is singular or indefinite (a slack net: springs at
+  // their rest length have no transverse stiffness, so a flat start has
+  // none out of its plane). Each step solves (∇∇V + μ h I) d = −∇V with a
+  // Cholesky factor (h: the mean diagonal of ∇∇V, so μ is dimensionless),
+  // and the ratio ρ of V's actual decrease to the decrease the quadratic
+  // model predicts decides: a step with ρ > 10⁻⁴ is taken and μ shrinks by
+  // up to 3× as ρ approaches 1 (Nielsen's rule; below 10⁻¹⁰ it becomes 0:
+  // Newton), a refused step or a failed factorization grows it 2×, 4×, 8×
+  // … in a row. μ starts where a
+  // gradient step moves the largest coordinate by 10⁻³ of the scene's length
+  // scale, and the steps lengthen with every success until the sag is
+  // reached, so the number of steps grows with the logarithm of the sag, not
+  // with n. Once the shift is small (μ < 10⁻³) and the residual has fallen
+  // 10³-fold, the truncated Newton above finishes with its kept factor.
+  // Counted in `damped_steps`.
+  int damped_steps = 0;
+  auto damped = [&](VectorX q) {
+    VectorX r = potential_gradient(s, w, q);
+    const double r0 = r.norm();
+    double v = potential(s, w, q);
+    double mu = -1;  // set from the first Hessian
+    double growth = 2;
+    for (int it = 0; it < 200; ++it) {
+      const double rnorm = r.norm();
+      const double rel = relative(q, rnorm);
+      if (rel < best.residual) {
+        best.q = q;
+        best.residual = rel;
+        best.residual_norm = rnorm;
+        best.iterations = it;
+      }
+      if (rel <= options.tolerance || rnorm == 0) return q;
+      const SparseMatrix& H = sparse_potential_hessian(s, w, q);
+      // Newton's region (the model trusted with a small shift, the residual
+      // down by 10³): the truncated Newton finishes with its kept factor.
+      if (mu < 1e-3 && rnorm < 1e-3 * r0) return q;
+      const double h = std::max(H.diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
+      if (mu < 0) {
+        // First step: the size at which a gradient step moves the largest
+        // coordinate by 10⁻³ of the scene's length scale, unless H is
+        // positive definite (then Newton is tried first, μ = 0).
+        mu = std::max(r.cwiseAbs().maxCoeff() / (h * 1e-3 * s.length_scale()), 1e-10);
+      }
+      SparseMatrix I(H.rows(), H.cols());
+      I.setIdentity();
+      VectorX d;
+      for (int tries = 0; tries < 60 && d.size() == 0; ++tries) {
+        d = steps.solve_positive(H + (mu * h) * I, r);
+        if (d.size() == 0) mu = std::max(4 * mu, 1e-10);
+      }
+      if (d.size() == 0) return q;
+      ++damped_steps;
+      const double predicted = -(r.dot(d) + 0.5 * d.dot(H * d));
+      VectorX qt = q + d;
+      double vt = std::numeric_limits<double>::infinity();
+      VectorX rt;
+      try {
+        vt = potential(s, w, qt);
+        if (std::isfinite(vt)) rt = potential_gradient(s, w, qt);
+      } catch (const NumericalError&) {
+      }
+      const double rho = predicted > 0 && std::isfinite(vt) ? (v - vt) / predicted : -1;
+      if (rho > 1e-4 && rt.allFinite()) {
+        q = canonical_coordinates(s, qt);
+        r = rt;
+        v = vt;
+      }
+      // Nielsen's rule: after a taken step μ shrinks smoothly with the
+      // model's quality (by up to 3×), after a refused one it grows, faster
+      // with every refusal in a row.
+      if (rho > 1e-4) {
+        const double t = 2 * rho - 1;
+        mu *= std::max(1.0 / 3.0, 1 - t * t * t);
+        if (mu < 1e-10) mu = 0;
+        growth = 2;
+      } else {
+        mu = std::max(growth * mu, 1e-10);
+        growth *= 2;
+      }
+    }
+    return q;
+  };
+
   // L-BFGS on V from x (see the header comment); returns where it stopped.
   int lbfgs_evaluations = 0;
   auto lbfgs = [&](const VectorX& from) {
@@ -266,7 +373,11 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   } else {
     newton(q);
   }
-  if (!(best.residual <= accept) && !lbfgs_done) {  // Newton stalled: L-BFGS from the start, then Newton
+  if (!(best.residual <= accept) && !lbfgs_done) {  // Newton stalled: damped Newton from the start, then Newton
+    const VectorX reached = damped(q);
+    if (!(best.residual <= accept) && reached.allFinite()) newton(reached);
+  }
+  if (!(best.residual <= accept) && !lbfgs_done) {  // still not: L-BFGS from the start, then Newton
     const VectorX reached = lbfgs(q);
     if (reached.allFinite()) newton(reached);
   }
@@ -278,6 +389,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   best.potential = potential(s, w, best.q);
   best.fill_reducing_order = steps.ordering();
   best.method = (lbfgs_evaluations > 0 ? "L-BFGS (" + std::to_string(lbfgs_evaluations) + " evaluations of V and ∇V), then " : std::string()) +
+                (damped_steps > 0 ? "damped Newton (" + std::to_string(damped_steps) + " steps), then " : std::string()) +
                 "truncated Newton with the sparse Hessian: " + std::to_string(newton_iterations) + " steps, " +
                 std::to_string(steps.factorizations) + " factorizations, " + std::to_string(steps.cg_iterations) +
                 " preconditioned CG iterations";
