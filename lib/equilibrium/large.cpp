@@ -116,22 +116,7 @@ class NewtonSteps {
 
  private:
   VectorX exact(const SparseMatrix& H, const VectorX& r) {
-    refactor_ = false;
-    have_factor_ = false;
-    if (!same_pattern(H)) {
-      llt_.analyzePattern(H);
-      outer_.assign(H.outerIndexPtr(), H.outerIndexPtr() + H.outerSize() + 1);
-      inner_.assign(H.innerIndexPtr(), H.innerIndexPtr() + H.nonZeros());
-    }
-    ++factorizations;
-    llt_.factorize(H);
-    if (llt_.info() == Eigen::Success) {
-      VectorX d = -llt_.solve(r);
-      if (d.allFinite()) {
-        have_factor_ = true;
-        return d;
-      }
-    }
+    if (VectorX d = solve_positive(H, r); d.size() > 0) return d;
     outer_.clear();  // a failed supernodal factor is analyzed afresh
     Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(H);
     if (ldlt.info() == Eigen::Success) {
