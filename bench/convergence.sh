@@ -89,7 +89,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 work = sys.argv[1]
-# REFERENCES.md R3: zeros of J0 over 2; R4: roots of cos βL cosh βL = −1.
+# R3 (docs/design.md): zeros of J0 over 2; R4: roots of cos βL cosh βL = −1.
 g, L, M, EI = 9.81, 1.0, 1.0, 1.0
 r3 = [z * math.sqrt(g / L) for z in (1.202412778848, 2.760039055143, 4.326863956456)]
 r4 = [b * b * math.sqrt(EI / (M / L * L**4)) for b in (1.87510406871, 4.69409113297, 7.85475743824)]
@@ -201,7 +201,7 @@ cat >> results/convergence.md <<'TXT'
 
 ## What the tables show
 
-- **R3 converges as REFERENCES.md says, O(1/N).** Point masses at the link
+- **R3 converges as expected (docs/design.md, "Reference cases"), O(1/N).** Point masses at the link
   ends: the observed order is 0.98–1.00 for the three lowest modes (0.99–1.00
   from the errors against the Bessel zeros), and the Richardson value from
   N = 160, 320, 640 lands 45–300 times closer to R3 than the 640-link chain,
@@ -228,7 +228,7 @@ cat >> results/convergence.md <<'TXT'
   bound of 1.5·10⁻⁴ rad/s on ω₁ at N = 320, and `--extrapolate` refused the
   clamp-2EI/a chains beyond N = 160. The dense solver now reports Rayleigh
   quotients with the quadratic (Kato–Temple) bound, accurate to 1e-12 there
-  with an estimate near 1e-9 (docs/design-changes.md), and the last table
+  with an estimate near 1e-9 (docs/design.md, "Dense symmetric modes"), and the last table
   runs to 640 links.
 TXT
 echo "wrote results/convergence.md, results/convergence.csv, results/convergence.png" >&2

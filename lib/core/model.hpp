@@ -233,7 +233,7 @@ template <class S> S centrifugal_rotation_energy(const Mat3& I, const Vec3& Omeg
   return -0.5 * w.dot(cast33<S>(I) * w);
 }
 
-// V(q) in J; in a rotating frame V_eff = V − T₀ (DESIGN.md §1).
+// V(q) in J; in a rotating frame V_eff = V − T₀ (docs/design.md, "Energies and forces").
 template <class S> S potential(const System& sys, const TreeState<S>& st, const S* q) {
   S v(0.0);
   const auto& bodies = sys.bodies();

@@ -1,5 +1,5 @@
 // lib/linearize/linearize.cpp — the linear model M δq̈ + (D + G) δq̇ + K δq = 0
-// about an equilibrium q̄ of a System (DESIGN.md §1).
+// about an equilibrium q̄ of a System (docs/design.md, "The linear model").
 //
 // With the core's present scope (a fixed or steadily moving frame, dead and
 // follower loads, dampers; constraints projected at the end, see the header) the terms are

@@ -1,4 +1,4 @@
-// CSV writers of the report stage (DESIGN.md §4).
+// CSV writers of the report stage (docs/design.md, "Output files").
 #include "modal/report.hpp"
 
 #include <algorithm>

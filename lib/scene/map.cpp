@@ -1,4 +1,4 @@
-// Expression-defined systems in scene files (DESIGN.md §3): [coordinates],
+// Expression-defined systems in scene files (docs/design.md, "Scene format"): [coordinates],
 // [[point]] and `potential`, read into a KinematicMap.
 //
 //   [coordinates]                       # in file order; a number (the initial value) or a table

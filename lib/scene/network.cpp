@@ -1,5 +1,5 @@
-// Generators of particles and springs (docs/design-changes.md, "Lattices and
-// networks"):
+// Generators of particles and springs (docs/design.md, "Scene format": [[lattice]]
+// and [[network]]):
 //
 //   [[lattice]]  particles on a regular grid, springs to the grid neighbours
 //                (and the face diagonals); named "<name>.<i>.<j>.<k>" (a 2-D

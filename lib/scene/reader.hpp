@@ -1,6 +1,6 @@
 // Private to lib/scene: reading typed values from a parsed TOML scene, each with
 // its source location and dotted key, so that every error names the file, line,
-// column and key (DESIGN.md §3).
+// column and key (docs/design.md, "Scene format").
 //
 // A Reader knows the scene text (to point into expression strings) and the
 // resolved parameters (to evaluate expressions); a Section is one table of the
@@ -126,7 +126,7 @@ class Section {
 Mat3 read_inertia(const Section& s);
 
 // [coordinates], [[point]] and `potential` of the root (an expression-defined
-// system, DESIGN.md §3) into d.map; false when the scene has none of them.
+// system, docs/design.md "Scene format") into d.map; false when the scene has none of them.
 bool read_map(const Reader& reader, const toml::table& root, SystemDescription& d);
 
 // Particles (bodies on the world) and springs made by a [[lattice]] or a

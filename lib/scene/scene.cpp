@@ -1,4 +1,4 @@
-// Scene files (DESIGN.md §3, version 1) to validated SystemDescriptions.
+// Scene files (docs/design.md, "Scene format", version 1) to validated SystemDescriptions.
 //
 // Reading goes section by section: [parameters] first (every other number may
 // use them), then [[body]], [[chain]] (chains expand into hinge bodies),

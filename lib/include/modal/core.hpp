@@ -34,7 +34,8 @@
 // Ω = SystemDescription::frame_rotation (rad/s, constant, about the world
 // origin, components in the scene frame). The inertial velocity of a body point
 // is then ẋ + Ω × x, every body's inertial twist is Σ_k ξ_k q̇_k + ξ_Ω with
-// ξ_Ω = (Ω, 0), and T = ½q̇ᵀMq̇ + q̇ᵀg(q) + T₀(q) (DESIGN.md §1) with
+// ξ_Ω = (Ω, 0), and T = ½q̇ᵀMq̇ + q̇ᵀg(q) + T₀(q) (docs/design.md, "Mechanics and
+// sign conventions") with
 //   g_k(q) = ξ_kᵀ Ic(b(k)) ξ_Ω                                   frame_coupling()
 //   T₀(q)  = ½ Σ_b ξ_Ωᵀ I6_b ξ_Ω = ½ Σ_b [m_b |Ω × x_b|² + Ωᵀ R_b I_b R_bᵀ Ω]   [J]
 // In a rotating system the potential V(q) below is V_eff = V − T₀ throughout:
@@ -43,16 +44,17 @@
 // equilibria (∇V_eff = Q) and K = ∇∇V_eff − ∂Q/∂q. The equations of motion
 // are M q̈ + C q̇ + G q̇ + ∇V_eff = Q with the gyroscopic matrix
 //   G_ij = ∂g_i/∂q_j − ∂g_j/∂q_i                                 gyroscopic_matrix()
-// (skew-symmetric, units of M/s). DESIGN.md writes G = (∂g/∂q)ᵀ − ∂g/∂q with
-// (∂g/∂q)_ij = ∂g_j/∂q_i (gradient layout); it is the same matrix. Example:
+// (skew-symmetric, units of M/s); written as (∂g/∂q)ᵀ − ∂g/∂q with
+// (∂g/∂q)_ij = ∂g_j/∂q_i (gradient layout), it is the same matrix. Example:
 // a particle on two slides x, y in a plane rotating at Ω about z has
 // g = mΩ(−y, x) and G = 2mΩ[[0, −1], [1, 0]], i.e. m ẍ − 2mΩ ẏ + … = 0 (the
 // Coriolis force −2m Ω × ẋ).
 //
-// Conventions (DESIGN.md §1): coordinates are joint values relative to the
-// parent body (hinge angle in rad, slide in m, ball: rotation vector relative to
-// the written orientation, free: translation then rotation vector). Body frames
-// coincide with the parent frame moved to the joint origin at q = 0.
+// Conventions (docs/design.md, "Mechanics and sign conventions"): coordinates
+// are joint values relative to the parent body (hinge angle in rad, slide in
+// m, ball: rotation vector relative to the written orientation, free:
+// translation then rotation vector). Body frames coincide with the parent
+// frame moved to the joint origin at q = 0.
 #pragma once
 
 #include "modal/expression.hpp"
@@ -165,7 +167,7 @@ struct FollowerLoad {
 };
 
 // A holonomic constraint c(q) = 0 between two points (a loop closure,
-// DESIGN.md §1 and §3):
+// docs/design.md, "Mechanics and sign conventions" and "Scene format"):
 //   point:     c = x_a − x_b            3 equations (x, y, z), m: the points coincide
 //   distance:  c = |x_a − x_b| − length 1 equation, m: the points keep their distance
 // With multipliers s the constraint's generalized force is ∇c s (Lagrange's
@@ -480,8 +482,9 @@ VectorX constraint_values(const System& s, Workspace& w, const VectorX& q);
 // The constraint Jacobian A = ∂c/∂q (m×n; row i is ∇c_iᵀ), exact.
 MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q);
 // Σ_i s_i ∇∇c_i (n×n, symmetric) for multipliers s (m, N): the multiplier
-// term of the constrained stiffness K − Σ s_i ∇∇c_i (DESIGN.md §1), exact (the
-// same tree accumulation as ∇∇V with the constraint forces as cotangents).
+// term of the constrained stiffness K − Σ s_i ∇∇c_i (docs/design.md, "The
+// linear model"), exact (the same tree accumulation as ∇∇V with the
+// constraint forces as cotangents).
 // Throws NumericalError for a distance constraint whose points coincide.
 MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers);
 

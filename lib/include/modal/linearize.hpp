@@ -6,7 +6,7 @@
 //
 // Throws NotAnEquilibrium (with the residual, in words) when q̄ is not one.
 //
-// Constraints c(q) = 0 (DESIGN.md §1): q̄ must satisfy them, and the
+// Constraints c(q) = 0 (docs/design.md, "The linear model"): q̄ must satisfy them, and the
 // multipliers s are the least-squares solution of ∇V − Q = ∇c_I s_I on the
 // independent equations I (constraint_basis; redundant equations get s = 0
 // and are listed). With N an orthonormal basis of the null space of ∇c_Iᵀ

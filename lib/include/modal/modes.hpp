@@ -7,7 +7,8 @@
 // as K φ = λ M φ with λ = ω² and M-normalized modes (ΦᵀMΦ = I); a negative λ
 // is a divergent mode and is reported as negative, never as |λ|. Otherwise the
 // 2n first-order system is solved for s = σ ± iω. Stability classes follow
-// DESIGN.md §1. Every eigenvalue carries an error estimate.
+// docs/design.md ("Mode kinds and stability classes"). Every eigenvalue
+// carries an error estimate.
 #pragma once
 
 #include "modal/linearize.hpp"
@@ -140,11 +141,12 @@ struct SparseModalOptions {
 // convergence, a factorization failure), std::invalid_argument (sizes, k).
 ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, const SparseModalOptions& options = {});
 
-// Stability class (DESIGN.md §1) of a complete set of modes, from their kinds:
-// divergence if any mode is divergent, else flutter if any flutters, else
-// marginal if any is a zero mode, else asymptotically stable if all are
-// damped, else stable (no modes: stable). solve_modes() classifies all modes
-// before keeping the `modes` lowest.
+// Stability class (docs/design.md, "Mode kinds and stability classes") of a
+// complete set of modes, from their kinds: divergence if any mode is
+// divergent, else flutter if any flutters, else marginal if any is a zero
+// mode, else asymptotically stable if all are damped, else stable (no modes:
+// stable). solve_modes() classifies all modes before keeping the `modes`
+// lowest.
 Stability classify(const std::vector<Mode>& modes);
 
 }  // namespace modal

@@ -1,5 +1,5 @@
 // modal/report.hpp — the report stage: human tables, CSV files and JSON for the
-// results of the pipeline (DESIGN.md §4).
+// results of the pipeline (docs/design.md, "Output files").
 //
 //   modal::Report r = modal::make_report(sys, "models/double_pendulum.toml", scene.parameters);
 //   r.equilibria.push_back({equilibrium, modal::solve_modes(modal::linearize(sys, equilibrium.q))});
@@ -60,7 +60,8 @@ Report make_report(const System& system, std::string scene_file,
 
 // --- small pieces, exposed for tests and other writers -----------------------
 
-// The stability class of one mode in the vocabulary of DESIGN.md §1:
+// The stability class of one mode in the vocabulary of docs/design.md ("Mode
+// kinds and stability classes"):
 // oscillatory → "stable", damped → "asymptotically stable", zero → "marginal",
 // divergent → "divergence", flutter → "flutter".
 const char* mode_stability(ModeKind kind);
@@ -84,7 +85,7 @@ struct ConstraintEquationForce {
 };
 std::vector<ConstraintEquationForce> constraint_equation_forces(const ModalResult& result);
 
-// --- CSV (DESIGN.md §4) -----------------------------------------------------
+// --- CSV (docs/design.md, "Output files") ---------------------------------------
 // Header "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,
 // damping_ratio,stability,error_estimate"; one row per mode per equilibrium,
 // equilibrium and mode numbered from 1.

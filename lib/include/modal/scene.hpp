@@ -1,4 +1,4 @@
-// modal/scene.hpp — scene files (TOML, DESIGN.md §3) to validated Scenes to Systems.
+// modal/scene.hpp — scene files (TOML, docs/design.md "Scene format") to validated Scenes to Systems.
 //
 //   modal::Scene scene = modal::load_scene("models/double_pendulum.toml", {{"m", "2"}});
 //   modal::System sys = modal::build_system(scene);

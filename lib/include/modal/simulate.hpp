@@ -16,9 +16,9 @@
 // rotating frame). W is the work done by the non-conservative forces Q
 // (dampers, follower loads; generalized_forces()), so that the energy balance
 //   E(t) − E(0) = W(t),   E = energy() = ½q̇ᵀMq̇ + V (− T₀: the Jacobi integral)
-// holds for every scene, conservative or not (dE/dt = Qᵀq̇, DESIGN.md §1), and
-// its defect measures the integration error. For a conservative scene W ≡ 0
-// and E is conserved.
+// holds for every scene, conservative or not (dE/dt = Qᵀq̇, docs/design.md
+// "Equations of motion"), and its defect measures the integration error.
+// For a conservative scene W ≡ 0 and E is conserved.
 //
 // Constraints: q̈ solves Lagrange's equations of the first kind with the
 // constraints held to second order (accelerations(), null-space method). The
@@ -57,7 +57,7 @@
 // the promise. The cost grows only as tolerance^(−1/8): 1e-12 takes 1.25 times
 // the steps of 1e-11 and 1.6 times those of 1e-10. Below ~1e-14 the round-off
 // of a step (ε|y|) reaches the tolerance and steps are rejected in numbers.
-// Measurements: docs/design-changes.md, tests/test_simulate.cpp.
+// Measurements: docs/design.md ("Simulation tolerance"), tests/test_simulate.cpp.
 #pragma once
 
 #include "modal/core.hpp"

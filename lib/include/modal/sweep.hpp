@@ -15,7 +15,7 @@
 // or not. Where the parameter changes the number of coordinates (a number of
 // links), the previous equilibrium does not fit and each such point starts from
 // its scene's initial configuration. Each point is linearized and solved with all modes, which gives its
-// stability class (DESIGN.md §1).
+// stability class (docs/design.md, "Mode kinds and stability classes").
 //
 // Critical values. Wherever consecutive points differ in class, the change is
 // bracketed between them and the bracket shrunk until its width is at most
