@@ -28,6 +28,7 @@ packages=(
   python3-sympy        # benchmark only: the SymPy mechanics peer of bench/map_linearize.sh
   python3-scipy python3-matplotlib  # benchmark only: scipy eigsh peer and the plot of bench/sparse_scaling.sh
   help2man             # the man page modal.1, generated from --help at build time (optional: none without it)
+  doxygen              # the API reference: cmake --build build --target docs (Doxygen over the public headers)
   dpkg-dev file        # cpack -G DEB: dpkg-shlibdeps finds the package's Depends, file spots the ELF files
 )
 

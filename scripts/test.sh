@@ -20,6 +20,7 @@ fi
 
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMODAL_BUILD_BENCH=ON "${launcher[@]}"
 cmake --build build -j"$jobs"
+cmake --build build --target docs
 ctest --test-dir build --output-on-failure -j"$jobs"
 
 cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMODAL_SANITIZE=ON -DMODAL_BUILD_BENCH=OFF "${launcher[@]}"
