@@ -190,7 +190,7 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
 
   const Vec3 far = origin + static_cast<double>(n[0] - 1) * step[0] + static_cast<double>(n[1] - 1) * step[1] +
                   static_cast<double>(n[2] - 1) * step[2];
-  if (!far.allFinite() || !std::isfinite((far - origin).norm()))
+  if (!far.allFinite() || !std::isfinite((far - origin).stableNorm()))
     s.fail("spacing", "the lattice is too large to place: its far corner is not finite");
 
   // Particles, the last index fastest: index = (i n2 + j) n3 + k.
@@ -233,7 +233,10 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
   double springs = 0;
   for (const auto& o : offsets) {
     rest.push_back((1 - prestrain) * (static_cast<double>(o[0]) * step[0] + static_cast<double>(o[1]) * step[1] +
-                                      static_cast<double>(o[2]) * step[2]).norm());
+                                      static_cast<double>(o[2]) * step[2]).stableNorm());
+    if (!std::isfinite(rest.back()))
+      s.fail("spacing", "a spring between neighbouring particles would be longer than the largest number (its rest "
+                        "length overflows); give a smaller spacing");
     double count = 1;
     for (std::size_t d = 0; d < 3; ++d) count *= static_cast<double>(std::max(0LL, n[d] - std::abs(o[d])));
     springs += count;

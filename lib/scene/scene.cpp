@@ -201,6 +201,9 @@ std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table
 
   const double a = length / links;      // link length, m
   const double m = mass / links;        // link mass, kg
+  if (model == "rod" && !std::isfinite(m * a * a / 12.0))
+    s.fail("length", "each link's moment of inertia m·a²/12 (link mass m, link length a) overflows; give a smaller "
+                     "length or mass");
   std::vector<BodyEntry> entries(static_cast<std::size_t>(links));
   for (int k = 0; k < links; ++k) {
     BodyEntry& e = entries[static_cast<std::size_t>(k)];
@@ -539,9 +542,14 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
   spring.b.point = end_point(s, "b_point", spring.b.body, names);
   spring.stiffness = s.required_number("stiffness", Range::positive);
   spring.damping = s.number("damping", 0.0, Range::nonnegative);
-  spring.rest_length = s.has("rest_length")
-                           ? s.number("rest_length", 0.0, Range::nonnegative)
-                           : (written_position(spring.a, frames) - written_position(spring.b, frames)).norm();
+  if (s.has("rest_length")) {
+    spring.rest_length = s.number("rest_length", 0.0, Range::nonnegative);
+  } else {
+    spring.rest_length = (written_position(spring.a, frames) - written_position(spring.b, frames)).stableNorm();
+    if (!std::isfinite(spring.rest_length))
+      s.fail("rest_length", "the distance between the spring's ends as written overflows (it is not finite), so it "
+                            "cannot be the rest length; give a finite 'rest_length'");
+  }
   return spring;
 }
 
@@ -590,7 +598,11 @@ Constraint read_constraint(const Reader& reader, const toml::table& table, std::
   } else {
     const Vec3 xa = written_position(c.a, frames);
     const Vec3 xb = written_position(c.b, frames);
-    c.length = (xa - xb).norm();
+    c.length = (xa - xb).stableNorm();
+    if (!std::isfinite(c.length))
+      throw SceneError(s.location(), s.key("length"),
+                       "the distance between the constraint's points as written overflows (it is not finite), so it "
+                       "cannot be its length; give a finite 'length'");
     if (!(c.length > 1e-12 * std::max(xa.norm(), xb.norm())))
       throw SceneError(s.location(), s.key("length"),
                        "the two points of the distance constraint coincide as written, so its default length would "
