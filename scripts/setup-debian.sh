@@ -26,7 +26,11 @@ packages=(
   libbenchmark-dev     # benchmarks
   libginac-dev         # benchmark only: bench_expression measures GiNaC against our expressions
   python3-sympy        # benchmark only: the SymPy mechanics peer of bench/map_linearize.sh
-  python3-scipy python3-matplotlib  # benchmark only: scipy eigsh peer and the plot of bench/sparse_scaling.sh
+  python3-scipy python3-matplotlib  # Python tests (scipy's eigh/eigsh check the bindings; examples/python plots a
+                       # sweep) and benchmarks (scipy eigsh peer and the plot of bench/sparse_scaling.sh)
+  python3-dev pybind11-dev  # the Python module `modal` (python/), built for Debian's /usr/bin/python3
+  python3-numpy        # the Python module's arrays (needed to build it: MODAL_BUILD_PYTHON is ON when found)
+  python3-pytest       # the Python tests (python/tests, run by ctest)
   help2man             # the man page modal.1, generated from --help at build time (optional: none without it)
   doxygen              # the API reference: cmake --build build --target docs (Doxygen over the public headers)
   dpkg-dev file        # cpack -G DEB: dpkg-shlibdeps finds the package's Depends, file spots the ELF files
