@@ -41,15 +41,16 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 "$prefix/bin/modal" --version | grep -qx "modal 0.2.0" || fail "installed modal --version is not 'modal 0.2.0'"
 
 model=$prefix/share/modal/models/double_pendulum.toml
-# ω² of the two modes against 2 ∓ √2 (awk computes in double precision).
+# ω² of the two modes against the closed form c ∓ √d (R1: 2 ∓ √2 with unit
+# masses; m2 = 2: the roots of x² − 6x + 3, 3 ∓ √6), awk in double precision.
 check() {
-  local name=$1 out=$2
+  local name=$1 out=$2 c=${3:-2} d=${4:-2}
   echo "$name:"; echo "$out"
-  echo "$out" | awk -v name="$name" '
+  echo "$out" | awk -v name="$name" -v c="$c" -v d="$d" '
     $1 == "mode" { w[$2] = $4; n++ }
     END {
       if (n != 2) { print name ": expected 2 modes, got " n; exit 1 }
-      e[1] = 2 - sqrt(2); e[2] = 2 + sqrt(2)
+      e[1] = c - sqrt(d); e[2] = c + sqrt(d)
       for (k = 1; k <= 2; k++) {
         r = (w[k] - e[k]) / e[k]; if (r < 0) r = -r
         printf "%s: mode %d omega2 %.17g, closed form %.17g, relative error %.1e\n", name, k, w[k], e[k], r
@@ -68,6 +69,15 @@ cmake --build "$work/embed" > "$work/embed-build.log" 2>&1 \
 objdump -p "$work/embed/embed" | grep -q 'NEEDED.*libmodal\.so\.0' || fail "embed does not link libmodal.so.0"
 check "embed (modal::modal)" "$("$work/embed/embed" "$model")"
 check "embed_static (modal::modal_static)" "$("$work/embed/embed_static" "$model")"
+# Overrides and the JSON writer through the pipeline API; errors carry the CLI's status and message.
+check "embed m2=2" "$("$work/embed/embed" "$model" m2=2 --json "$work/dp.json")" 3 6
+grep -q '"stability": "stable"' "$work/dp.json" || fail "embed --json: no stability in $work/dp.json"
+status=0; err=$("$work/embed/embed" "$work/missing.toml" 2>&1) || status=$?
+[ "$status" = 2 ] || fail "embed of a missing scene: exit status $status, expected 2 (bad input)"
+echo "$err" | grep -q "missing.toml" || fail "embed of a missing scene: the message does not name the file: $err"
+status=0; err=$("$work/embed/embed" "$model" m9=1 2>&1) || status=$?
+[ "$status" = 2 ] || fail "embed with an unknown parameter: exit status $status, expected 2"
+echo "embed: exit status 2 and '$err'"
 
 # 2. pkg-config: one compile-and-link line.
 export PKG_CONFIG_PATH=$prefix/$libdir/pkgconfig

@@ -21,7 +21,7 @@ inline Body hinge(const std::string& name, int parent, const Vec3& origin, doubl
   return b;
 }
 
-// REFERENCES.md R1: pivot → rod l1 → m1 → rod l2 → m2, hinges about y, point
+// docs/design.md R1: pivot → rod l1 → m1 → rod l2 → m2, hinges about y, point
 // masses, gravity (0, 0, −g); coordinates are the relative angles (upper, lower).
 inline System double_pendulum(double m1, double m2, double l1, double l2, double g) {
   SystemDescription d;

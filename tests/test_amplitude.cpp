@@ -51,7 +51,7 @@ struct Pendulum {
   ModalResult modes = solve_modes(linearize(system, equilibrium.q));
 };
 
-TEST(Amplitude, ClosedFormMatchesReferenceR8) {  // the test's own reference against REFERENCES.md
+TEST(Amplitude, ClosedFormMatchesReferenceR8) {  // the test's own reference against docs/design.md section 2
   const double deg = std::numbers::pi / 180;
   EXPECT_NEAR(period_ratio(10 * deg), 1.00190718814, 1e-11);
   EXPECT_NEAR(period_ratio(90 * deg), 1.18034059902, 1e-11);

@@ -1,7 +1,7 @@
 // End-to-end tests of the `modal` program: each test runs the built binary
 // (MODAL_BINARY) on the models in MODAL_SOURCE_DIR/models or on scenes written
 // into a temporary directory, and checks exit statuses, messages and the CSV /
-// JSON files it writes against closed forms (REFERENCES.md).
+// JSON files it writes against closed forms (docs/design.md, section 2).
 //
 // Tolerances. The CSV files hold %.17g numbers, so what is compared is the
 // program's own double. The reference values are closed forms evaluated in
@@ -64,7 +64,7 @@ class Cli : public modal::test::ProgramTest {
   EXPECT_LE(std::abs((actual) - (expected)), (tol) * std::abs(expected))           \
       << "actual " << (actual) << ", expected " << (expected)
 
-// --- R1: double pendulum (Kibble & Berkshire eq. 11.21, REFERENCES.md R1) -----
+// --- R1: double pendulum (Kibble & Berkshire eq. 11.21, docs/design.md R1) -----
 
 TEST_F(Cli, R1DoublePendulumAllFourRows) {
   struct Case { double m1, m2, l1, l2; };
@@ -102,7 +102,7 @@ TEST_F(Cli, R1DoublePendulumAllFourRows) {
 }
 
 TEST_F(Cli, R1TablePrintedValues) {
-  // The printed table has 10 significant digits: REFERENCES.md's ω1, ω2 for row 1.
+  // The printed table has 10 significant digits: docs/design.md section 2's ω1, ω2 for row 1.
   const Outcome r = run({"analyze", models + "double_pendulum.toml"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("0.7653668647"), std::string::npos) << r.out;
@@ -186,7 +186,7 @@ TEST_F(Cli, R3HangingChainLaguerreZeros) {
 }
 
 TEST_F(Cli, R3HangingChainConvergesToBessel) {
-  // Continuum limit ω_k = (j0,k/2) sqrt(g/L) (REFERENCES.md R3); point-mass
+  // Continuum limit ω_k = (j0,k/2) sqrt(g/L) (docs/design.md R3); point-mass
   // links converge as O(1/N): doubling N should roughly halve the error.
   const double half_j0[3] = {1.202412778848, 2.760039055143, 4.326863956456};
   const double g = 9.81, L = 1;
@@ -234,12 +234,12 @@ TEST_F(Cli, DoublePendulumHasFourEquilibria) {
     EXPECT_LE(number(row, "residual"), 1e-10);
   }
   std::sort(morse.begin(), morse.end());
-  EXPECT_EQ(morse, (std::vector<int>{0, 1, 1, 2}));  // REFERENCES.md R1
+  EXPECT_EQ(morse, (std::vector<int>{0, 1, 1, 2}));  // docs/design.md R1
   EXPECT_NE(r.out.find("4 equilibria"), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, InvertedPendulumDiverges) {
-  // V = m g l cos θ about the top: λ = −g/l, kept negative (DESIGN.md §1).
+  // V = m g l cos θ about the top: λ = −g/l, kept negative (docs/design.md section 3).
   const double g = 9.81, l = 2;
   const Outcome r = run({"analyze", models + "inverted_pendulum.toml", "--set", "l=2", "--csv", prefix(),
                      "--json", prefix() + ".json"});
@@ -446,7 +446,7 @@ TEST_F(Cli, MapSimulateWritesTheTrajectory) {
   for (const Row& row : t.rows) EXPECT_LE(std::abs(number(row, "energy_error")), 1e-9);
 }
 
-// --- constraints (loop closures; DESIGN.md §1) ----------------------------------
+// --- constraints (loop closures; docs/design.md section 3) ----------------------------------
 
 namespace {
 

@@ -1,5 +1,5 @@
 // Holonomic constraints: exact derivatives of c(q), constrained equilibria with
-// their multipliers, and the projected linear model (DESIGN.md §1).
+// their multipliers, and the projected linear model (docs/design.md section 3).
 #include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
 #include "modal/simulate.hpp"

@@ -3,7 +3,7 @@
 //    forward-mode AD through the whole templated potential (an independent path
 //    through the same model) and against central differences;
 //  - M(q) against Jᵀ𝕄J built from AD Jacobians of the body poses;
-//  - R1 (REFERENCES.md) for the double pendulum;
+//  - R1 (docs/design.md, section 2) for the double pendulum;
 //  - Ṁ − 2C skew-symmetric; energy conserved by a GSL rk8pd integration.
 #include "modal/core.hpp"
 
@@ -78,7 +78,7 @@ TEST(Core, MassMatrixMatchesJacobianTransposeInertiaJacobian) {
 }
 
 TEST(Core, DoublePendulumMatricesMatchR1) {
-  // REFERENCES.md R1 gives M and K in absolute angles θ; joint angles are
+  // docs/design.md R1 gives M and K in absolute angles θ; joint angles are
   // relative, θ = T φ with T = [[1,0],[1,1]], so M_φ = TᵀMT and K_φ = TᵀKT.
   const double m1 = 2, m2 = 1, l1 = 1.5, l2 = 0.7, g = 9.81;
   const System s = double_pendulum(m1, m2, l1, l2, g);
@@ -161,7 +161,7 @@ TEST(Core, EnergyIsConservedForAThreeDimensionalTree) {
 }
 
 TEST(Core, DampersDissipateAtTheRateQdotQ) {
-  // dE/dt = Qᵀq̇ = −q̇ᵀDq̇ ≤ 0 (DESIGN.md §1).
+  // dE/dt = Qᵀq̇ = −q̇ᵀDq̇ ≤ 0 (docs/design.md section 3).
   const System s = everything_tree();
   Workspace w(s);
   std::mt19937 rng(21);

@@ -1,5 +1,5 @@
 // Equilibria against independent references:
-//  - R1 (REFERENCES.md): the four equilibria of the double pendulum, their
+//  - R1 (docs/design.md, section 2): the four equilibria of the double pendulum, their
 //    potentials (derived below) and Morse indices 0, 1, 1, 2;
 //  - the nearest equilibrium whatever its stability (inverted pendulum);
 //  - a pendulum with an offset joint spring against a bisection root;

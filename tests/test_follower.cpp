@@ -2,7 +2,7 @@
 //  - the core's Q(q) and its exact Jacobian ∂Q/∂q on a 3-D tree with follower
 //    loads behind hinge, ball, free and slide joints, against central
 //    differences and against the definition Qᵀq̇ = Σ f·ẋ (ẋ by forward AD);
-//  - Ziegler's pendulum (REFERENCES.md R6): M, K, the circulatory flag, and the
+//  - Ziegler's pendulum (docs/design.md R6): M, K, the circulatory flag, and the
 //    modes on both sides of the flutter load;
 //  - the discrete Euler column (R5): its buckling load (4k/a) sin²(π/(4N+2)),
 //    checked first against an independently assembled stiffness matrix and then

@@ -8,7 +8,7 @@
 //    K = (k − mΩ²)I, accelerations with the Coriolis force, frequencies ω₀ ± Ω, gyroscopic
 //    stabilization for Ω > ω₀) and a spherical pendulum with a spinning inertia
 //    (G_xy = −Ω(2A − C), K = mgl − Ω²(A − C));
-//  - R7 (REFERENCES.md) through the whole library: both branches, the top, and
+//  - R7 (docs/design.md, section 2) through the whole library: both branches, the top, and
 //    the switch at Ω² = g/R found by modal::sweep to 1e-10;
 //  - the Jacobi integral ½q̇ᵀMq̇ + V − T₀ conserved to 1e-9 by rk8pd.
 #include "modal/core.hpp"

@@ -3,7 +3,7 @@
 // Systems are built directly from a SystemDescription (no scene files), so the
 // test depends only on the core's public API (modal/core.hpp).
 //
-// R1 (REFERENCES.md): double pendulum of point masses on massless rods, with
+// R1 (docs/design.md, section 2): double pendulum of point masses on massless rods, with
 // absolute angles θ from the hanging vertical:
 //   M_abs(θ) = [[(m1+m2) l1², m2 l1 l2 cos(θ1 − θ2)], [·, m2 l2²]],
 //   V(θ) = −(m1+m2) g l1 cos θ1 − m2 g l2 cos θ2, so ∇∇V = diag((m1+m2) g l1 cos θ1, m2 g l2 cos θ2).

@@ -9,7 +9,7 @@
 //     maps with t (Foucault), rotations and inertia (the top, rate and momentum
 //     forms), and Routh's reduction (spherical angles);
 //  3. Ṁ − 2C skew-symmetric;
-//  4. REFERENCES.md R7 through the map model, the switch found by modal::sweep;
+//  4. docs/design.md R7 through the map model, the switch found by modal::sweep;
 //  5. Foucault's pendulum: M, K, G and ω = √(g/l + Wz²) ± Wz;
 //  6. the sleeping top: gyroscopic stabilization, its threshold by modal::sweep,
 //     the momentum form equal to the rate form, steady_motion();
@@ -20,7 +20,7 @@
 //  8. non-steady maps (Floquet) and wrongly declared ignorable coordinates rejected;
 //  9. coordinate kinds and periodicity;
 // 10. the Jacobi integral conserved by modal::simulate.
-// References are closed forms (model header comments, REFERENCES.md) or the
+// References are closed forms (model header comments, docs/design.md section 2) or the
 // body version of the same system, never earlier output of this code.
 #include "modal/core.hpp"
 #include "modal/equilibrium.hpp"

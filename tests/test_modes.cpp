@@ -1,6 +1,6 @@
 // tests/test_modes.cpp — solve_modes() against closed-form references.
 //
-// Every expected value is derived by hand or taken from /work/shared/REFERENCES.md
+// Every expected value is derived by hand or taken from docs/design.md, section 2 (reference cases R1–R8)
 // (section cited at each test), never from the solver's own output. The linear
 // models are built directly from matrices, so these tests exercise the modal
 // stage alone.
@@ -89,7 +89,7 @@ void expect_sign_convention(const ModalResult& r) {
   }
 }
 
-// R1 in absolute angles about the hanging equilibrium (REFERENCES.md R1).
+// R1 in absolute angles about the hanging equilibrium (docs/design.md R1).
 struct DoublePendulum {
   double m1, m2, l1, l2, g;
   MatrixX M() const { return mat2((m1 + m2) * l1 * l1, m2 * l1 * l2, m2 * l1 * l2, m2 * l2 * l2); }
@@ -210,7 +210,7 @@ TEST(SymmetricModes, ErrorEstimateBoundsErrorOnLongChain) {
 // m2 g l2 cos θ2), M₁₂ = m2 l1 l2 cos(θ1 − θ2)), m = l = g = 1.
 //  both rods up (π, π): M as hanging, K = −K_hanging, so λ = −(2 ± √2);
 //  one rod up: M = [[2, −1], [−1, 1]], K = diag(±2, ∓1): det(K − λM) = λ² − 2,
-//  so λ = ±√2. Morse indices 2, 1, 1 (REFERENCES.md R1).
+//  so λ = ±√2. Morse indices 2, 1, 1 (docs/design.md R1).
 TEST(SymmetricModes, NegativeEigenvaluesAreDivergentAndCounted) {
   const DoublePendulum p{1, 1, 1, 1, 1};
   {
@@ -444,7 +444,7 @@ std::vector<Complex> ziegler_lambdas(double p) {
 
 TEST(FirstOrderModes, ZieglerStableBelowCriticalLoad) {
   const double p_cr = 3.5 - std::sqrt(2.0);
-  EXPECT_NEAR(p_cr, 2.08578643763, 1e-11);  // REFERENCES.md R6
+  EXPECT_NEAR(p_cr, 2.08578643763, 1e-11);  // docs/design.md R6
   for (double p : {0.0, 1.0, 2.0}) {
     SCOPED_TRACE("p = " + std::to_string(p));
     const ModalResult r = modal::solve_modes(ziegler(p));

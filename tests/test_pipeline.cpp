@@ -15,6 +15,8 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 namespace fs = std::filesystem;
 using modal::test::slurp;
@@ -65,6 +67,34 @@ TEST_F(Pipeline, AnalyzeMatchesTheClosedFormWithOverrides) {
     }
     EXPECT_EQ(a.result().stability, modal::Stability::stable);
     EXPECT_FALSE(a.unstable());
+  }
+}
+
+// One constant Model analyzed from several threads at once (docs/design.md
+// section 5: every call makes its own workspace, nothing global): each thread
+// gets the closed form, a dense and a sparse scene alike.
+TEST_F(Pipeline, OneModelIsAnalyzedFromSeveralThreadsAtOnce) {
+  const modal::Model pendulum = modal::load_model(models + "double_pendulum.toml");
+  const modal::Model net = modal::load_model(models + "net.toml");
+  const modal::Analysis net_alone = modal::analyze(net);
+  std::vector<modal::Analysis> results(8);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < results.size(); ++t)
+    threads.emplace_back([&, t] { results[t] = modal::analyze(t % 2 == 0 ? pendulum : net); });
+  for (std::thread& t : threads) t.join();
+  for (std::size_t t = 0; t < results.size(); ++t) {
+    const modal::ModalResult& r = results[t].result();
+    if (t % 2 == 0) {
+      ASSERT_EQ(r.modes.size(), 2u);
+      for (int k = 0; k < 2; ++k)
+        EXPECT_NEAR(r.modes[static_cast<std::size_t>(k)].omega2, r1(1, 1, 1, 1, 1, k == 0 ? -1 : 1), 1e-14);
+    } else {
+      const modal::ModalResult& alone = net_alone.result();
+      ASSERT_EQ(r.modes.size(), alone.modes.size());
+      for (std::size_t k = 0; k < r.modes.size(); ++k)
+        EXPECT_NEAR(r.modes[k].omega2, alone.modes[k].omega2,
+                    std::max(alone.modes[k].error_estimate, 1e-12 * std::abs(alone.modes[k].omega2)));
+    }
   }
 }
 

@@ -1,6 +1,6 @@
 // The bundled models through the whole library pipeline (scene → System →
 // equilibrium → linear model → modes) against the closed forms of
-// ../shared/REFERENCES.md. Tolerance 1e-9 relative on frequencies, as the
+// docs/design.md, section 2. Tolerance 1e-9 relative on frequencies, as the
 // issue asks; in addition every eigenvalue's own error estimate must cover its
 // actual error against the closed form (plus the rounding of the closed form).
 #include "modal/equilibrium.hpp"
@@ -46,7 +46,7 @@ void expect_within_estimate(const Mode& m, double lambda_ref) {
 
 TEST(References, R1DoublePendulumAllTableRows) {
   struct Row { double m1, m2, l1, l2, w1, w2; };
-  // REFERENCES.md R1 (g = 1); the closed form is evaluated below, the table's
+  // docs/design.md R1 (g = 1); the closed form is evaluated below, the table's
   // 10-digit values are checked to their own precision.
   const Row rows[] = {{1, 1, 1, 1, 0.7653668647, 1.8477590650},
                       {2, 1, 1, 1, 0.7962252170, 1.5381890013},
@@ -130,7 +130,7 @@ TEST(References, R3DiscreteHangingChainMatchesLaguerreZeros) {
 }
 
 TEST(References, R3HangingChainConvergesToBesselZerosAsOneOverN) {
-  // REFERENCES.md R3: ω_k → (j₀,k/2) sqrt(g/L); point masses at the link ends
+  // docs/design.md R3: ω_k → (j₀,k/2) sqrt(g/L); point masses at the link ends
   // converge as O(1/N), so doubling N halves the error.
   const double bessel_half[3] = {1.202412778848, 2.760039055143, 4.326863956456};
   const double g = 9.81, L = 1.0;

@@ -1,5 +1,5 @@
 // Malformed scenes: every error names the file, line, column and key and says
-// what is wrong (DESIGN.md §3). Each case asserts all four.
+// what is wrong (docs/design.md section 6). Each case asserts all four.
 #include "modal/core.hpp"
 #include "modal/scene.hpp"
 

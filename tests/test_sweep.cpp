@@ -465,7 +465,7 @@ TEST(Richardson, PreviousTripleOutsideTheRange) {
   EXPECT_NE(e.error_rule.find("not in the asymptotic range"), std::string::npos) << e.error_rule;
 }
 
-// REFERENCES.md R3: a chain of N point-mass links hanging from a pivot tends to
+// docs/design.md R3: a chain of N point-mass links hanging from a pivot tends to
 // the continuous chain, ω_k = (j₀,k/2) sqrt(g/L), with an error O(1/N). The
 // extrapolation from N = 10 … 320 must observe p ≈ 1 and land on R3 within its
 // own error estimate, at least 10 times closer than the finest chain (the

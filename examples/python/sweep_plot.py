@@ -5,7 +5,7 @@ stability along it (matplotlib; the Agg backend when there is no display).
     PYTHONPATH=build/python /usr/bin/python3 examples/python/sweep_plot.py ziegler.png
     /usr/bin/python3 examples/python/sweep_plot.py out.png --scene models/ziegler.toml --vary P=0:6:121
 
-By default: Ziegler's pendulum under a follower load P, 0 ≤ P ≤ 6 (REFERENCES.md
+By default: Ziegler's pendulum under a follower load P, 0 ≤ P ≤ 6 (docs/design.md section 2
 R6), stable up to P = 7/2 − √2, where its two frequencies merge (flutter),
 and divergent beyond 7/2 + √2.
 """

@@ -87,7 +87,7 @@ std::vector<ConstraintEquationForce> constraint_equation_forces(const ModalResul
 
 // --- CSV (docs/design.md, "Output files") ---------------------------------------
 // Header "equilibrium,mode,omega2,growth_rate,omega,frequency_hz,period,
-// damping_ratio,stability,error_estimate"; one row per mode per equilibrium,
+// damping_ratio,stability,error_estimate,residual_bound"; one row per mode per equilibrium,
 // equilibrium and mode numbered from 1.
 void write_modes_csv(std::ostream& out, const Report& report);
 // Header "equilibrium,mode,coordinate,value,amplitude,phase_deg": value is the
