@@ -35,5 +35,5 @@ mkdir -p build-fuzz/corpus build-fuzz/findings
 # The corpus grows in build-fuzz/corpus; models/ seeds it (read only).
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   build-fuzz/fuzz/fuzz_scene -max_total_time="${MODAL_FUZZ_SECONDS:-180}" -timeout=20 -rss_limit_mb=4096 \
-  -max_len=4096 -dict=fuzz/scene.dict -artifact_prefix=build-fuzz/findings/ -print_final_stats=1 \
+  -max_len=65536 -dict=fuzz/scene.dict -artifact_prefix=build-fuzz/findings/ -print_final_stats=1 \
   build-fuzz/corpus models

@@ -214,7 +214,20 @@ class Parser {
   }
 
   // unary := ('-' | '+') unary | power        (so -x^2 = -(x^2), 2*-3 is fine)
+  // Every recursion of the grammar (parentheses, signs, powers, arguments)
+  // passes through here, so this is where the nesting is bounded: the parser
+  // recurses, and an expression nested thousands deep would otherwise
+  // overflow the machine stack.
   void unary() {
+    if (++depth_ > max_expression_depth)
+      fail("the expression is nested more than " + std::to_string(max_expression_depth) +
+               " levels deep (parentheses, signs, powers and function calls inside one another); write it in "
+               "simpler parts, e.g. as several parameters",
+           token_.position);
+    struct Leave {
+      int& depth;
+      ~Leave() { --depth; }
+    } leave{depth_};
     if (token_.kind == Kind::minus) {
       advance();
       unary();
@@ -313,6 +326,7 @@ class Parser {
   std::string_view text_;
   const std::vector<std::string>& variables_;
   std::size_t pos_ = 0;
+  int depth_ = 0;  // nesting of unary(), see there
   Token token_;
   std::vector<Instruction> code_;
 };

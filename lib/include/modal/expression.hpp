@@ -28,6 +28,11 @@ namespace modal {
 // A malformed expression. position() is the 0-based offset of the offending
 // character in the expression text; message() says what is wrong, e.g.
 // "unknown name 'q'", "expected ')' to close '(' at 3", "unexpected end".
+// The deepest nesting an expression may have: parentheses, signs, powers and
+// function calls inside one another count one level each (a deeper one is an
+// ExpressionError, not a stack overflow).
+inline constexpr int max_expression_depth = 200;
+
 class ExpressionError : public std::runtime_error {
  public:
   ExpressionError(const std::string& message, int position)
