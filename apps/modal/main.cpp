@@ -101,6 +101,7 @@ double since(std::chrono::steady_clock::time_point& last) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  modal::remove_output_temporaries_on_signals();  // an interrupt leaves the previous outputs as they were
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
   // message and the help of the command that failed.

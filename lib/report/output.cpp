@@ -3,6 +3,9 @@
 #include "modal/report.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <csignal>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -36,15 +39,98 @@ fs::path directory_of(const std::string& path) {
   return parent.empty() ? fs::path(".") : parent;
 }
 
+// The temporary files that exist at this moment, for the signal handler:
+// fixed slots of heap copies of their names, claimed and released with atomic
+// exchanges, so that the handler (which may only call async-signal-safe
+// functions) reads them without locks. A run has a handful of outputs; when
+// every slot is taken a temporary is simply not removed on a signal.
+constexpr std::size_t temporary_slots = 64;
+std::array<std::atomic<char*>, temporary_slots> live_temporaries{};
+
+// Registers `path` in a free slot; the slot's index, or temporary_slots when none is free.
+std::size_t register_temporary(const std::string& path) {
+  char* copy = new char[path.size() + 1];
+  std::memcpy(copy, path.c_str(), path.size() + 1);
+  for (std::size_t i = 0; i < temporary_slots; ++i) {
+    char* expected = nullptr;
+    if (live_temporaries[i].compare_exchange_strong(expected, copy)) return i;
+  }
+  delete[] copy;
+  return temporary_slots;
+}
+
+// Forgets the temporary of `slot` (after it was renamed into place or removed).
+void release_temporary(std::size_t slot) {
+  if (slot >= temporary_slots) return;
+  delete[] live_temporaries[slot].exchange(nullptr);
+}
+
+// A temporary file: removed (and released) when it goes out of scope unless
+// kept, i.e. renamed into place.
+struct Temporary {
+  std::string path;
+  std::size_t slot = temporary_slots;
+  bool kept = false;
+  Temporary() = default;
+  Temporary(const Temporary&) = delete;
+  Temporary& operator=(const Temporary&) = delete;
+  ~Temporary() {
+    if (!path.empty() && !kept) std::remove(path.c_str());
+    release_temporary(slot);
+  }
+};
+
 // A new, empty temporary file beside `path` (same directory, so that the
-// final rename is atomic); its name in `temp`. -1 with errno on failure.
-int open_temporary(const std::string& path, std::string& temp) {
+// final rename is atomic), registered for removal on a signal; its name in
+// `temp`. -1 with errno on failure.
+int open_temporary(const std::string& path, Temporary& temp) {
   std::string pattern = (directory_of(path) / ("." + fs::path(path).filename().string() + ".modal-XXXXXX")).string();
   std::vector<char> buffer(pattern.begin(), pattern.end());
   buffer.push_back('\0');
-  const int fd = mkstemp(buffer.data());
-  if (fd >= 0) temp.assign(buffer.data());
+  // The slot is taken before the file exists, so that no signal finds a file
+  // without a registration; its name is then filled in by mkstemp.
+  temp.slot = register_temporary(pattern);
+  char* slot_name = temp.slot < temporary_slots ? live_temporaries[temp.slot].load() : nullptr;
+  const int fd = mkstemp(slot_name != nullptr ? slot_name : buffer.data());
+  if (fd >= 0) temp.path.assign(slot_name != nullptr ? slot_name : buffer.data());
   return fd;
+}
+
+// The renames of one commit are made indivisible for the signal handlers: a
+// signal that arrives while they run (state renaming) is held in `pending`
+// and acted on when they are done; a handler that has begun to end the
+// process (state dying) keeps commit from starting them. The handler may run
+// on any thread (OpenBLAS's included), hence atomics, not a signal mask.
+enum CommitState : int { idle = 0, renaming = 1, dying = 2 };
+std::atomic<int> commit_state{idle};
+std::atomic<int> pending_signal{0};
+
+extern "C" void remove_temporaries_and_reraise(int signal) {
+  int expected = idle;
+  if (!commit_state.compare_exchange_strong(expected, dying)) {
+    if (expected == renaming) {
+      pending_signal.store(signal);
+      return;  // acted on when the renames are done
+    }
+  }
+  remove_output_temporaries();
+  std::signal(signal, SIG_DFL);
+  std::raise(signal);
+}
+
+// Enters the renaming state; never returns when a handler is ending the process.
+void begin_renames() {
+  int expected = idle;
+  while (!commit_state.compare_exchange_strong(expected, renaming)) {
+    if (expected == dying) pause();  // the process is being ended by a signal
+    expected = idle;
+  }
+}
+
+// Leaves it, and acts on a signal that came meanwhile.
+void end_renames() {
+  commit_state.store(idle);
+  if (const int signal = pending_signal.exchange(0); signal != 0) std::raise(signal);
 }
 
 }  // namespace
@@ -66,30 +152,37 @@ void check_output_paths(const std::vector<std::string>& outputs, const std::vect
     const fs::path dir = directory_of(out);
     if (!fs::is_directory(dir, ec))
       throw ReportError(out + ": cannot write the file: the directory " + dir.string() + " does not exist");
-    std::string temp;
+    Temporary temp;
     const int fd = open_temporary(out, temp);
     if (fd < 0) throw ReportError(out + ": cannot write the file: " + std::strerror(errno));
     close(fd);
-    std::remove(temp.c_str());
   }
+}
+
+void remove_output_temporaries() noexcept {
+  for (std::atomic<char*>& slot : live_temporaries) {
+    const char* name = slot.load();
+    if (name != nullptr) unlink(name);  // async-signal-safe; a name not yet made by mkstemp is not a file
+  }
+}
+
+void remove_output_temporaries_on_signals() {
+  for (int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, remove_temporaries_and_reraise);
 }
 
 void OutputFiles::add(std::string path, std::string content) { files_.emplace_back(std::move(path), std::move(content)); }
 
 std::vector<std::string> OutputFiles::commit() {
-  std::vector<std::string> temps;
-  auto discard = [&temps] {
-    for (const std::string& t : temps) std::remove(t.c_str());
-  };
-  for (const auto& [path, content] : files_) {
-    std::string temp;
-    const int fd = open_temporary(path, temp);
+  // Removed on every way out but a complete rename (destructors), and by the
+  // signal handler while they exist.
+  std::vector<Temporary> temps(files_.size());
+  for (std::size_t f = 0; f < files_.size(); ++f) {
+    const auto& [path, content] = files_[f];
+    const int fd = open_temporary(path, temps[f]);
     if (fd < 0) {
       const std::string reason = std::strerror(errno);
-      discard();
       throw ReportError(path + ": cannot write the file: " + reason);
     }
-    temps.push_back(temp);
     const char* data = content.data();
     std::size_t left = content.size();
     while (left > 0) {
@@ -98,7 +191,6 @@ std::vector<std::string> OutputFiles::commit() {
       if (n <= 0) {
         const std::string reason = n < 0 ? std::strerror(errno) : "nothing written";
         close(fd);
-        discard();
         throw ReportError(path + ": writing failed (" + reason + "); no output file was changed");
       }
       data += n;
@@ -110,19 +202,21 @@ std::vector<std::string> OutputFiles::commit() {
     fchmod(fd, 0666 & ~mask);
     if (close(fd) != 0) {
       const std::string reason = std::strerror(errno);
-      discard();
       throw ReportError(path + ": writing failed (" + reason + "); no output file was changed");
     }
   }
   std::vector<std::string> written;
+  begin_renames();
   for (std::size_t i = 0; i < files_.size(); ++i) {
-    if (std::rename(temps[i].c_str(), files_[i].first.c_str()) != 0) {
+    if (std::rename(temps[i].path.c_str(), files_[i].first.c_str()) != 0) {
       const std::string reason = std::strerror(errno);
-      for (std::size_t j = i; j < temps.size(); ++j) std::remove(temps[j].c_str());
+      end_renames();
       throw ReportError(files_[i].first + ": cannot replace the file (" + reason + ")");
     }
+    temps[i].kept = true;
     written.push_back(files_[i].first);
   }
+  end_renames();
   files_.clear();
   return written;
 }

@@ -11,7 +11,15 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -89,6 +97,78 @@ TEST_F(Hostile, DeepExpressionsInASceneAndOnTheCommandLineAreRefusedWithTheirPla
       EXPECT_NE(r.err.find("--set"), std::string::npos) << r.err.substr(0, 300);
       EXPECT_NE(r.err.find("nested more than"), std::string::npos) << r.err.substr(0, 300);
     }
+}
+
+}  // namespace
+
+namespace {
+
+// --- interrupted runs -------------------------------------------------------------
+
+// Runs `modal args…` (stdout and stderr to /dev/null) and sends it `signal`
+// after `delay_us`; its exit status as a shell reports it (128 + signal when
+// the signal ended it).
+int run_interrupted(const std::vector<std::string>& args, int signal, useconds_t delay_us) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int null = open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    dup2(null, 2);
+    std::vector<char*> argv{const_cast<char*>(MODAL_BINARY)};
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(MODAL_BINARY, argv.data());
+    _exit(127);
+  }
+  usleep(delay_us);
+  kill(pid, signal);
+  int raw = 0;
+  waitpid(pid, &raw, 0);
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+}
+
+// Interrupts at random moments, from before the scene is read to after the
+// files are written: every time, the outputs are either all the previous ones
+// or all complete new ones, never a mix, never a partial file, and no
+// temporary is left in the directory; an interrupted run ends with 128 +
+// the signal.
+TEST_F(Hostile, InterruptsLeaveOldOrNewOutputsNeverAMixOrTemporaries) {
+  const std::string scene = (dir / "chain.toml").string();
+  std::filesystem::copy_file(std::string(MODAL_SOURCE_DIR) + "/models/hanging_chain.toml", scene);
+  const std::string prefix = (dir / "out").string(), json = (dir / "out.json").string();
+  const std::vector<std::string> files{prefix + "_modes.csv", prefix + "_shapes.csv", prefix + "_equilibria.csv", json};
+  const std::vector<std::string> args{"analyze", scene, "--set", "N=150", "--csv", prefix, "--json", json};
+  ASSERT_EQ(run(args).status, 0);
+  std::vector<std::string> complete;
+  for (const std::string& f : files) complete.push_back(modal::test::slurp(f));
+
+  std::mt19937 random(20261125);
+  std::uniform_int_distribution<useconds_t> delay(0, 60000);
+  int interrupted = 0, finished = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    for (const std::string& f : files) std::ofstream(f) << "previous " << f << "\n";
+    const int signal = trial % 3 == 0 ? SIGTERM : trial % 3 == 1 ? SIGINT : SIGHUP;
+    const int status = run_interrupted(args, signal, delay(random));
+    int fresh = 0;
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      const std::string content = modal::test::slurp(files[i]);
+      if (content == complete[i]) ++fresh;
+      else EXPECT_EQ(content, "previous " + files[i] + "\n") << "trial " << trial << ": a partial file";
+    }
+    if (status == 0) {
+      ++finished;
+      EXPECT_EQ(fresh, 4) << "trial " << trial;
+    } else {
+      ++interrupted;
+      EXPECT_EQ(status, 128 + signal) << "trial " << trial;
+      EXPECT_TRUE(fresh == 0 || fresh == 4) << "trial " << trial << ": " << fresh << " of 4 files new";
+    }
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+      EXPECT_EQ(entry.path().filename().string().find(".modal-"), std::string::npos)
+          << "trial " << trial << ": temporary left: " << entry.path();
+  }
+  EXPECT_GT(interrupted, 5);
+  std::cout << interrupted << " runs interrupted, " << finished << " finished\n";
 }
 
 }  // namespace

@@ -236,6 +236,17 @@ class OutputFiles {
  private:
   std::vector<std::pair<std::string, std::string>> files_;
 };
+// Interrupted runs (SIGINT, SIGTERM, SIGHUP). OutputFiles' temporaries exist
+// only while commit() writes them; remove_output_temporaries() unlinks those
+// that exist at the moment (async-signal-safe), and
+// remove_output_temporaries_on_signals() installs handlers that call it and
+// then end the process by the same signal (exit status 128 + signal in a
+// shell: 130, 143, 129), so an interrupt never leaves a temporary or a partial
+// output behind and the previous outputs stay as they were. The CLI installs
+// them; a program embedding modal decides for itself.
+void remove_output_temporaries() noexcept;
+void remove_output_temporaries_on_signals();
+
 // Flushes `out` and throws ReportError("<what>: writing failed …") when the
 // stream failed (a full disk, a closed pipe): output is never lost silently.
 void check_written(std::ostream& out, const std::string& what);
