@@ -509,9 +509,17 @@ TEST(network_errors, Files) {
               {scene, 3, 9, "network[1].nodes",
                "cannot open the nodes file '" + dir.file("nodes.csv") +
                    "' (\"nodes.csv\" relative to the scene file's directory): No such file or directory"});
-  // A path relative to the scene's directory is named as resolved.
+  // A path relative to the scene's directory is named as resolved. Outside
+  // that directory only when allowed (by default refused before opening).
+  modal::SceneLimits outside;
+  outside.allow_outside_data = true;
   const std::string nested = dir.write("sub/scene.toml", "[[network]]\nnodes = \"../missing.csv\"\nedges = \"e.csv\"\n");
   check_error([&] { (void)modal::load_scene(nested); },
+              {nested, 2, 9, "network[1].nodes",
+               "the nodes file '" + dir.file("missing.csv") +
+                   "' (\"../missing.csv\" relative to the scene file's directory) lies outside the scene file's "
+                   "directory"});
+  check_error([&] { (void)modal::load_scene(nested, {}, outside); },
               {nested, 2, 9, "network[1].nodes",
                "cannot open the nodes file '" + dir.file("missing.csv") +
                    "' (\"../missing.csv\" relative to the scene file's directory): No such file or directory"});
@@ -521,7 +529,7 @@ TEST(network_errors, Files) {
               {directory, 2, 9, "network[1].nodes", "cannot read the nodes file '" + dir.file("sub/dir") + "'"});
   // A device would never end (/dev/zero) or would block (a terminal): refused by name.
   const std::string device = dir.write("dev.toml", "[[network]]\nnodes = \"/dev/zero\"\nedges = \"e.csv\"\n");
-  check_error([&] { (void)modal::load_scene(device); },
+  check_error([&] { (void)modal::load_scene(device, {}, outside); },
               {device, 2, 9, "network[1].nodes", "cannot read the nodes file '/dev/zero': it is a device, not a file"});
   check_error([&] { (void)modal::load_scene(dir.write("s.toml", "[[network]]\nedges = \"e.csv\"\n")); },
               {dir.file("s.toml"), 1, 1, "network[1].nodes", "missing required key 'nodes' in [[network]]"});

@@ -74,6 +74,7 @@ CLI::Validator between(double low, double high, bool whole = false) {
 struct SceneArgs {
   std::string file;
   std::vector<std::string> sets;
+  bool allow_outside_data = false;
 };
 
 void add_scene_options(CLI::App* cmd, SceneArgs& s) {
@@ -81,6 +82,14 @@ void add_scene_options(CLI::App* cmd, SceneArgs& s) {
   cmd->add_option("--set", s.sets, "override a parameter: NAME=VALUE (VALUE may be an expression)")
       ->type_name("N=V")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_flag("--allow-outside-data", s.allow_outside_data,
+                "read data files (a network's CSV) from anywhere, not only from the scene file's directory and below");
+}
+
+modal::Model load(const SceneArgs& s) {
+  modal::SceneLimits limits;
+  limits.allow_outside_data = s.allow_outside_data;
+  return modal::load_model(s.file, s.sets, limits);
 }
 
 template <class Enum>
@@ -297,7 +306,7 @@ int main(int argc, char** argv) {
     auto clock = std::chrono::steady_clock::now();
     if (*analyze) {
       modal::check_outputs(modal::Command::analyze, analyze_out, analyze_scene.file);
-      const modal::Model model = modal::load_model(analyze_scene.file, analyze_scene.sets);
+      const modal::Model model = load(analyze_scene);
       Seconds seconds{{"parse+build", since(clock)}};
       ao.solver = choose(solver, {modal::SolverChoice::automatic, modal::SolverChoice::dense,
                                   modal::SolverChoice::sparse});
@@ -319,17 +328,17 @@ int main(int argc, char** argv) {
       }
     } else if (*equilibria) {
       modal::check_outputs(modal::Command::equilibria, equilibria_out, equilibria_scene.file);
-      const modal::Model model = modal::load_model(equilibria_scene.file, equilibria_scene.sets);
+      const modal::Model model = load(equilibria_scene);
       const modal::EquilibriumSurvey survey = modal::equilibria(model, eo);
       modal::write_equilibria(std::cout, survey, equilibria_out);
       for (const std::string& note : survey.unanalyzed) std::cerr << "modal: " << note << '\n';
     } else if (*check) {
-      modal::write_summary(std::cout, modal::load_model(check_scene.file, check_scene.sets), check_all ? 0 : 100);
+      modal::write_summary(std::cout, load(check_scene), check_all ? 0 : 100);
     } else if (*sweep) {
       std::vector<modal::SweepAxis> axes;
       for (const std::string& v : varies) axes.push_back(modal::parse_vary(v));
       modal::check_outputs(modal::Command::sweep, sweep_out, sweep_scene.file, sweep_options.extrapolate);
-      const modal::Model model = modal::load_model(sweep_scene.file, sweep_scene.sets);
+      const modal::Model model = load(sweep_scene);
       modal::ProgressBar bar("sweep");
       sweep_options.sweep.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::SweepStudy study = modal::sweep(model, axes, sweep_options);
@@ -337,7 +346,7 @@ int main(int argc, char** argv) {
       modal::write_sweep(std::cout, study, sweep_out);
     } else if (*simulate) {
       modal::check_outputs(modal::Command::simulate, simulate_out, simulate_scene.file);
-      const modal::Model model = modal::load_model(simulate_scene.file, simulate_scene.sets);
+      const modal::Model model = load(simulate_scene);
       if (simulate_at_option->count()) sim.at = modal::parse_coordinates(model.system, "--at", simulate_at);
       if (simulate_velocity_option->count())
         sim.velocity = modal::parse_coordinates(model.system, "--velocity", simulate_velocity);
@@ -348,7 +357,7 @@ int main(int argc, char** argv) {
       modal::print_simulation_summary(std::cerr, s.trajectory, s.options);
     } else if (*amplitude) {
       modal::check_outputs(modal::Command::amplitude, amplitude_out, amplitude_scene.file);
-      const modal::Model model = modal::load_model(amplitude_scene.file, amplitude_scene.sets);
+      const modal::Model model = load(amplitude_scene);
       if (amplitude_at_option->count()) amp.at = modal::parse_coordinates(model.system, "--at", amplitude_at);
       modal::write_amplitude(std::cout, modal::amplitude(model, amp), amplitude_out);
     }

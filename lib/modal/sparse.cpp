@@ -98,6 +98,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -364,6 +365,18 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
 // (scalar, several times slower on 2-D and 3-D meshes) and does not pivot.
 // Null pivots are detected (ICNTL(24)) and reported as a failure, like a zero
 // pivot. One symbolic analysis serves every σ (the pattern of A is fixed).
+// Sequential MUMPS keeps state in Fortran module variables (its memory and
+// load bookkeeping), so two factorizations running at once in one process
+// corrupt each other (seen: analyses of two models from two threads crashing
+// in dmumps_load_mem_update). Every call goes through this lock: modal's
+// functions stay safe to call from several threads, and MUMPS jobs, which are
+// short next to the rest of a sparse analysis, take turns.
+void run_mumps(DMUMPS_STRUC_C& id) {
+  static std::mutex mumps;
+  const std::lock_guard<std::mutex> lock(mumps);
+  dmumps_c(&id);
+}
+
 class MumpsLdlt {
  public:
   // A: full symmetric storage, compressed; its lower triangle is used.
@@ -383,7 +396,7 @@ class MumpsLdlt {
     id_.par = 1;
     id_.sym = 2;  // symmetric, not necessarily definite: LDLᵀ with 1×1 and 2×2 pivots
     id_.job = -1;
-    dmumps_c(&id_);
+    run_mumps(id_);
     initialized_ = id_.infog[0] >= 0;
     if (!initialized_) throw NumericalError("solve_sparse_modes: MUMPS could not be initialized");
     for (int i : {0, 1, 2}) id_.icntl[i] = -1;  // no output
@@ -409,7 +422,7 @@ class MumpsLdlt {
   ~MumpsLdlt() {
     if (initialized_) {
       id_.job = -2;
-      dmumps_c(&id_);
+      run_mumps(id_);
     }
   }
 
@@ -419,14 +432,14 @@ class MumpsLdlt {
     for (std::size_t i = 0; i < positions_.size(); ++i) values_[i] = A.valuePtr()[positions_[i]];
     if (!analyzed_) {
       id_.job = 1;
-      dmumps_c(&id_);
+      run_mumps(id_);
       if (id_.infog[0] < 0) return std::nullopt;
       analyzed_ = true;
     }
     factored_ = false;
     for (int attempt = 0; attempt < 4; ++attempt) {
       id_.job = 2;
-      dmumps_c(&id_);
+      run_mumps(id_);
       // INFOG(1) = −8, −9: the estimated workspace was too small; grow it.
       if (id_.infog[0] == -8 || id_.infog[0] == -9) {
         id_.icntl[13] = std::max<MUMPS_INT>(40, 2 * id_.icntl[13]);
@@ -447,7 +460,7 @@ class MumpsLdlt {
     id_.nrhs = 1;
     id_.lrhs = static_cast<MUMPS_INT>(n_);
     id_.job = 3;
-    dmumps_c(&id_);
+    run_mumps(id_);
     return id_.infog[0] >= 0;
   }
 

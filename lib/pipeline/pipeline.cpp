@@ -128,29 +128,46 @@ ExitStatus exit_status(const std::exception& error) {
   return ExitStatus::numerical;
 }
 
-std::string error_message(const std::exception& error) {
+namespace {
+std::string raw_error_message(const std::exception& error) {
   if (dynamic_cast<const SceneError*>(&error)) return error.what();
   if (dynamic_cast<const std::bad_alloc*>(&error))
     return "modal: out of memory: the computation needed more memory than this machine could give it";
   if (exit_status(error) == ExitStatus::bad_input) return std::string("modal: ") + error.what();
   return std::string("modal: numerical failure: ") + error.what();
 }
+}  // namespace
+
+std::string error_message(const std::exception& error) {
+  // No control character of a user's text reaches the terminal; the line
+  // breaks of a message of several lines are kept.
+  const std::string raw = raw_error_message(error);
+  std::string message;
+  for (std::size_t from = 0;;) {
+    const std::size_t end = raw.find('\n', from);
+    message += printable(std::string_view(raw).substr(from, end == std::string::npos ? end : end - from));
+    if (end == std::string::npos) return message;
+    message += '\n';
+    from = end + 1;
+  }
+}
 
 // --- the model -------------------------------------------------------------------------
 
-Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set) {
+Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set,
+                      const SceneLimits& limits) {
   std::vector<ParameterOverride> overrides = parse_overrides(set);
-  Scene scene = parse_scene(text, name, overrides);
+  Scene scene = parse_scene(text, name, overrides, limits);
   System system = build_system(scene);
-  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system)};
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits};
 }
 
-Model load_model(const std::string& path, const std::vector<std::string>& set) {
+Model load_model(const std::string& path, const std::vector<std::string>& set, const SceneLimits& limits) {
   std::vector<ParameterOverride> overrides = parse_overrides(set);  // a bad --set before reading anything
   std::string text = read_scene_file(path);
-  Scene scene = parse_scene(text, path, overrides);
+  Scene scene = parse_scene(text, path, overrides, limits);
   System system = build_system(scene);
-  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system)};
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits};
 }
 
 VectorX parse_coordinates(const System& sys, const std::string& option, const std::string& text) {
@@ -295,6 +312,7 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
   study.axes = axes;
   SweepOptions so = options.sweep;
   so.modes = options.modes;
+  so.scene_limits = model.limits;
   study.tolerance = so.tolerance;
   if (axes.size() == 1) {
     study.result = modal::sweep(model.text, model.scene.file, model.overrides, axes[0], so);

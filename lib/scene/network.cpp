@@ -326,6 +326,17 @@ void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvF
       "'" + file.path + "'" +
       (relative && file.path != written ? " (\"" + written + "\" relative to the scene file's directory)" : "");
   std::error_code ec;
+  if (!reader.limits().allow_outside_data) {
+    namespace fs = std::filesystem;
+    const fs::path scene_directory = fs::path(reader.file()).parent_path();
+    const fs::path base = fs::weakly_canonical(fs::absolute(scene_directory.empty() ? fs::path(".") : scene_directory, ec), ec);
+    const fs::path target = fs::weakly_canonical(fs::absolute(path, ec), ec);
+    const bool inside = !ec && std::mismatch(base.begin(), base.end(), target.begin(), target.end()).first == base.end();
+    if (!inside)
+      s.fail(key, "the " + file.what + " file " + resolved + " lies outside the scene file's directory '" +
+                      base.string() + "' (symbolic links followed); data files are read only from there and below, "
+                      "unless the command is given --allow-outside-data");
+  }
   const std::filesystem::file_type type = std::filesystem::status(file.path, ec).type();
   if (type == std::filesystem::file_type::directory)
     s.fail(key, "cannot read the " + file.what + " file " + resolved + ": it is a directory");
@@ -380,6 +391,17 @@ std::vector<int> match_header(const CsvFile& file, const Schema& schema) {
                             (file.text.empty() ? "" : " or only comments") + ")" + expected);
   std::vector<int> index(schema.names.size(), -1);
   const auto& fields = file.header.fields;
+  // A first line none of whose columns is one of the schema's is no header of
+  // this kind of file: the file is then not named in words of its own content
+  // (it may be any file, such as one of the system's), only by its place.
+  const bool any_known = std::any_of(fields.begin(), fields.end(), [&](const CsvField& f) {
+    return std::find(schema.names.begin(), schema.names.end(), f.text) != schema.names.end();
+  });
+  if (!any_known)
+    file.fail(file.header.line, 1, "",
+              "the first line is not the header of a " + file.what + " file (none of its " +
+                  std::to_string(fields.size()) + (fields.size() == 1 ? " column" : " columns") +
+                  " is a known column; its content is not shown)" + expected);
   for (std::size_t f = 0; f < fields.size(); ++f) {
     const CsvField& field = fields[f];
     if (field.text.empty())
@@ -499,6 +521,9 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   for (const CsvRow& row : nodes.rows) {
     const RowReader r(nodes, node_schema, node_index, row);
     const std::string_view name = r.required_text(name_column);
+    if (!is_printable(name))
+      r.fail(name_column, "the node name \"" + printable(name) + "\" contains control characters or bytes that are "
+                          "not UTF-8 (shown escaped); node names must be printable text");
     const auto [it, inserted] = by_name.emplace(name, static_cast<int>(g.bodies.size()));
     if (!inserted)
       r.fail(name_column, "duplicate node name '" + std::string(name) + "': already used on line " +

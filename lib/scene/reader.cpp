@@ -130,6 +130,9 @@ VectorX Reader::numbers(const toml::node& node, const std::string& key, int size
 std::string Reader::string(const toml::node& node, const std::string& key) const {
   const auto* s = node.as_string();
   if (s == nullptr) fail(node, key, "expected a string, got " + describe_type(node));
+  if (!is_printable(s->get()))
+    fail(node, key, "the text \"" + printable(s->get()) + "\" contains control characters or bytes that are not "
+                    "UTF-8 (shown escaped); names, titles and paths must be printable text");
   return s->get();
 }
 

@@ -43,14 +43,14 @@ namespace modal {
 namespace {
 
 std::string compose_message(const SourceLocation& where, const std::string& key, const std::string& reason) {
-  std::string s = where.file;
+  std::string s = printable(where.file);
   if (where.line > 0) {
     s += ":" + std::to_string(where.line);
     if (where.column > 0) s += ":" + std::to_string(where.column);
   }
   s += ": ";
-  if (!key.empty()) s += key + ": ";
-  return s + reason;
+  if (!key.empty()) s += printable(key) + ": ";
+  return s + printable(reason);
 }
 
 std::string_view trim(std::string_view s) {
@@ -60,6 +60,54 @@ std::string_view trim(std::string_view s) {
 }
 
 }  // namespace
+
+namespace {
+// Length of the valid UTF-8 sequence at `s[i]` and its code point, or 0.
+std::size_t utf8_sequence(std::string_view s, std::size_t i, char32_t& code) {
+  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char b = byte(i);
+  std::size_t n = 0;
+  if (b < 0x80) return code = b, 1;
+  if (b >= 0xC2 && b <= 0xDF) n = 2, code = b & 0x1F;
+  else if (b >= 0xE0 && b <= 0xEF) n = 3, code = b & 0x0F;
+  else if (b >= 0xF0 && b <= 0xF4) n = 4, code = b & 0x07;
+  else return 0;
+  if (i + n > s.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xC0) != 0x80) return 0;
+    code = (code << 6) | (byte(i + k) & 0x3F);
+  }
+  const char32_t least[5] = {0, 0, 0x80, 0x800, 0x10000};
+  if (code < least[n] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return 0;  // overlong, surrogate
+  return n;
+}
+bool is_control(char32_t c) { return c < 0x20 || c == 0x7F || (c >= 0x80 && c <= 0x9F); }
+}  // namespace
+
+std::string printable(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  char hex[16];
+  for (std::size_t i = 0; i < text.size();) {
+    char32_t code = 0;
+    const std::size_t n = utf8_sequence(text, i, code);
+    if (n == 0) {
+      std::snprintf(hex, sizeof hex, "\\x%02X", static_cast<unsigned>(static_cast<unsigned char>(text[i])));
+      out += hex;
+      ++i;
+    } else if (is_control(code)) {
+      std::snprintf(hex, sizeof hex, code < 0x80 ? "\\x%02X" : "\\u{%02X}", static_cast<unsigned>(code));
+      out += hex;
+      i += n;
+    } else {
+      out.append(text.substr(i, n));
+      i += n;
+    }
+  }
+  return out;
+}
+
+bool is_printable(std::string_view text) { return printable(text) == text; }
 
 SceneError::SceneError(SourceLocation where, std::string key, std::string reason)
     : std::runtime_error(compose_message(where, key, reason)),
@@ -805,8 +853,8 @@ std::string read_scene_file(const std::string& path) {
   return text;
 }
 
-Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides) {
-  return parse_scene(read_scene_file(path), path, overrides);
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides, const SceneLimits& limits) {
+  return parse_scene(read_scene_file(path), path, overrides, limits);
 }
 
 System build_system(const Scene& scene) { return System(scene.description); }

@@ -174,7 +174,7 @@ class Evaluator {
     for (std::size_t i = 0; i < names_.size(); ++i) overrides.push_back({names_[i], exact_text(values[i])});
     std::optional<System> sys;
     try {
-      sys.emplace(build_system(parse_scene(text_, file_, overrides)));
+      sys.emplace(build_system(parse_scene(text_, file_, overrides, options_.scene_limits)));
     } catch (const SceneError& ex) {
       e.scene_error = true;
       e.failure = std::string("invalid scene: ") + ex.what();
@@ -220,8 +220,8 @@ class Evaluator {
 
 // Checks the scene and the axes before anything runs.
 void validate(const std::string& text, const std::string& file, const std::vector<ParameterOverride>& fixed,
-              const std::vector<const SweepAxis*>& axes) {
-  const Scene scene = parse_scene(text, file, fixed);  // SceneError: bad scene or --set
+              const std::vector<const SweepAxis*>& axes, const SceneLimits& limits) {
+  const Scene scene = parse_scene(text, file, fixed, limits);  // SceneError: bad scene or --set
   std::string known;
   for (const auto& [name, value] : scene.parameters) known += (known.empty() ? "" : ", ") + name;
   for (const SweepAxis* axis : axes) {
@@ -539,7 +539,7 @@ SweepAxis parse_vary(std::string_view text) {
 
 SweepResult sweep(const std::string& scene_text, const std::string& file,
                   const std::vector<ParameterOverride>& fixed, const SweepAxis& axis, const SweepOptions& options) {
-  validate(scene_text, file, fixed, {&axis});
+  validate(scene_text, file, fixed, {&axis}, options.scene_limits);
   const Evaluator evaluate(scene_text, file, fixed, {axis.name}, options);
 
   SweepResult result;
@@ -584,7 +584,7 @@ SweepResult sweep(const std::string& scene_text, const std::string& file,
 StabilityMap sweep_map(const std::string& scene_text, const std::string& file,
                        const std::vector<ParameterOverride>& fixed, const SweepAxis& x, const SweepAxis& y,
                        const SweepOptions& options) {
-  validate(scene_text, file, fixed, {&x, &y});
+  validate(scene_text, file, fixed, {&x, &y}, options.scene_limits);
   const Evaluator evaluate(scene_text, file, fixed, {x.name, y.name}, options);
   StabilityMap map;
   map.x = x;

@@ -172,3 +172,113 @@ TEST_F(Hostile, InterruptsLeaveOldOrNewOutputsNeverAMixOrTemporaries) {
 }
 
 }  // namespace
+
+namespace {
+
+// --- text from someone else's scene ------------------------------------------------
+
+// Whether `text` holds a byte a terminal may act on: C0 controls other than
+// the line break, DEL, or a C1 control (U+0080–U+009F, UTF-8 C2 80–C2 9F).
+bool has_control(const std::string& text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if ((c < 0x20 && c != '\n') || c == 0x7F) return true;
+    if (c == 0xC2 && i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) >= 0x80 &&
+        static_cast<unsigned char>(text[i + 1]) <= 0x9F)
+      return true;
+  }
+  return false;
+}
+
+// Control characters written as TOML escapes (which the TOML reader decodes)
+// in every kind of text a scene has: never on the terminal, always refused
+// with the place and the character shown escaped.
+TEST_F(Hostile, ControlCharactersNeverReachTheTerminal) {
+  const std::vector<std::string> controls{"\\u0001", "\\u0007", "\\b", "\\r", "\\u001b[2J", "\\u007f", "\\u0085",
+                                          "\\u009b31m", "\\t"};
+  const std::vector<std::string> places{"title", "body name", "parent", "spring end", "parameter name", "expression",
+                                        "quoted key"};
+  int refused = 0;
+  for (const std::string& c : controls)
+    for (const std::string& place : places) {
+      const std::string title = place == "title" ? "t" + c + "x" : "t";
+      const std::string name = place == "body name" ? "p" + c : "p";
+      const std::string parent = place == "parent" ? "world" + c : "world";
+      const std::string end = place == "spring end" ? "p" + c : "p";
+      const std::string parameter = place == "parameter name" ? "\"m" + c + "\"" : "m";
+      const std::string mass = place == "expression" ? "\"1 + " + c + "\"" : "1";
+      const std::string extra = place == "quoted key" ? "\"k" + c + "\" = 1\n" : "";
+      const std::string scene = write("s.toml", "title = \"" + title + "\"\n" + extra + "[parameters]\n" + parameter +
+                                                    " = 1\n[[body]]\nname = \"" + name + "\"\nparent = \"" + parent +
+                                                    "\"\njoint = \"hinge\"\nmass = " + mass +
+                                                    "\ncom = [0, 0, -1]\n[[spring]]\na = \"" + end +
+                                                    "\"\nb = \"world\"\nstiffness = 1\n");
+      for (const char* command : {"analyze", "check"}) {
+        const Outcome r = run({command, scene});
+        EXPECT_FALSE(has_control(r.out)) << place << " " << c << ": stdout has a control character";
+        EXPECT_FALSE(has_control(r.err)) << place << " " << c << ": stderr has a control character: " << r.err;
+        EXPECT_EQ(r.status, 2) << place << " " << c << ": " << r.err;
+        EXPECT_NE(r.err.find("s.toml:"), std::string::npos) << r.err;
+        refused += r.status == 2;
+      }
+    }
+  EXPECT_EQ(refused, static_cast<int>(2 * controls.size() * places.size()));
+}
+
+// A network's node names come from a CSV file, raw bytes and all.
+TEST_F(Hostile, ControlCharactersInDataFilesAreRefused) {
+  for (const std::string& c : {std::string("\x1b[31m"), std::string("\x07"), std::string("\xc2\x9b"), std::string("\xff")}) {
+    std::ofstream(dir / "nodes.csv") << "name,x,y,z,mass,fixed\na" << c << ",0,0,0,1,1\nb,1,0,0,1,0\n";
+    std::ofstream(dir / "edges.csv") << "a,b,stiffness\na" << c << ",b,1\n";
+    const std::string scene = write("net.toml", "[[network]]\nname = \"n\"\nnodes = \"nodes.csv\"\n"
+                                                "edges = \"edges.csv\"\n");
+    const Outcome r = run({"analyze", scene});
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_FALSE(has_control(r.err)) << r.err;
+    EXPECT_NE(r.err.find("nodes.csv:2:"), std::string::npos) << r.err;
+  }
+}
+
+// --- data files from elsewhere ---------------------------------------------------------
+
+TEST_F(Hostile, DataFilesOutsideTheSceneDirectoryAreRefusedAndNeverEchoed) {
+  const auto scenes = dir / "scenes", elsewhere = dir / "elsewhere";
+  std::filesystem::create_directories(scenes / "data");
+  std::filesystem::create_directories(elsewhere);
+  // A file that is not a data file, with a recognizable first line.
+  const std::string secret = "root:x:0:0:SECRET:/root:/bin/bash";
+  std::ofstream(elsewhere / "passwd") << secret << "\nmore:x:1:1\n";
+  std::ofstream(elsewhere / "nodes.csv") << "name,x,y,z,mass,fixed\na,0,0,0,1,1\nb,1,0,0,1,0\n";
+  std::ofstream(scenes / "data" / "edges.csv") << "a,b,stiffness\na,b,1\n";
+  std::filesystem::create_symlink(elsewhere / "nodes.csv", scenes / "data" / "link.csv");
+  std::filesystem::create_symlink(elsewhere, scenes / "data" / "dirlink");
+  const std::vector<std::string> outside{"../elsewhere/nodes.csv", (elsewhere / "nodes.csv").string(),
+                                         "data/link.csv", "data/dirlink/nodes.csv", "data/../../elsewhere/nodes.csv",
+                                         "../elsewhere/passwd", (elsewhere / "passwd").string(), "/etc/passwd"};
+  for (const std::string& path : outside) {
+    const std::string scene = (scenes / "net.toml").string();
+    std::ofstream(scene) << "[[network]]\nname = \"n\"\nnodes = \"" << path << "\"\nedges = \"data/edges.csv\"\n";
+    Outcome r = run({"analyze", scene});
+    EXPECT_EQ(r.status, 2) << path << ": " << r.err;
+    EXPECT_NE(r.err.find("outside the scene file's directory"), std::string::npos) << path << ": " << r.err;
+    EXPECT_NE(r.err.find("net.toml:3:"), std::string::npos) << r.err;
+    // Allowed explicitly: a data file is read; any other file is refused without a word of its content.
+    r = run({"analyze", scene, "--allow-outside-data"});
+    if (path.find("passwd") == std::string::npos) {
+      EXPECT_EQ(r.status, 0) << path << ": " << r.err;
+    } else {
+      EXPECT_EQ(r.status, 2) << path << ": " << r.err;
+      EXPECT_NE(r.err.find("is not the header of a nodes file"), std::string::npos) << r.err;
+      EXPECT_EQ(r.err.find("root"), std::string::npos) << "content echoed: " << r.err;
+      EXPECT_EQ(r.err.find("SECRET"), std::string::npos) << "content echoed: " << r.err;
+    }
+  }
+  // Inside, through a symbolic link that stays inside: read.
+  std::ofstream(scenes / "data" / "nodes.csv") << "name,x,y,z,mass,fixed\na,0,0,0,1,1\nb,1,0,0,1,0\n";
+  std::filesystem::create_symlink("nodes.csv", scenes / "data" / "inside.csv");
+  std::ofstream(scenes / "net.toml") << "[[network]]\nname = \"n\"\nnodes = \"data/inside.csv\"\nedges = \"data/edges.csv\"\n";
+  const Outcome r = run({"analyze", (scenes / "net.toml").string()});
+  EXPECT_EQ(r.status, 0) << r.err;
+}
+
+}  // namespace

@@ -73,16 +73,18 @@ struct Model {
   std::vector<ParameterOverride> overrides;  // --set, in order
   Scene scene;
   System system;
+  SceneLimits limits;                        // as read (sweeps read the text again with them)
 };
 
 // Reads and builds a scene file (read_scene_file: regular files only, at most
 // max_scene_bytes); `set` are "NAME=VALUE" overrides (VALUE may be an
 // expression over the other parameters). Throws SceneError.
-Model load_model(const std::string& path, const std::vector<std::string>& set = {});
+Model load_model(const std::string& path, const std::vector<std::string>& set = {}, const SceneLimits& limits = {});
 // The same from text in memory; `name` stands for the file in messages (and
 // relative data files, such as a network's CSV, are resolved against its
 // directory).
-Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set = {});
+Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set = {},
+                      const SceneLimits& limits = {});
 
 // "q1,q2,..." (one finite number per coordinate of `system`, as for --at or
 // --velocity) → n values; InputError naming `option` and the coordinates

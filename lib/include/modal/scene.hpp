@@ -30,6 +30,15 @@ struct SourceLocation {
 // whose file is "--set"). Errors inside expression strings point at the
 // offending character and quote it: `in "2*q" at 3: unknown name 'q'` (the
 // position is 1-based, counted in the string).
+// `text` as it may be shown on a terminal or in a log: control characters
+// (C0, DEL and the C1 range U+0080–U+009F, which terminals act on) become
+// \xNN or \u{NN} escapes, and so does every byte that is not part of valid
+// UTF-8; everything else is kept. Every error message modal composes from a
+// user's text goes through it (SceneError, error_message).
+std::string printable(std::string_view text);
+// Whether `text` needs no escaping (printable(text) == text).
+bool is_printable(std::string_view text);
+
 class SceneError : public std::runtime_error {
  public:
   SceneError(SourceLocation where, std::string key, std::string reason);
@@ -65,6 +74,11 @@ struct Scene {
 struct SceneLimits {
   long long particles = 5'000'000;  // particles of one [[lattice]]
   int links = 100'000;              // links of one [[chain]]
+  // Data files (a [[network]]'s CSV files) are read only from the scene
+  // file's directory and below (symbolic links resolved), so that a scene
+  // from someone else cannot read other files; true allows any path
+  // (`--allow-outside-data`).
+  bool allow_outside_data = false;
 };
 
 // The text of a scene file. Refuses, with a SceneError naming the file, what
@@ -75,7 +89,8 @@ struct SceneLimits {
 inline constexpr std::size_t max_scene_bytes = 16u << 20;  // 16 MiB
 std::string read_scene_file(const std::string& path);
 // read_scene_file + parse_scene.
-Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {},
+                 const SceneLimits& limits = {});
 Scene parse_scene(std::string_view text, const std::string& file_name,
                   const std::vector<ParameterOverride>& overrides = {}, const SceneLimits& limits = {});
 System build_system(const Scene& scene);

@@ -85,6 +85,7 @@ struct SweepOptions {
   double tolerance = 1e-10;  // relative width of the final bracket of a critical value
   int max_evaluations = 200; // per critical value
   EquilibriumOptions equilibrium;
+  SceneLimits scene_limits;  // for reading the scene at every point (as it was read before the sweep)
   // Called after every point of the grid (and every evaluation of a refinement)
   // with the points done and the points of the grid in all; may be empty.
   std::function<void(int done, int total)> progress;
