@@ -108,21 +108,44 @@ template <class F> void for_each_path_coordinate(const System& s, int body, F&& 
   }
 }
 
-// What an element depends on: a world point x moved with `body` (∂x/∂q_k =
-// ω_k × x + v_k), or a world direction x fixed in `body` (∂x/∂q_k = ω_k × x);
-// body -1: fixed in the world.
+// What an element depends on: a world point x moved with `body`, or a world
+// direction x fixed in `body` (∂x/∂q_k = ω_k × x); body -1: fixed in the
+// world. r is x relative to the body's joint centre, computed directly (R_b·
+// point; a direction: x itself): the tree sums and Jacobians use r, the
+// elements' energies x.
 template <class R> struct SiteT {
   int body = -1;
   model::V3<R> x = model::V3<R>::Zero();
+  model::V3<R> r = model::V3<R>::Zero();
   bool direction = false;
 };
 using Site = SiteT<double>;
 
-// ∂x/∂q_k for a site moved by coordinate k.
-Vec3 site_velocity(const TreeState<double>& st, int k, const Site& site) {
+// The site of an attachment (a point of its body, or of the world).
+template <class R> SiteT<R> attachment_site(const TreeState<R>& st, const Attachment& a) {
+  const model::V3<R> r = model::relative_point(st, a);
+  if (a.body < 0) return SiteT<R>{a.body, r, r, false};
+  return SiteT<R>{a.body, model::V3<R>(st.position[static_cast<std::size_t>(a.body)] + r), r, false};
+}
+
+// ∂x/∂q_k for a site moved by coordinate k of the body a, the site lying at
+// `lever` = x − p_a from a's joint centre: ω_k × (x − p_a) + u_k.
+Vec3 site_velocity(const TreeState<double>& st, int k, const Vec3& lever, bool direction) {
   const auto kk = static_cast<std::size_t>(k);
-  const Vec3 turn = st.omega[kk].cross(site.x);
-  return site.direction ? turn : Vec3(turn + st.vel[kk]);
+  const Vec3 turn = st.omega[kk].cross(lever);
+  return direction ? turn : Vec3(turn + st.centre_velocity[kk]);
+}
+
+// Calls f(k, lever) for every coordinate k that moves the site, with lever =
+// x − p_a for k's body a, accumulated from r and the offsets on the way up
+// (a direction keeps lever = x: it turns but does not translate).
+template <class F> void for_each_site_coordinate(const System& s, const TreeState<double>& st, const Site& site, F&& f) {
+  Vec3 lever = site.r;
+  for (int a = site.body; a >= 0; a = s.bodies()[static_cast<std::size_t>(a)].parent) {
+    const int a0 = s.first_coordinate(a);
+    for (int j = a0; j < a0 + s.joint_size(a); ++j) f(j, lever);
+    if (!site.direction) lever += st.offset[static_cast<std::size_t>(a)];
+  }
 }
 
 // Sparse Jacobian of a site: the columns of the coordinates that move it.
@@ -135,22 +158,21 @@ struct PointJacobian {
 void site_jacobian(const System& s, const TreeState<double>& st, const Site& site, PointJacobian& J) {
   J.index.clear();
   J.column.clear();
-  if (site.body >= 0)
-    for_each_path_coordinate(s, site.body, [&](int k) {
-      J.index.push_back(k);
-      J.column.push_back(site_velocity(st, k, site));
-    });
+  for_each_site_coordinate(s, st, site, [&](int k, const Vec3& lever) {
+    J.index.push_back(k);
+    J.column.push_back(site_velocity(st, k, lever, site.direction));
+  });
 }
-PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a, const Vec3& x) {
+PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a) {
   PointJacobian J;
-  site_jacobian(s, st, Site{a.body, x, false}, J);
+  site_jacobian(s, st, attachment_site(st, a), J);
   return J;
 }
-// The Frobenius norm of point_jacobian(s, st, a, x), without forming it.
-double point_jacobian_norm(const System& s, const TreeState<double>& st, const Attachment& a, const Vec3& x) {
+// The Frobenius norm of point_jacobian(s, st, a), without forming it.
+double point_jacobian_norm(const System& s, const TreeState<double>& st, const Attachment& a) {
   double s2 = 0;
-  if (a.body >= 0)
-    for_each_path_coordinate(s, a.body, [&](int k) { s2 += site_velocity(st, k, Site{a.body, x, false}).squaredNorm(); });
+  for_each_site_coordinate(s, st, attachment_site(st, a),
+                           [&](int k, const Vec3& lever) { s2 += site_velocity(st, k, lever, false).squaredNorm(); });
   return std::sqrt(s2);
 }
 
@@ -193,8 +215,7 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<R>& st, Dep
         using S = std::decay_t<decltype(x[0])>;
         return model::centrifugal_point_energy<S>(body.mass, Omega, model::V3<S>(x[0], x[1], x[2]));
       };
-      const std::array<SiteT<R>, 1> com{
-          SiteT<R>{bi, model::V3<R>(st.position[b] + st.rotation[b] * body.com.cast<R>()), false}};
+      const std::array<SiteT<R>, 1> com{attachment_site(st, Attachment{bi, body.com})};
       deposit_element<1>(com, energy, deposit, local_hessian, second_order);
     }
     if (!body.inertia.isZero(0.0)) {
@@ -203,9 +224,9 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<R>& st, Dep
         const model::V3<S> u[3] = {{x[0], x[1], x[2]}, {x[3], x[4], x[5]}, {x[6], x[7], x[8]}};
         return model::centrifugal_rotation_energy<S>(body.inertia, Omega, u);
       };
-      const std::array<SiteT<R>, 3> axes{SiteT<R>{bi, st.rotation[b].col(0), true},
-                                         SiteT<R>{bi, st.rotation[b].col(1), true},
-                                         SiteT<R>{bi, st.rotation[b].col(2), true}};
+      const std::array<SiteT<R>, 3> axes{SiteT<R>{bi, st.rotation[b].col(0), st.rotation[b].col(0), true},
+                                         SiteT<R>{bi, st.rotation[b].col(1), st.rotation[b].col(1), true},
+                                         SiteT<R>{bi, st.rotation[b].col(2), st.rotation[b].col(2), true}};
       deposit_element<3>(axes, energy, deposit, local_hessian, second_order);
     }
   }
@@ -222,15 +243,14 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     if (body.mass == 0.0) continue;
-    deposit(SiteT<R>{static_cast<int>(b), V(st.position[b] + st.rotation[b] * body.com.cast<R>()), false},
-            V((-body.mass * s.gravity()).cast<R>()));
+    deposit(attachment_site(st, Attachment{static_cast<int>(b), body.com}), V((-body.mass * s.gravity()).cast<R>()));
   }
   for (const DeadLoad& l : s.loads())
-    deposit(SiteT<R>{l.at.body, model::world_point(st, l.at), false}, V((-l.force).cast<R>()));
+    deposit(attachment_site(st, l.at), V((-l.force).cast<R>()));
   if (s.rotating()) for_each_centrifugal_cotangent(s, st, deposit, local_hessian, second_order);
   for (const Spring& sp : s.springs()) {
-    const V xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
-    if (sp.rest_length != 0.0 && value((xa - xb).squaredNorm()) == 0.0)
+    const SiteT<R> a = attachment_site(st, sp.a), b = attachment_site(st, sp.b);
+    if (sp.rest_length != 0.0 && value((a.x - b.x).squaredNorm()) == 0.0)
       throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
                            " m has coincident end points: its force direction is undefined");
     auto energy = [&sp](const auto& x) {
@@ -238,15 +258,17 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
       const model::V3<S> a(x[0], x[1], x[2]), b(x[3], x[4], x[5]);
       return model::spring_energy<S>(sp, a, b);
     };
-    const std::array<SiteT<R>, 2> ends{SiteT<R>{sp.a.body, xa, false}, SiteT<R>{sp.b.body, xb, false}};
+    const std::array<SiteT<R>, 2> ends{a, b};
     deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
   }
 }
 
 // Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
-// to deposit(site, e) (a direction adds nothing to F).
+// to deposit(site, e) (a direction adds nothing to F), τ and P about each
+// body's joint centre: a site adds r × e and r eᵀ, a child c shifts into its
+// parent with its offset d: τ += τ_c + d × F_c, P += P_c + d F_cᵀ.
 template <class R, class Source>
-void accumulate_sums(const System& s, SubtreeSums<R>& c, bool second_order, Source&& source) {
+void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order, Source&& source) {
   const auto nb = s.bodies().size();
   c.resize(nb);
   for (std::size_t b = 0; b < nb; ++b) {
@@ -258,23 +280,24 @@ void accumulate_sums(const System& s, SubtreeSums<R>& c, bool second_order, Sour
     if (site.body < 0) return;
     const auto b = static_cast<std::size_t>(site.body);
     if (!site.direction) c.F[b] += e;
-    c.tau[b] += site.x.cross(e);
-    if (second_order) c.P[b] += site.x * e.transpose();
+    c.tau[b] += site.r.cross(e);
+    if (second_order) c.P[b] += site.r * e.transpose();
   });
   for (std::size_t b = nb; b-- > 0;) {
     const int p = s.bodies()[b].parent;
     if (p < 0) continue;
     const auto pp = static_cast<std::size_t>(p);
+    const model::V3<R>& d = st.offset[b];
     c.F[pp] += c.F[b];
-    c.tau[pp] += c.tau[b];
-    if (second_order) c.P[pp] += c.P[b];
+    c.tau[pp] += c.tau[b] + d.cross(c.F[b]);
+    if (second_order) c.P[pp] += c.P[b] + d * c.F[b].transpose();
   }
 }
 
 // The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
 template <class LocalHessian>
 void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian) {
-  accumulate_sums(s, w.cache(), second_order, [&](auto&& deposit) {
+  accumulate_sums(s, w.cache().st, w.cache(), second_order, [&](auto&& deposit) {
     for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order);
   });
 }
@@ -288,9 +311,9 @@ template <class R> model::V3<R> follower_force(const TreeState<R>& st, const Fol
 // the tree gradient below is Q_j = f·∂x/∂q_j and the tree Hessian is f·∂²x/∂q_j∂q_k.
 void accumulate_followers(const System& s, Workspace& w, bool second_order) {
   const TreeState<double>& st = w.cache().st;
-  accumulate_sums(s, w.cache(), second_order, [&](auto&& deposit) {
+  accumulate_sums(s, st, w.cache(), second_order, [&](auto&& deposit) {
     for (const FollowerLoad& l : s.followers())
-      deposit(Site{l.at.body, model::world_point(st, l.at), false}, follower_force(st, l));
+      deposit(attachment_site(st, l.at), follower_force(st, l));
   });
 }
 
@@ -298,7 +321,7 @@ bool is_rotation_vector(const Body& body, int local) {
   return body.joint == JointType::ball || (body.joint == JointType::free && local >= 3);
 }
 
-// g_k = ω_k·τ + v_k·F with the subtree sums of the body that coordinate k moves:
+// g_k = ω_k·τ + u_k·F with the subtree sums of the body that coordinate k moves:
 // Σ e·∂x/∂q_k over the deposited cotangents (n entries, g resized).
 template <class R>
 void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>& c, model::VX<R>& g) {
@@ -307,7 +330,7 @@ void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>
     const int k0 = s.first_coordinate(static_cast<int>(b));
     for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k) {
       const auto kk = static_cast<std::size_t>(k);
-      g[k] = st.omega[kk].dot(c.tau[b]) + st.vel[kk].dot(c.F[b]);
+      g[k] = st.omega[kk].dot(c.tau[b]) + st.centre_velocity[kk].dot(c.F[b]);
     }
   }
 }
@@ -318,7 +341,7 @@ void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>
 template <class R, class Extra>
 void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeSums<R>& c, model::VX<R>& g,
                    Extra&& extra) {
-  accumulate_sums(s, c, false, [&](auto&& deposit) {
+  accumulate_sums(s, st, c, false, [&](auto&& deposit) {
     for_each_cotangent(s, st, deposit, [](auto&&...) {}, false);
     extra(deposit);
   });
@@ -362,7 +385,7 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
     }
     for (int k = k0; k < k0 + nq; ++k) {
       const auto kk = static_cast<std::size_t>(k);
-      const Vec3 wk = P * st.omega[kk] - trP * st.omega[kk] + st.vel[kk].cross(F);
+      const Vec3 wk = P * st.omega[kk] - trP * st.omega[kk] + st.centre_velocity[kk].cross(F);
       auto pair = [&](int j) {
         const double h = st.omega[static_cast<std::size_t>(j)].dot(wk);
         if (h == 0.0) return;  // translations (ω_j = 0): nothing, and no sparse entry
@@ -380,11 +403,10 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
       }
     }
     if (r0 >= 0) {
-      // Σ e·∂²x/∂φ_j∂φ_k = (∂ω_k/∂φ_j)·(τ − c×F) + ω_k·(P_c ω_j − tr(P_c) ω_j), x − c = r, P_c = Σ r eᵀ.
-      const Vec3& ctr = st.position[b];
-      const Mat3 Pc = P - ctr * F.transpose();
-      const double trPc = Pc.trace();
-      const Vec3 tc = c.tau[b] - ctr.cross(F);
+      // Σ e·∂²x/∂φ_j∂φ_k = (∂ω_k/∂φ_j)·τ + ω_k·(P ω_j − tr(P) ω_j), τ and P about the joint centre.
+      const Mat3& Pc = P;
+      const double trPc = trP;
+      const Vec3& tc = c.tau[b];
       Mat3 h;
       for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k) {
@@ -522,7 +544,7 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
     const Body& body = bodies[b];
     if (body.mass != 0.0) {
       const Attachment at{static_cast<int>(b), body.com};
-      scale += body.mass * s.gravity().norm() * point_jacobian_norm(s, st, at, model::world_point(st, at));
+      scale += body.mass * s.gravity().norm() * point_jacobian_norm(s, st, at);
     }
     if (s.rotating()) {
       // Centrifugal forces: m|Ω|²|x| at the centre of mass, |Ω|²‖I‖ on the body's rotations.
@@ -530,7 +552,7 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
       if (body.mass != 0.0) {
         const Attachment at{static_cast<int>(b), body.com};
         const Vec3 x = model::world_point(st, at);
-        scale += body.mass * w2 * x.norm() * point_jacobian_norm(s, st, at, x);
+        scale += body.mass * w2 * x.norm() * point_jacobian_norm(s, st, at);
       }
       double turn2 = 0;
       for_each_path_coordinate(s, static_cast<int>(b), [&](int k) { turn2 += st.omega[static_cast<std::size_t>(k)].squaredNorm(); });
@@ -543,14 +565,14 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
     }
   }
   for (const DeadLoad& l : s.loads())
-    scale += l.force.norm() * point_jacobian_norm(s, st, l.at, model::world_point(st, l.at));
+    scale += l.force.norm() * point_jacobian_norm(s, st, l.at);
   for (const FollowerLoad& l : s.followers())
-    scale += l.force.norm() * point_jacobian_norm(s, st, l.at, model::world_point(st, l.at));
+    scale += l.force.norm() * point_jacobian_norm(s, st, l.at);
   for (const Spring& sp : s.springs()) {
     const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
     const double len = (xa - xb).norm();
     const double force = sp.stiffness * (std::abs(len - sp.rest_length) + std::max(sp.rest_length, len));
-    scale += force * (point_jacobian_norm(s, st, sp.a, xa) + point_jacobian_norm(s, st, sp.b, xb));
+    scale += force * (point_jacobian_norm(s, st, sp.a) + point_jacobian_norm(s, st, sp.b));
   }
   return scale;
 }
@@ -563,6 +585,22 @@ const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q) {
   }
   model::mass_matrix(s, kinematics(s, w, q), w.mass);
   return w.mass;
+}
+
+VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "inertia_scale");
+    return VectorX();
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  const model::Inertias<double> Ic = model::composite_inertias(s, st);
+  VectorX scale(s.size());
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)  // ‖ω_k‖ ≤ 1, ‖u_k‖ = 1
+      scale[k] = st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3) : Ic[b].block<3, 3>(0, 0).trace();
+  }
+  return scale;
 }
 
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
@@ -606,7 +644,7 @@ template <class Add> void assemble_damping(const System& s, Workspace& w, const 
       throw NumericalError("a damped spring has coincident end points: the damper's direction is undefined");
     const Vec3 u = (xa - xb) / len;
     std::vector<std::pair<int, double>> row;  // uᵀ (J_a − J_b), by coordinate
-    const PointJacobian Ja = point_jacobian(s, st, sp.a, xa), Jb = point_jacobian(s, st, sp.b, xb);
+    const PointJacobian Ja = point_jacobian(s, st, sp.a), Jb = point_jacobian(s, st, sp.b);
     for (std::size_t i = 0; i < Ja.index.size(); ++i) row.emplace_back(Ja.index[i], u.dot(Ja.column[i]));
     for (std::size_t i = 0; i < Jb.index.size(); ++i) row.emplace_back(Jb.index[i], -u.dot(Jb.column[i]));
     for (const auto& [i, a] : row)
@@ -673,9 +711,8 @@ MatrixX generalized_force_jacobian(const System& s, Workspace& w, const VectorX&
   accumulate_followers(s, w, true);
   tree_hessian(s, st, w.cache(), q, dense_adder(A));
   for (const FollowerLoad& l : s.followers()) {
-    const Vec3 x = model::world_point(st, l.at);
     const Vec3 f = follower_force(st, l);
-    const PointJacobian J = point_jacobian(s, st, l.at, x);
+    const PointJacobian J = point_jacobian(s, st, l.at);
     for (std::size_t c = 0; c < J.index.size(); ++c) {
       const int k = J.index[c];
       const Vec3 df = st.omega[static_cast<std::size_t>(k)].cross(f);  // ∂f/∂q_k
@@ -874,11 +911,11 @@ void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, cons
   using V = model::V3<R>;
   Eigen::Index row = 0;
   for (const Constraint& k : s.constraints()) {
-    const auto [xa, xb] = constraint_ends(st, k);
+    constraint_ends(st, k);  // throws where a distance is undefined
     if (k.type == Constraint::Type::point) {
       const V f = multipliers.segment<3>(row).cast<R>();
-      deposit(SiteT<R>{k.a.body, xa, false}, f);
-      deposit(SiteT<R>{k.b.body, xb, false}, V(-f));
+      deposit(attachment_site(st, k.a), f);
+      deposit(attachment_site(st, k.b), V(-f));
     } else {
       const double sk = multipliers[row];
       const double length = k.length;
@@ -888,7 +925,7 @@ void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, cons
         const model::V3<S> d(x[0] - x[3], x[1] - x[4], x[2] - x[5]);
         return sk * (sqrt(d.squaredNorm()) - length);
       };
-      const std::array<SiteT<R>, 2> ends{SiteT<R>{k.a.body, xa, false}, SiteT<R>{k.b.body, xb, false}};
+      const std::array<SiteT<R>, 2> ends{attachment_site(st, k.a), attachment_site(st, k.b)};
       deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
     }
     row += k.equations();
@@ -939,7 +976,7 @@ MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q) {
   Eigen::Index row = 0;
   for (const Constraint& k : s.constraints()) {
     const auto [xa, xb] = constraint_ends(st, k);
-    const PointJacobian Ja = point_jacobian(s, st, k.a, xa), Jb = point_jacobian(s, st, k.b, xb);
+    const PointJacobian Ja = point_jacobian(s, st, k.a), Jb = point_jacobian(s, st, k.b);
     const Vec3 axis = (xa - xb).normalized();  // distance constraints: the direction between the ends
     auto add = [&](const PointJacobian& J, double sign) {
       for (std::size_t i = 0; i < J.index.size(); ++i) {
@@ -968,7 +1005,7 @@ MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, cons
   }
   const TreeState<double>& st = kinematics(s, w, q);
   auto local_hessian = [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, dense_adder(H)); };
-  accumulate_sums(s, w.cache(), true, [&](auto&& deposit) {
+  accumulate_sums(s, st, w.cache(), true, [&](auto&& deposit) {
     for_each_constraint_cotangent(s, st, multipliers, deposit, local_hessian, true);
   });
   tree_hessian(s, st, w.cache(), q, dense_adder(H));
@@ -1090,7 +1127,7 @@ void rest_force_at(const System& s, const TreeState<R>& st, const R* q, const Ve
                    SubtreeSums<R>& c, model::VX<R>& f) {
   gradient_with(s, st, q, c, f, [&](auto&& deposit) {
     for (const FollowerLoad& l : s.followers())
-      deposit(SiteT<R>{l.at.body, model::world_point(st, l.at), false}, model::V3<R>(-follower_force(st, l)));
+      deposit(attachment_site(st, l.at), model::V3<R>(-follower_force(st, l)));
     if (multipliers.size() > 0)
       for_each_constraint_cotangent(
           s, st, multipliers,

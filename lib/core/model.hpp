@@ -81,20 +81,30 @@ template <class S> M3<S> rotation_axis_angle(const Vec3& u, const S& q) {
   return M3<S>::Identity() + sin(q) * h + (1.0 - cos(q)) * (h * h);
 }
 
-// World kinematics of the tree at q. For every coordinate k, the world twist
-// (ω_k, v_k) gives the derivative of any point x moved by it: ∂x/∂q_k = ω_k × x + v_k.
+// Kinematics of the tree at q. Every body b has a reference point, its joint
+// centre p_b = position[b] (the origin of its frame), and the spatial algebra
+// below works about these points with RELATIVE vectors computed directly
+// (offset[b] = p_b − p_parent, R_b·point for a point of the body), never as
+// differences of world positions: in a graded tree (a micrometre body at the
+// end of a kilometre rod) a difference of world positions would lose every
+// digit of the small body's geometry (docs/design.md, "Scaling").
+// For a coordinate k of body b, ∂x/∂q_k = ω_k × (x − p_b) + u_k for any point
+// x moved by it, u_k = centre_velocity[k] the velocity of p_b itself (zero for
+// hinges and rotation vectors, the axis for translations).
 template <class S> struct TreeState {
-  std::vector<M3<S>> rotation;  // per body: body → world
-  std::vector<V3<S>> position;  // per body: frame origin = joint centre, world
-  std::vector<V3<S>> omega;     // per coordinate
-  std::vector<V3<S>> vel;       // per coordinate
+  std::vector<M3<S>> rotation;         // per body: body → world
+  std::vector<V3<S>> position;         // per body: frame origin = joint centre p_b, world
+  std::vector<V3<S>> offset;           // per body: p_b − p_parent (roots: p_b), computed directly
+  std::vector<V3<S>> omega;            // per coordinate
+  std::vector<V3<S>> centre_velocity;  // per coordinate: u_k, the velocity of its body's p_b
 
   void resize(const System& sys) {
     const auto nb = sys.bodies().size();
     rotation.resize(nb);
     position.resize(nb);
+    offset.resize(nb);
     omega.resize(static_cast<std::size_t>(sys.size()));
-    vel.resize(static_cast<std::size_t>(sys.size()));
+    centre_velocity.resize(static_cast<std::size_t>(sys.size()));
   }
 };
 
@@ -112,39 +122,39 @@ template <class S> void forward_kinematics(const System& sys, const S* q, TreeSt
     const int k0 = sys.first_coordinate(static_cast<int>(b));
     const auto k = static_cast<std::size_t>(k0);
     V3<S> origin = cast3<S>(body.origin);
+    V3<S>& d = st.offset[b];
     switch (body.joint) {
       case JointType::fixed:
         st.rotation[b] = Rp;
-        st.position[b] = pp + Rp * origin;
+        d = Rp * origin;
         break;
       case JointType::hinge: {
         st.rotation[b] = Rp * rotation_axis_angle(body.axis, q[k0]);
-        st.position[b] = pp + Rp * origin;
+        d = Rp * origin;
         st.omega[k] = Rp * cast3<S>(body.axis);
-        st.vel[k] = st.position[b].cross(st.omega[k]);
+        st.centre_velocity[k] = V3<S>::Zero();
         break;
       }
       case JointType::slide: {
         const V3<S> axis = Rp * cast3<S>(body.axis);
         st.rotation[b] = Rp;
-        st.position[b] = pp + Rp * origin + axis * q[k0];
+        d = Rp * origin + axis * q[k0];
         st.omega[k] = V3<S>::Zero();
-        st.vel[k] = axis;
+        st.centre_velocity[k] = axis;
         break;
       }
       case JointType::particle: {
         st.rotation[b] = Rp;
-        V3<S> x = pp + Rp * origin;
+        d = Rp * origin;
         std::size_t i = k;
         for (int a = 0; a < 3; ++a) {
           if (!body.particle_axes[static_cast<std::size_t>(a)]) continue;
           const V3<S> axis = Rp.col(a);
-          x += axis * q[i];
+          d += axis * q[i];
           st.omega[i] = V3<S>::Zero();
-          st.vel[i] = axis;
+          st.centre_velocity[i] = axis;
           ++i;
         }
-        st.position[b] = x;
         break;
       }
       case JointType::ball:
@@ -154,22 +164,30 @@ template <class S> void forward_kinematics(const System& sys, const S* q, TreeSt
           origin += V3<S>(q[k0], q[k0 + 1], q[k0 + 2]);
           for (std::size_t i = 0; i < 3; ++i) {
             st.omega[k + i] = V3<S>::Zero();
-            st.vel[k + i] = Rp.col(static_cast<Eigen::Index>(i));
+            st.centre_velocity[k + i] = Rp.col(static_cast<Eigen::Index>(i));
           }
           r = k + 3;
         }
         const V3<S> phi(q[r], q[r + 1], q[r + 2]);
         st.rotation[b] = Rp * rotation_exp(phi);
-        st.position[b] = pp + Rp * origin;
+        d = Rp * origin;
         const M3<S> W = Rp * rotation_left_jacobian(phi);
         for (std::size_t i = 0; i < 3; ++i) {
           st.omega[r + i] = W.col(static_cast<Eigen::Index>(i));
-          st.vel[r + i] = st.position[b].cross(st.omega[r + i]);
+          st.centre_velocity[r + i] = V3<S>::Zero();
         }
         break;
       }
     }
+    st.position[b] = pp + d;
   }
+}
+
+// Position of an attachment relative to its body's joint centre, R_b·point
+// (world attachments: the point itself).
+template <class S> V3<S> relative_point(const TreeState<S>& st, const Attachment& a) {
+  if (a.body < 0) return cast3<S>(a.point);
+  return st.rotation[static_cast<std::size_t>(a.body)] * cast3<S>(a.point);
 }
 
 // World position of an attachment.
@@ -263,50 +281,69 @@ template <class S> S potential(const System& sys, const TreeState<S>& st, const 
   return v;
 }
 
-// Spatial inertia (6×6, twist order (ω, v)) of one body in world coordinates:
-// ½ξᵀIξ is its kinetic energy for the world twist ξ.
+// Spatial inertia (6×6, twist order (ω, v)) of one body about its joint
+// centre p_b: ½ξᵀIξ is its kinetic energy for the twist ξ = (ω, v) with v the
+// velocity of p_b. Blocks [[I_p, ĥ], [−ĥ, m]] with h = m c, c = R_b·com the
+// centre of mass relative to p_b, I_p the rotational inertia about p_b.
 template <class S> Eigen::Matrix<S, 6, 6> spatial_inertia(const Body& body, const TreeState<S>& st, std::size_t b) {
   Eigen::Matrix<S, 6, 6> I = Eigen::Matrix<S, 6, 6>::Zero();
-  const V3<S> x = st.position[b] + st.rotation[b] * cast3<S>(body.com);
+  const V3<S> c = st.rotation[b] * cast3<S>(body.com);
   const M3<S> Iw = st.rotation[b] * cast33<S>(body.inertia) * st.rotation[b].transpose();
-  const M3<S> xh = hat(x);
+  const M3<S> ch = hat(c);
   const S m(body.mass);
-  I.template block<3, 3>(0, 0) = Iw - m * (xh * xh);
-  I.template block<3, 3>(0, 3) = m * xh;
-  I.template block<3, 3>(3, 0) = -m * xh;
+  I.template block<3, 3>(0, 0) = Iw - m * (ch * ch);
+  I.template block<3, 3>(0, 3) = m * ch;
+  I.template block<3, 3>(3, 0) = -m * ch;
   I.template block<3, 3>(3, 3) = m * M3<S>::Identity();
   return I;
 }
 
+// A spatial inertia about a point p (blocks as above) moved to the point
+// p − d: h' = h + m d, I' = I − ĥd̂ − d̂ĥ − m d̂d̂ (the parallel-axis shift
+// written with the offset d itself, so nothing cancels).
+template <class S> void add_shifted_inertia(const Eigen::Matrix<S, 6, 6>& I, const V3<S>& d, Eigen::Matrix<S, 6, 6>& out) {
+  const S m = I(3, 3);
+  const M3<S> hh = I.template block<3, 3>(0, 3);
+  const M3<S> dh = hat(d);
+  const M3<S> hs = hh + m * dh;
+  out.template block<3, 3>(0, 0) += I.template block<3, 3>(0, 0) - hh * dh - dh * hh - m * (dh * dh);
+  out.template block<3, 3>(0, 3) += hs;
+  out.template block<3, 3>(3, 0) -= hs;
+  out.template block<3, 3>(3, 3) += m * M3<S>::Identity();
+}
+
 template <class S> using Inertias = std::vector<Eigen::Matrix<S, 6, 6>>;
 
-// Composite spatial inertias (world coordinates): Ic(b) = Σ of spatial_inertia over b's subtree.
+// Composite spatial inertias: Ic(b) = the inertia of b's subtree about b's
+// joint centre p_b (children shifted in by their offsets).
 template <class S> Inertias<S> composite_inertias(const System& sys, const TreeState<S>& st) {
   const auto& bodies = sys.bodies();
   const std::size_t nb = bodies.size();
   Inertias<S> Ic(nb);
   for (std::size_t b = 0; b < nb; ++b) Ic[b] = spatial_inertia(bodies[b], st, b);
   for (std::size_t b = nb; b-- > 0;)
-    if (bodies[b].parent >= 0) Ic[static_cast<std::size_t>(bodies[b].parent)] += Ic[b];
+    if (bodies[b].parent >= 0) add_shifted_inertia(Ic[b], st.offset[b], Ic[static_cast<std::size_t>(bodies[b].parent)]);
   return Ic;
 }
 
-// Twist of coordinate k, (ω_k, v_k).
+// Twist of coordinate k about its own body's joint centre, (ω_k, u_k).
 template <class S> Eigen::Matrix<S, 6, 1> coordinate_twist(const TreeState<S>& st, int k) {
   Eigen::Matrix<S, 6, 1> xk;
-  xk << st.omega[static_cast<std::size_t>(k)], st.vel[static_cast<std::size_t>(k)];
+  xk << st.omega[static_cast<std::size_t>(k)], st.centre_velocity[static_cast<std::size_t>(k)];
   return xk;
 }
 
 // Frame coupling g(q) (n) of T = ½q̇ᵀMq̇ + q̇ᵀg + T₀ in a frame rotating at Ω:
-// g_k = ξ_kᵀ Ic(b(k)) ξ_Ω with ξ_Ω = (Ω, 0), the cross term of the bodies'
+// g_k = ξ_kᵀ Ic(b(k)) ξ_Ω with ξ_Ω the frame's twist about p_b, (Ω, Ω × p_b)
+// (the frame turns about the world origin), the cross term of the bodies'
 // inertial twists Σ_k ξ_k q̇_k + ξ_Ω. Units kg·m²/s (angles) or kg·m/s (lengths).
 template <class S> void frame_coupling(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, VX<S>& g) {
   g.setZero(sys.size());
-  const Eigen::Matrix<S, 6, 1> xi = (Eigen::Matrix<S, 6, 1>() << cast3<S>(sys.frame_rotation()), V3<S>::Zero()).finished();
+  const V3<S> Omega = cast3<S>(sys.frame_rotation());
   for (std::size_t b = 0; b < sys.bodies().size(); ++b) {
     const int k0 = sys.first_coordinate(static_cast<int>(b));
     if (sys.joint_size(static_cast<int>(b)) == 0) continue;
+    const Eigen::Matrix<S, 6, 1> xi = (Eigen::Matrix<S, 6, 1>() << Omega, Omega.cross(st.position[b])).finished();
     const Eigen::Matrix<S, 6, 1> u = Ic[b] * xi;
     for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) g[k] = coordinate_twist(st, k).dot(u);
   }
@@ -315,9 +352,11 @@ template <class S> void frame_coupling(const System& sys, const TreeState<S>& st
   frame_coupling(sys, st, composite_inertias(sys, st), g);
 }
 
-// M(q) by composite inertias: M_jk = ξ_jᵀ Ic(b(k)) ξ_k for j at or above k,
-// handed to set(j, k, M_jk) once per pair with j at or above k (the caller
-// mirrors it); pairs off a common path are zero and never visited.
+// M(q) by composite inertias about the joint centres: M_jk = ξ_j(p_b)ᵀ Ic(b)
+// ξ_k(p_b) for k of body b and j at or above k, with ξ_j(p_b) = (ω_j, ω_j ×
+// (p_b − p_a) + u_j) for j of an ancestor a (p_b − p_a accumulated from the
+// offsets), handed to set(j, k, M_jk) once per pair with j at or above k (the
+// caller mirrors it); pairs off a common path are zero and never visited.
 template <class S, class Set> void mass_matrix_entries(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, Set&& set) {
   const auto& bodies = sys.bodies();
   const std::size_t nb = bodies.size();
@@ -326,14 +365,18 @@ template <class S, class Set> void mass_matrix_entries(const System& sys, const 
     for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) {
       const Eigen::Matrix<S, 6, 1> u = Ic[b] * coordinate_twist(st, k);
       // coordinates of this joint up to k, then of every ancestor
-      auto visit = [&](int j) {
+      auto visit = [&](int j, const V3<S>& lever) {  // lever = p_b − p_a
         const auto jj = static_cast<std::size_t>(j);
-        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + st.vel[jj].dot(u.template tail<3>())));
+        const V3<S> v = st.omega[jj].cross(lever) + st.centre_velocity[jj];
+        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>())));
       };
-      for (int j = k0; j <= k; ++j) visit(j);
-      for (int a = bodies[b].parent; a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
+      V3<S> lever = V3<S>::Zero();
+      for (int j = k0; j <= k; ++j) visit(j, lever);
+      for (std::size_t c = b; bodies[c].parent >= 0; c = static_cast<std::size_t>(bodies[c].parent)) {
+        lever += st.offset[c];
+        const int a = bodies[c].parent;
         const int a0 = sys.first_coordinate(a);
-        for (int j = a0; j < a0 + sys.joint_size(a); ++j) visit(j);
+        for (int j = a0; j < a0 + sys.joint_size(a); ++j) visit(j, lever);
       }
     }
   }

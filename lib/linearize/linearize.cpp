@@ -206,6 +206,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   const MatrixX M = mass_matrix(s, ws, q);
   require_finite(M, "mass matrix M", model.coordinates);
   model.M = symmetric_part(M);
+  model.inertia_scale = inertia_scale(s, ws, q);
 
   model.has_damping = s.has_damping();
   if (model.has_damping) {
@@ -235,6 +236,8 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     const MatrixX& N = constraints.null_space;
     model.basis = N;
     model.M = symmetric_part(N.transpose() * model.M * N);
+    if (model.inertia_scale.size() > 0)  // (Σ_i |N_ij| √scale_i)² ≥ (Nᵀ M N)_jj
+      model.inertia_scale = (N.cwiseAbs().transpose() * model.inertia_scale.cwiseSqrt()).cwiseAbs2();
     model.K = N.transpose() * model.K * N;
     if (!model.circulatory) model.K = symmetric_part(model.K);
     const MatrixX absN = N.cwiseAbs();
@@ -274,6 +277,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
   model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   model.K = sparse_potential_hessian(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
+  model.inertia_scale = inertia_scale(s, ws, q);
   if (model.residual > sparse_equilibrium_correction_residual) {  // see the header
     Eigen::SimplicialLDLT<SparseMatrix> ldlt(model.K);
     if (ldlt.info() == Eigen::Success) {

@@ -22,11 +22,38 @@ namespace modal::detail {
 
 using Cholesky = Eigen::LLT<MatrixX>;
 
-// Cholesky factor M = L Lᵀ of the symmetric mass matrix M (n×n). Throws
+// Symmetric diagonal equilibration (docs/design.md, "Scaling (equilibration)").
+// Every solver works on the congruent pencil (SKS, SMS), S = diag(s), with
+// s_i a power of two near 1/√d_i for the coordinates' natural inertia scales
+// d (LinearModel::inertia_scale, d_i ≥ M_ii), so that SMS has a diagonal
+// below 2 that is near 1 unless the coordinate is near a singularity: the
+// scaling is exact in floating point (no rounding, barring overflow and
+// underflow), the eigenvalues are those of (K, M) exactly, a shape φ̃ of the
+// scaled pencil is φ = Sφ̃ in the original coordinates (φᵀMφ = φ̃ᵀ(SMS)φ̃),
+// the residual bound ‖Kφ − λMφ‖_{M⁻¹} is the same number in both, and the
+// entries' relative errors are unchanged. What changes is that the
+// normwise tests and rounding (definiteness, singularity, Cholesky,
+// L⁻¹KL⁻ᵀ) see a mass matrix whose entries are of one size: a graded scene
+// (masses or lengths over many decades) is no longer singular "relative to
+// ‖M‖". Not diag(M) itself: at a coordinate singularity (spherical angles at
+// the pole, M_ii ≈ 1e-32 from rounding) scaling by √M_ii would blow the
+// vanishing inertia up to 1 and hide the singularity. A zero (or non-finite)
+// d_i gets the geometric mean of the other scales (1 when there are none):
+// the coordinate stays without inertia and the singularity test names it.
+VectorX equilibrating_scale(const VectorX& diagonal);
+// equilibrating_scale(inertia) when it has n entries; otherwise (no natural
+// scale: kinematic maps, hand-made models) all ones, no scaling.
+VectorX coordinate_scale(const VectorX& inertia, Eigen::Index n);
+// diag(s) A diag(s), entry by entry (exact for powers of two).
+MatrixX scale_symmetric(const MatrixX& A, const VectorX& s);
+
+// Cholesky factor M = L Lᵀ of the symmetric mass matrix M (n×n), normally an
+// equilibrated one (SMS above; `scale` = s, empty for none). Throws
 // SingularMassMatrix when M is singular or indefinite within the relative
-// tolerance n·ε·‖M‖_F; the message names the coordinate combinations that carry
-// no inertia. `names` has n entries.
-Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names);
+// tolerance 16·ε·‖M‖_F; the message names the coordinate combinations that
+// carry no inertia, in the original coordinates (S times the null vectors).
+// `names` has n entries.
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {});
 
 // K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's

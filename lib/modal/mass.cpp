@@ -15,6 +15,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <vector>
 
 namespace modal::detail {
 namespace {
@@ -75,9 +76,10 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 }
 
 // Throws SingularMassMatrix describing every eigenvector of M whose eigenvalue
-// is at most `tolerance` (at least the smallest one).
+// is at most `tolerance` (at least the smallest one), as the direction S v in
+// the original coordinates when M is scaled (`scale` = s, or empty).
 [[noreturn]] void diagnose_singular_mass(const MatrixX& M, const std::vector<std::string>& names,
-                                         double tolerance) {
+                                         double tolerance, const VectorX& scale) {
   Eigen::SelfAdjointEigenSolver<MatrixX> eig(M);
   if (eig.info() != Eigen::Success)
     throw SingularMassMatrix("the mass matrix has no Cholesky factor and its eigen-decomposition failed: "
@@ -92,11 +94,14 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   Eigen::Index null_dimension = 1;
   while (null_dimension < values.size() && values(null_dimension) <= tolerance) ++null_dimension;
   const Eigen::Index listed = std::min<Eigen::Index>(null_dimension, 3);
+  const bool scaled = scale.size() == M.rows() && (scale.array() != 1.0).any();
   for (Eigen::Index j = 0; j < listed; ++j) {
     if (j > 0) out << "; ";
-    out << describe_combination(eig.eigenvectors().col(j), names)
-        << (values(j) < -tolerance ? " has negative inertia" : " has no inertia") << " (eigenvalue "
-        << format_number(values(j), 2) << " of largest " << format_number(largest, 3) << ")";
+    const VectorX v = scaled ? VectorX(scale.cwiseProduct(eig.eigenvectors().col(j)).normalized())
+                             : VectorX(eig.eigenvectors().col(j));
+    out << describe_combination(v, names) << (values(j) < -tolerance ? " has negative inertia" : " has no inertia")
+        << " (eigenvalue " << format_number(values(j), 2) << " of largest " << format_number(largest, 3)
+        << (scaled ? ", M scaled by the coordinates' inertia" : "") << ")";
   }
   if (null_dimension > listed) out << "; and " << null_dimension - listed << " more such directions";
   if (null_dimension > 1)
@@ -104,14 +109,46 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   out << (indefinite ? "; negative mass or inertia in the model, which is inconsistent"
                      : "; a coordinate singularity (e.g. a rotation vector at a gimbal-lock point, "
                        "aligned hinge axes), a body without mass or inertia, or coordinates in which M is too "
-                       "ill-conditioned for double precision (condition number near 1/ε; e.g. a chain of thousands "
-                       "of links in relative joint angles)");
+                       "ill-conditioned for double precision (condition number near 1/ε even after scaling by the "
+                       "coordinates' inertia)");
   throw SingularMassMatrix(out.str());
 }
 
 }  // namespace
 
-Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names) {
+VectorX equilibrating_scale(const VectorX& diagonal) {
+  const Eigen::Index n = diagonal.size();
+  // s_i = 2^k_i with k_i = −⌊(e_i + 1)/2⌋, e_i = ⌊log₂|M_ii|⌋: s_i²|M_ii| in [½, 2).
+  std::vector<int> k(static_cast<std::size_t>(n), 0);
+  std::vector<bool> has(static_cast<std::size_t>(n), false);
+  double sum = 0;
+  int count = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double a = std::abs(diagonal(i));
+    if (!(a > 0) || !std::isfinite(a)) continue;
+    const int e = std::ilogb(a);
+    const auto u = static_cast<std::size_t>(i);
+    k[u] = -static_cast<int>(std::floor((e + 1) / 2.0));
+    has[u] = true;
+    sum += k[u];
+    ++count;
+  }
+  const int neutral = count > 0 ? static_cast<int>(std::lround(sum / count)) : 0;
+  VectorX s(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    s(i) = std::ldexp(1.0, has[u] ? k[u] : neutral);
+  }
+  return s;
+}
+
+VectorX coordinate_scale(const VectorX& inertia, Eigen::Index n) {
+  return inertia.size() == n ? equilibrating_scale(inertia) : VectorX(VectorX::Ones(n));
+}
+
+MatrixX scale_symmetric(const MatrixX& A, const VectorX& s) { return s.asDiagonal() * A * s.asDiagonal(); }
+
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale) {
   const Eigen::Index n = M.rows();
   if (!std::isfinite(M.norm()))
     throw SingularMassMatrix("the mass matrix overflows double precision (largest entry " +
@@ -123,11 +160,14 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names) {
   // numbers of 1e12 and more (link masses and lengths shrink as 1/N), and
   // Cholesky factors it stably; the error estimates of the modes then say how
   // much accuracy the conditioning costs. ‖M‖_F ≥ ‖M‖₂ keeps the test safe.
+  // Normwise, so it is meant for the equilibrated M (equilibrating_scale):
+  // there an entry's rounding is of the size of the entry relative to its
+  // row's and column's diagonal, as it is in M itself.
   const double tolerance = 16 * eps * M.norm();
   Cholesky llt(M);
   if (llt.info() != Eigen::Success || !(M.norm() > 0) ||
       smallest_eigenvalue_bound(llt, n) <= tolerance)
-    diagnose_singular_mass(M, names, tolerance);
+    diagnose_singular_mass(M, names, tolerance, scale);
   return llt;
 }
 

@@ -49,6 +49,21 @@ std::vector<std::string> coordinate_labels(const LinearModel& model, Eigen::Inde
   return names;
 }
 
+// Shapes of the equilibrated pencil (SKS, SMS) to the model's coordinates:
+// φ = Sφ̃ (M-normalization carries over), normalized again as each solver
+// does: real shapes with their largest component positive, complex ones with
+// it equal to 1.
+void unscale_shapes(const VectorX& scale, bool real, std::vector<Mode>& modes) {
+  const Eigen::VectorXcd s = scale.cast<std::complex<double>>();
+  for (Mode& m : modes) {
+    if (m.shape.size() == 0) continue;
+    m.shape = s.cwiseProduct(m.shape);
+    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
+    if (!real) m.shape /= top;
+    else if (top.real() < 0) m.shape = -m.shape;
+  }
+}
+
 // Constrained models: shapes from the manifold's coordinates to all
 // coordinates (N φ; M-normalization carries over since NᵀMN is the reduced M),
 // real shapes signed again so that their largest component is positive.
@@ -153,28 +168,45 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   }
   require_finite(model.M, "mass matrix M");
   require_finite(model.K, "stiffness matrix K");
-  if (!symmetric_within_rounding(model.M))
-    throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
-  const MatrixX C = velocity_matrix(model, n);
   const std::vector<std::string> names = coordinate_labels(model, n);
 
-  const MatrixX M = symmetric_part(model.M);
-  const detail::Cholesky mass = detail::factor_mass(M, names);
+  // Everything below works on the equilibrated pencil (SKS, SMS), S = diag(s)
+  // of powers of two (detail::equilibrating_scale: exact, the same
+  // eigenvalues); shapes are mapped back at the end. Unscaled only where the
+  // scaling would overflow or underflow.
+  VectorX scale = detail::coordinate_scale(model.inertia_scale, n);
+  auto scaled = [&](const MatrixX& A) {
+    return A.rows() == n && A.cols() == n ? detail::scale_symmetric(A, scale) : A;
+  };
+  MatrixX M0 = scaled(model.M), K0 = scaled(model.K);
+  const VectorX inverse = scale.cwiseInverse();
+  if (detail::scale_symmetric(M0, inverse) != model.M || detail::scale_symmetric(K0, inverse) != model.K) {
+    scale = VectorX::Ones(n);
+    M0 = model.M;
+    K0 = model.K;
+  }
+  if (!symmetric_within_rounding(M0))
+    throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
+  const MatrixX C = scaled(velocity_matrix(model, n));
+
+  const MatrixX M = symmetric_part(M0);
+  const detail::Cholesky mass = detail::factor_mass(M, names, scale);
 
   ModalResult result;
   std::string asymmetric_note;
   bool symmetric = model.symmetric() && C.isZero(0.0);
-  if (symmetric && !symmetric_within_rounding(model.K)) {
+  if (symmetric && !symmetric_within_rounding(K0)) {
     symmetric = false;
     asymmetric_note =
         "K is not symmetric although the model declares no circulatory forces; "
         "solved as a general (first-order) problem";
   }
-  result = symmetric ? detail::solve_symmetric(M, symmetric_part(model.K), mass, model.K_error,
-                                                     model.K_systematic_error, options.dense_solver)
-                     : detail::solve_first_order(M, model.K, C, mass);
+  result = symmetric ? detail::solve_symmetric(M, symmetric_part(K0), mass, scaled(model.K_error),
+                                               scaled(model.K_systematic_error), options.dense_solver)
+                     : detail::solve_first_order(M, K0, C, mass);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
+  unscale_shapes(scale, symmetric, result.modes);
   map_shapes_back(model, symmetric, result.modes);
   copy_constraints(model, result);
 

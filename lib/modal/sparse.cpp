@@ -319,17 +319,18 @@ std::string describe_combination(const VectorX& v) {
     if (bad.size() > 8) out << " and " << bad.size() - 8 << " more";
   }
   out << "; a body without mass or inertia, a coordinate singularity, or coordinates in which M is too "
-         "ill-conditioned for double precision (condition number near 1/ε; e.g. a chain of thousands of links in "
-         "relative joint angles, whose M grows as the fourth power of the number of links)";
+         "ill-conditioned for double precision (condition number near 1/ε even after scaling by the coordinates' "
+         "inertia)";
   throw SingularMassMatrix(out.str());
 }
 
-// CHOLMOD factor of M; SingularMassMatrix when M is not positive definite (a
-// failed LLᵀ, or non-positive pivots of an LDLᵀ) or
-// its smallest eigenvalue is at the rounding level 16·ε·‖M‖₁ (the bound comes
-// from a few steps of inverse iteration: 1/ρ ≥ λ_min, ρ the Rayleigh quotient
-// of M⁻¹, as in mass.cpp).
-std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
+// CHOLMOD factor of M, the equilibrated mass matrix SMS (`scale` = s, see
+// detail::equilibrating_scale); SingularMassMatrix when M is not positive
+// definite (a failed LLᵀ, or non-positive pivots of an LDLᵀ) or its smallest
+// eigenvalue is at the rounding level 16·ε·‖M‖₁ (the bound comes from a few
+// steps of inverse iteration: 1/ρ ≥ λ_min, ρ the Rayleigh quotient of M⁻¹, as
+// in mass.cpp), the direction named in the original coordinates (S x).
+std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const VectorX& scale) {
   auto llt = std::make_unique<CholmodFactor>();
   llt->compute(M);
   if (llt->info() != Eigen::Success) singular_mass(M, "its sparse Cholesky factorization (CHOLMOD) failed");
@@ -351,8 +352,9 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M) {
   const double tolerance = 16 * eps * norm1(M);
   if (!(rho > 0) || 1.0 / rho <= tolerance)
     singular_mass(M, "smallest eigenvalue about " + detail::format_number(rho > 0 ? 1.0 / rho : 0.0, 2) +
-                         " of ‖M‖₁ = " + detail::format_number(norm1(M), 3) + ", at the rounding level; direction " +
-                         describe_combination(x));
+                         " of ‖M‖₁ = " + detail::format_number(norm1(M), 3) +
+                         " (M scaled by the coordinates' inertia), at the rounding level; direction " +
+                         describe_combination(scale.cwiseProduct(x)));
   return llt;
 }
 
@@ -764,16 +766,16 @@ std::string plural(Index count, const char* one, const char* many) {
 
 // ------------------------------------------------------- dense fallback
 
+// K, M and `systematic` equilibrated (`scale`), as in the Lanczos path.
 ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, Index k,
-                                 const SparseModalOptions& options) {
+                                 const SparseModalOptions& options, const SparseMatrix& systematic,
+                                 const VectorX& scale) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
   std::vector<std::string> names;
   for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
-  const detail::Cholesky mass = detail::factor_mass(Md, names);
-  const MatrixX systematic =
-      options.K_systematic_error.rows() == n ? MatrixX(options.K_systematic_error) : MatrixX();
-  ModalResult all = detail::solve_symmetric(Md, Kd, mass, {}, systematic);
+  const detail::Cholesky mass = detail::factor_mass(Md, names, scale);
+  ModalResult all = detail::solve_symmetric(Md, Kd, mass, {}, systematic.rows() == n ? MatrixX(systematic) : MatrixX());
 
   ModalResult result;
   result.stability = classify(all.modes);  // every mode is known
@@ -803,6 +805,13 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
   detail::add_cluster_notes(result.modes, true, result.notes);
   return result;
 }
+
+// The Lanczos path of solve_sparse_modes for the equilibrated K, M (both
+// symmetric, n > dense_limit, k < n − 1) and `systematic` (SES or empty);
+// `scale` only names directions in a diagnosis. Shapes are those of the
+// scaled pencil.
+ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
+                                const SparseMatrix& systematic, const VectorX& coordinate_scale);
 
 }  // namespace
 
@@ -837,10 +846,48 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                 "the dense first-order solver, solve_modes)");
   SparseMatrix M = std::move(*M_sym), K = std::move(*K_sym);
   const Index k = std::min<Index>(options.modes, n);
-  if (n <= dense_limit || k >= n - 1) return solve_dense_fallback(K, M, k, options);
 
+  // ---- equilibration: the pencil (SKS, SMS) with S = diag(s) of powers of two
+  // (detail::equilibrating_scale: exact, the same eigenvalues and residual
+  // bounds); unscaled only where that would overflow or underflow.
+  VectorX scale = detail::coordinate_scale(options.inertia_scale, n);
+  SparseMatrix systematic = options.K_systematic_error;
+  {
+    const auto scaled = [&](const SparseMatrix& A, const VectorX& s) {
+      SparseMatrix B = s.asDiagonal() * A * s.asDiagonal();
+      B.makeCompressed();
+      return B;
+    };
+    const VectorX inverse = scale.cwiseInverse();
+    SparseMatrix Ms = scaled(M, scale), Ks = scaled(K, scale);
+    const auto same = [](const SparseMatrix& A, const SparseMatrix& B) {
+      return A.nonZeros() == B.nonZeros() && SparseMatrix(A - B).norm() == 0;
+    };
+    if (same(scaled(Ms, inverse), M) && same(scaled(Ks, inverse), K)) {
+      M = std::move(Ms);
+      K = std::move(Ks);
+      if (systematic.rows() == n && systematic.cols() == n) systematic = scaled(systematic, scale);
+    } else {
+      scale = VectorX::Ones(n);
+    }
+  }
+  ModalResult result = n <= dense_limit || k >= n - 1
+                           ? solve_dense_fallback(K, M, k, options, systematic, scale)
+                           : solve_lanczos_modes(std::move(K), std::move(M), k, options, systematic, scale);
+  for (Mode& mode : result.modes) {  // φ = Sφ̃, largest component positive
+    mode.shape = scale.cast<std::complex<double>>().cwiseProduct(mode.shape);
+    if (mode.shape(detail::dominant_index(mode.shape)).real() < 0) mode.shape = -mode.shape;
+  }
+  return result;
+}
+
+namespace {
+
+ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
+                                const SparseMatrix& systematic, const VectorX& coordinate_scale) {
+  const Index n = K.rows();
   // ---- mass factor, scale, ζ
-  const std::unique_ptr<CholmodFactor> mass = factor_sparse_mass(M);
+  const std::unique_ptr<CholmodFactor> mass = factor_sparse_mass(M, coordinate_scale);
   const Norms norms{norm1(K), norm1(M)};
   double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
   {
@@ -1015,7 +1062,6 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   }
 
   // ---- modes (λ: Rayleigh quotients, which may reorder nearly equal Ritz values)
-  const SparseMatrix& systematic = options.K_systematic_error;
   std::vector<std::pair<Mode, double>> built;  // mode, relative residual
   for (auto& pair : pairs) {
     double relative_residual = 0;
@@ -1085,4 +1131,5 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   return result;
 }
 
+}  // namespace
 }  // namespace modal

@@ -250,6 +250,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.tolerance = options.tolerance;
     so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
     so.K_systematic_error = lin.K_systematic_error;     // a loose equilibrium's share of the error
+    so.inertia_scale = lin.inertia_scale;
     result = solve_sparse_modes(lin.K, lin.M, so);
     if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_systematic_error.nonZeros() == 0)
       result.notes.push_back(fmt::format(

@@ -387,6 +387,16 @@ double force_scale(const System& s, Workspace& w, const VectorX& q);
 
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
+// The natural inertia scale of every coordinate at q (n; kg·m² for angles,
+// kg for lengths): an upper bound of M_ii whatever the orientation of the
+// coordinate's axis, from the composite inertia of its body's subtree about
+// the joint centre: the trace of its rotational inertia for a rotation, its
+// mass for a translation. M_ii / scale_i ≤ 1 is then a scale-free geometric
+// ratio: small where the coordinate's axis carries little of the subtree's
+// inertia (a coordinate singularity, aligned axes), 0 for a massless subtree.
+// The modal solvers equilibrate M by it (LinearModel::inertia_scale). Empty
+// for kinematic maps, whose coordinates have no such scale.
+VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q);
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);  // ½q̇ᵀMq̇, J
 // T + V, J; in a rotating frame ½q̇ᵀMq̇ + V − T₀ (the Jacobi integral).
 double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);

@@ -74,6 +74,14 @@ struct LinearModel {
   std::vector<ConstraintForce> constraint_forces;  // one per constraint, in scene order
   std::vector<std::string> redundant_equations;    // names of the redundant constraint equations
   double constraint_violation = 0;                 // ‖c(q̄)‖, m
+  // The natural inertia scale of each analyzed coordinate (dof; kg·m² or kg,
+  // see modal::inertia_scale): an upper bound of M_ii. solve_modes equilibrates
+  // the pencil by it (S = diag(s), s_i the power of two near 1/√scale_i), so
+  // that a graded scene is not singular "relative to ‖M‖" while a coordinate
+  // singularity (M_ii ≪ scale_i) still is. Constrained models: the bound
+  // (Σ_i |N_ij| √scale_i)² of the reduced coordinate j (|M_ik| ≤ √(M_ii M_kk)).
+  // Empty (kinematic maps, hand-made models): no scaling.
+  VectorX inertia_scale;
 
   int size() const { return static_cast<int>(q.size()); }              // n, all coordinates
   int dof() const { return static_cast<int>(M.rows()); }               // degrees of freedom analyzed (n_r)
@@ -106,6 +114,7 @@ struct SparseLinearModel {
   // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
   // the residual is negligible. For the eigenvalues' error estimates.
   SparseMatrix K_systematic_error;
+  VectorX inertia_scale;  // n, as LinearModel::inertia_scale; for SparseModalOptions::inertia_scale
   int size() const { return static_cast<int>(q.size()); }
 };
 // Why the sparse model cannot describe s (a map, constraints, follower loads,

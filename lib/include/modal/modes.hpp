@@ -125,6 +125,10 @@ struct SparseModalOptions {
   // K_systematic_error), added to each mode's error estimate as |φ|ᵀE|φ|.
   // Empty: none.
   SparseMatrix K_systematic_error;
+  // The natural inertia scale of each coordinate (n, e.g. SparseLinearModel::
+  // inertia_scale): the pencil is equilibrated by it as in solve_modes
+  // (LinearModel::inertia_scale). Empty: no scaling.
+  VectorX inertia_scale;
 };
 
 // The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k
