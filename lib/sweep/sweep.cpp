@@ -245,6 +245,12 @@ void validate(const std::string& text, const std::string& file, const std::vecto
   }
   if (axes.size() == 2 && axes[0]->name == axes[1]->name)
     throw SweepInputError("the two --vary options name the same parameter '" + axes[0]->name + "'");
+  long long points = 1;
+  for (const SweepAxis* axis : axes) points *= axis->count;
+  if (points > max_sweep_points)
+    throw SweepInputError("the stability map would have " + std::to_string(points) + " points (" +
+                          std::to_string(axes.front()->count) + " × " + std::to_string(axes.back()->count) +
+                          "); a sweep takes at most " + std::to_string(max_sweep_points));
 }
 
 void fill_point(SweepPoint& p, const Evaluation& e, int modes) {
@@ -529,9 +535,16 @@ SweepAxis parse_vary(std::string_view text) {
   axis.from = number(parts[0], "FROM");
   axis.to = number(parts[1], "TO");
   const std::string_view count = parts[2];
-  const auto [ptr, ec] = std::from_chars(count.data(), count.data() + count.size(), axis.count);
-  if (count.empty() || ec != std::errc() || ptr != count.data() + count.size() || axis.count < 2)
-    throw SweepInputError(expected + got + " (COUNT '" + std::string(count) + "' must be an integer ≥ 2)");
+  long long points = 0;
+  const auto [ptr, ec] = std::from_chars(count.data(), count.data() + count.size(), points);
+  const bool integer = !count.empty() && ptr == count.data() + count.size() &&
+                       (ec == std::errc() || ec == std::errc::result_out_of_range);
+  if (!integer) throw SweepInputError(expected + got + " (COUNT '" + std::string(count) + "' is not a whole number)");
+  if (ec == std::errc::result_out_of_range || points > max_sweep_points)
+    throw SweepInputError("--vary " + axis.name + ": " + std::string(count) + " points are more than a sweep takes (at most " +
+                          std::to_string(max_sweep_points) + ")");
+  if (points < 2) throw SweepInputError(expected + got + " (COUNT must be at least 2, got " + std::string(count) + ")");
+  axis.count = static_cast<int>(points);
   if (axis.from == axis.to)
     throw SweepInputError(expected + got + " (FROM and TO are equal: nothing to sweep)");
   return axis;

@@ -79,6 +79,11 @@ struct SweepAxis {
 // and what is expected.
 SweepAxis parse_vary(std::string_view text);
 
+// The most points one sweep evaluates: along its axis, or in all for a
+// stability map (each point is an analysis and keeps its modes in memory; a
+// larger request is refused before anything runs, with this limit in words).
+inline constexpr long long max_sweep_points = 1'000'000;
+
 struct SweepOptions {
   int modes = -1;            // modes kept per point (-1: all); the class always uses all
   bool refine = true;        // refine the critical values (sweep() only)
