@@ -24,21 +24,22 @@ struct SourceLocation {
   int column = 0;  // 1-based; 0 when unknown
 };
 
+// `text` as it may be shown on a terminal or in a log: control characters
+// (C0, DEL and the C1 range U+0080–U+009F, which terminals act on) become
+// escapes (a backslash, then x and two hex digits, or u{…} for C1), and so
+// does every byte that is not part of valid UTF-8; everything else is kept.
+// Every error message modal composes from a user's text goes through it
+// (SceneError, error_message).
+std::string printable(std::string_view text);
+// Whether `text` needs no escaping (printable(text) == text).
+bool is_printable(std::string_view text);
+
 // what() is "<file>:<line>:<column>: <key>: <reason>" (key is a dotted path such
 // as "body[2].mass" or "parameters.l"; the key part is omitted when empty, the
 // line and column parts when unknown, e.g. for a missing file or a --set value,
 // whose file is "--set"). Errors inside expression strings point at the
 // offending character and quote it: `in "2*q" at 3: unknown name 'q'` (the
 // position is 1-based, counted in the string).
-// `text` as it may be shown on a terminal or in a log: control characters
-// (C0, DEL and the C1 range U+0080–U+009F, which terminals act on) become
-// \xNN or \u{NN} escapes, and so does every byte that is not part of valid
-// UTF-8; everything else is kept. Every error message modal composes from a
-// user's text goes through it (SceneError, error_message).
-std::string printable(std::string_view text);
-// Whether `text` needs no escaping (printable(text) == text).
-bool is_printable(std::string_view text);
-
 class SceneError : public std::runtime_error {
  public:
   SceneError(SourceLocation where, std::string key, std::string reason);
