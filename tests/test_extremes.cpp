@@ -326,3 +326,73 @@ TEST(Extremes, LooseEquilibriumIsCoveredByTheEstimates) {
 }
 
 }  // namespace
+
+namespace {
+
+// One hinge (about y) with moment of inertia I, a joint spring k and a joint
+// damper c, no gravity: I θ̈ + c θ̇ + k θ = 0.
+std::string oscillator(double I, double k, double c) {
+  return "gravity = [0, 0, 0]\n[[body]]\nname = \"hinge\"\njoint = \"hinge\"\naxis = [0, 1, 0]\ninertia = [" +
+         number(I) + ", " + number(I) + ", " + number(I) + ", 0, 0, 0]\nstiffness = " + number(k) +
+         (c > 0 ? "\ndamping = " + number(c) : std::string()) + "\n";
+}
+
+}  // namespace
+
+// Magnitudes over the whole double range (issue 20, part 2): ω² = k/I with
+// I = 10^a and k = 10^b, a, b from −300 to 300, on the symmetric path, and
+// with a damper c = 2ζ√(kI) (ζ = 0.1, s = ω(−ζ ± i√(1 − ζ²))) on the
+// first-order path. Each case is answered within its stated error and
+// classed as an oscillation, or refused in words — never "marginal" because
+// an estimate overflowed (ω² = 1e160 was classed a zero mode, exit 0). Where
+// ω² and the inputs are well inside the range (|b − a| ≤ 280, |a|, |b| ≤ 150)
+// an answer is required.
+TEST(Extremes, FrequenciesAcrossTheWholeDoubleRange) {
+  for (int a = -300; a <= 300; a += 25)
+    for (int b = -300; b <= 300; b += 25) {
+      const long double I = std::pow(10.0L, a), k = std::pow(10.0L, b);
+      const long double omega2 = k / I, omega = std::sqrt(omega2);
+      const bool required = std::abs(b - a) <= 280 && std::abs(a) <= 150 && std::abs(b) <= 150;
+      const std::string what = "I = 1e" + std::to_string(a) + ", k = 1e" + std::to_string(b);
+      for (const bool damped : {false, true}) {
+        const double zeta = 0.1;
+        const long double c = damped ? 2 * zeta * std::sqrt(k * I) : 0.0L;
+        if (damped && !(std::isfinite(static_cast<double>(c)) && static_cast<double>(c) > 0)) continue;
+        try {
+          const ModalResult r = analyze_text(oscillator(static_cast<double>(I), static_cast<double>(k),
+                                                        static_cast<double>(c)));
+          ASSERT_EQ(r.modes.size(), 1u) << what;
+          const Mode& m = r.modes[0];
+          if (!damped) {
+            EXPECT_EQ(m.kind, ModeKind::oscillatory) << what;
+            EXPECT_EQ(r.stability, Stability::stable) << what;
+            EXPECT_LE(std::abs(m.omega2 - omega2), m.error_estimate + 16 * kEps * omega2) << what;
+          } else {
+            EXPECT_EQ(m.kind, ModeKind::damped) << what;
+            EXPECT_EQ(r.stability, Stability::asymptotically_stable) << what;
+            const long double re = -zeta * omega, im = omega * std::sqrt(1 - zeta * zeta);
+            const long double err = std::hypot(m.s.real() - re, m.s.imag() - im);
+            EXPECT_LE(err, m.error_estimate + 16 * kEps * omega) << what << " damped: s = " << m.s;
+          }
+        } catch (const NumericalError& e) {
+          EXPECT_FALSE(required) << what << (damped ? " damped" : "") << ": " << e.what();
+        } catch (const SceneError& e) {
+          EXPECT_FALSE(required) << what << (damped ? " damped" : "") << ": " << e.what();
+        }
+      }
+    }
+}
+
+// The issue's own case: the double pendulum with g up to 1e300 (ω² up to
+// 3.4e300): stable, within the estimate of the closed form (2 ∓ √2) g/l.
+TEST(Extremes, HugeGravityIsNotAZeroMode) {
+  for (const double g : {1e150, 1e155, 1e160, 1e200, 1e250, 1e300}) {
+    const ModalResult r = analyze_text(double_pendulum(1.0, 1.0, 1.0, g));
+    const std::vector<double> ref = double_pendulum_reference(1.0, 1.0, g);
+    ASSERT_EQ(r.modes.size(), 2u);
+    EXPECT_EQ(r.stability, Stability::stable) << "g = " << g;
+    EXPECT_EQ(r.zero_modes, 0) << "g = " << g;
+    for (std::size_t j = 0; j < 2; ++j)
+      expect_within_estimate(r.modes[j], ref[j], "g = " + number(g) + ", mode " + std::to_string(j + 1));
+  }
+}

@@ -595,3 +595,82 @@ TEST(SparseModes, Errors) {
 }
 
 }  // namespace
+
+namespace {
+
+// c disjoint free–free chains (sizes in `sizes`): exactly c zero modes.
+SparseMatrix free_chains(const std::vector<int>& sizes) {
+  Triplets t;
+  int offset = 0;
+  for (const int n : sizes) {
+    const SparseMatrix K = chain_stiffness(n, false);
+    for (int j = 0; j < K.outerSize(); ++j)
+      for (SparseMatrix::InnerIterator it(K, j); it; ++it)
+        t.emplace_back(offset + static_cast<int>(it.row()), offset + static_cast<int>(it.col()), it.value());
+    offset += n;
+  }
+  return from_triplets(offset, t);
+}
+
+}  // namespace
+
+// The class verdict counts every zero mode from the inertia, not only the
+// modes asked for: c free bodies (disjoint free–free chains, c = 2 … 7, random
+// sizes, Lanczos path) have c zero modes whatever --modes is, 1 to c + 1.
+TEST(SparseModes, ZeroModesAreCountedBeyondTheRequestedModes) {
+  std::mt19937 rng(20261125);
+  for (int c = 2; c <= 7; ++c) {
+    std::vector<int> sizes;
+    int n = 0;
+    for (int i = 0; i < c; ++i) {
+      sizes.push_back(std::uniform_int_distribution<int>(20, 120)(rng));
+      n += sizes.back();
+    }
+    if (n <= 200) sizes.back() += 201 - n;  // the Lanczos path (n > 200)
+    const SparseMatrix K = free_chains(sizes), M = identity(static_cast<int>(K.rows()));
+    for (int k = 1; k <= c + 1; ++k) {
+      const ModalResult r = modal::solve_sparse_modes(K, M, options(k));
+      EXPECT_EQ(r.zero_modes, c) << c << " chains, --modes " << k;
+      EXPECT_EQ(r.stability, Stability::marginal) << c << " chains, --modes " << k;
+      EXPECT_EQ(r.morse_index, 0);
+    }
+  }
+  // The dense fallback (n ≤ 200) counts all of them too.
+  const SparseMatrix K = free_chains({30, 40, 50}), M = identity(120);
+  for (int k = 1; k <= 4; ++k) EXPECT_EQ(modal::solve_sparse_modes(K, M, options(k)).zero_modes, 3) << k;
+}
+
+// Magnitudes at the ends of the double range: the fixed–fixed chain with K
+// and M multiplied by 10^a and 10^b (λ = 10^(a−b) × 4 sin²(jπ/(2(n+1)))) is
+// answered within its estimate, oscillatory, or refused as a numerical
+// failure (λ beyond the range) — never a zero mode from an overflowed
+// estimate (ω² = 1e160 was "marginal").
+TEST(SparseModes, HugeAndTinyMagnitudesAreRightOrRefused) {
+  const int n = 300;
+  for (const int a : {-300, -200, -150, -60, 0, 60, 150, 160, 200, 300})
+    for (const int b : {-200, -100, 0, 100, 200}) {
+      const Long ka = std::pow(Long(10), a), mb = std::pow(Long(10), b);
+      const SparseMatrix K = chain_stiffness(n, true) * static_cast<double>(ka);
+      const SparseMatrix M = identity(n) * static_cast<double>(mb);
+      const std::string what = "K × 1e" + std::to_string(a) + ", M × 1e" + std::to_string(b);
+      if (!std::isfinite(static_cast<double>(ka)) || static_cast<double>(ka) == 0 || static_cast<double>(mb) == 0)
+        continue;
+      try {
+        const ModalResult r = modal::solve_sparse_modes(K, M, options(4));
+        ASSERT_EQ(r.modes.size(), 4u) << what;
+        EXPECT_EQ(r.stability, Stability::stable) << what;
+        for (int j = 1; j <= 4; ++j) {
+          const Long s = std::sin(static_cast<Long>(j) * std::numbers::pi_v<Long> / (2 * static_cast<Long>(n + 1)));
+          const Long exact = 4 * s * s * ka / mb;
+          const auto& mode = r.modes[static_cast<std::size_t>(j - 1)];
+          EXPECT_EQ(mode.kind, ModeKind::oscillatory) << what << " mode " << j;
+          EXPECT_LE(std::abs(static_cast<Long>(mode.omega2) - exact), static_cast<Long>(mode.error_estimate))
+              << what << " mode " << j << ": " << mode.omega2 << " vs " << static_cast<double>(exact);
+        }
+      } catch (const modal::NumericalError& e) {
+        // Only where λ itself leaves the range of double precision or
+        // its scale underflows (λ₁ ≈ 1e-4 × 10^(a−b)).
+        EXPECT_TRUE(a - b > 300 || a - b < -300) << what << ": " << e.what();
+      }
+    }
+}

@@ -49,12 +49,14 @@ CLI::Validator at_least(double low, bool whole = true) {
       },
       "");
 }
-CLI::Validator positive() {
+// A number > 0, and at most `most` when that is finite.
+CLI::Validator positive(double most = std::numeric_limits<double>::infinity()) {
   return CLI::Validator(
-      [](std::string& text) -> std::string {
+      [most](std::string& text) -> std::string {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        if (end != text.c_str() && *end == '\0' && std::isfinite(v) && v > 0) return {};
+        if (end != text.c_str() && *end == '\0' && std::isfinite(v) && v > 0 && v <= most) return {};
+        if (std::isfinite(most)) return "must be a number above 0 and at most " + CLI::detail::to_string(most) + ", got '" + text + "'";
         return "must be a finite number > 0, got '" + text + "'";
       },
       "");
@@ -175,8 +177,8 @@ int main(int argc, char** argv) {
   analyze
       ->add_option("--step", ao.step_factor,
                    "difference step as a factor of max(|q|, 1 rad or the length scale) (default: sqrt(eps) "
-                   "forward, cbrt(eps) central, 1e-20 complex-step)")
-      ->check(positive());
+                   "forward, cbrt(eps) central, 1e-20 complex-step; at most 0.1)")
+      ->check(positive(modal::max_step_factor));
   analyze
       ->add_option("--eq-tol", ao.equilibrium_tolerance,
                    "equilibrium: accepted relative residual |grad V - Q| / force scale")

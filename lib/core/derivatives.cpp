@@ -39,6 +39,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <tuple>
 #include <limits>
@@ -1052,6 +1053,19 @@ double default_step_factor(DerivativeMethod method) {
 
 namespace {
 
+// The step factor to use: the method's default for 0, else `factor`, which
+// must lie in (0, max_step_factor].
+double checked_step_factor(DerivativeMethod method, double factor, const char* what) {
+  if (factor == 0) return default_step_factor(method);
+  if (!(factor > 0 && factor <= max_step_factor)) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s: the step factor must be above 0 and at most %g, got %g", what,
+                  max_step_factor, factor);
+    throw std::invalid_argument(text);
+  }
+  return factor;
+}
+
 void check_method_applies(const System& s, DerivativeMethod method, const char* what) {
   if (method == DerivativeMethod::complex_step && s.is_map())
     throw std::invalid_argument(std::string(what) +
@@ -1075,11 +1089,17 @@ double coordinate_step(const System& s, const VectorX& q, int j, DerivativeMetho
 // The columns ∂f/∂q_j (n×n) of a vector function f(q) (n) by `method`:
 // central or forward differences of f evaluated through `f(x, out)` (x: n
 // doubles), or complex steps Im f(q + i h e_j)/h through `fc(x, out)` (x: n
-// Complex values). With `error`: 2|J_h − J_2h| entrywise. The asymptotic
-// truncation error of J_h is all of |J_h − J_2h| for forward differences
-// (O(h)) and a third of it for central ones (O(h²)); the rounding noise of
-// the two sets is independent, so one difference can understate it: the
-// factor 2 covers both.
+// Complex values). With `error`: 2 max(|J_h − J_2h|, |J_2h − J_4h|/2^p)
+// entrywise, p the order of the method (1 forward, 2 central and complex).
+// The asymptotic truncation error of J_h is all of |J_h − J_2h| for forward
+// differences (O(h)) and a third of it for central ones (O(h²)); the rounding
+// noise of the two sets is independent, so one difference can understate it:
+// the factor 2 covers both. The third set (4h) checks that h is in the
+// asymptotic range, where |J_2h − J_4h| ≈ 2^p |J_h − J_2h|: where it is not
+// (a step so large that higher terms dominate, or a force nearly periodic
+// over the steps, whose differences at h and 2h agree by accident) the
+// larger difference at 2h and 4h, scaled back to h, is taken instead, so a
+// difference error that only looks small is not trusted.
 template <class F, class FC>
 MatrixX jacobian_by(const System& s, const VectorX& q, DerivativeMethod method, double factor, MatrixX* error, F&& f,
                     FC&& fc) {
@@ -1117,7 +1137,11 @@ MatrixX jacobian_by(const System& s, const VectorX& q, DerivativeMethod method, 
     return J;
   };
   MatrixX J = columns(1.0);
-  if (error) *error = 2 * (J - columns(2.0)).cwiseAbs();
+  if (error) {
+    const MatrixX J2 = columns(2.0);
+    const double order = method == DerivativeMethod::forward ? 2.0 : 4.0;  // 2^p
+    *error = 2 * (J - J2).cwiseAbs().cwiseMax((J2 - columns(4.0)).cwiseAbs() / order);
+  }
   return J;
 }
 
@@ -1158,7 +1182,7 @@ MatrixX rest_force_jacobian(const System& s, Workspace& w, const VectorX& q, Der
   check_size(s, q, "rest_force_jacobian");
   check_multipliers(s, multipliers, "rest_force_jacobian");
   check_method_applies(s, method, "rest_force_jacobian");
-  const double factor = step_factor > 0 ? step_factor : default_step_factor(method);
+  const double factor = checked_step_factor(method, step_factor, "rest_force_jacobian");
   switch (method) {
     case DerivativeMethod::exact: {
       MatrixX K = potential_hessian(s, w, q);
@@ -1179,20 +1203,27 @@ MatrixX rest_force_jacobian(const System& s, Workspace& w, const VectorX& q, Der
   }
 }
 
-MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method, double step_factor) {
+MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method, double step_factor,
+                          MatrixX* error) {
   if (method == DerivativeMethod::exact) return gyroscopic_matrix(s, w, q);
   check_size(s, q, "gyroscopic_matrix");
   check_method_applies(s, method, "gyroscopic_matrix");
   const int n = s.size();
-  if (!s.has_frame_coupling()) return MatrixX::Zero(n, n);
-  const double factor = step_factor > 0 ? step_factor : default_step_factor(method);
+  if (!s.has_frame_coupling()) {
+    if (error) *error = MatrixX::Zero(n, n);
+    return MatrixX::Zero(n, n);
+  }
+  const double factor = checked_step_factor(method, step_factor, "gyroscopic_matrix");
   TreeState<Complex> st;
+  MatrixX J_error;
   const MatrixX J = jacobian_by(  // J_ij = ∂g_i/∂q_j
-      s, q, method, factor, nullptr, [&](const VectorX& x, VectorX& out) { out = frame_coupling(s, w, x); },
+      s, q, method, factor, error ? &J_error : nullptr,
+      [&](const VectorX& x, VectorX& out) { out = frame_coupling(s, w, x); },
       [&](const Complex* x, model::VX<Complex>& out) {
         model::forward_kinematics(s, x, st);
         model::frame_coupling(s, st, out);
       });
+  if (error) *error = J_error + J_error.transpose();  // G = J − Jᵀ
   return J - J.transpose();
 }
 

@@ -219,7 +219,9 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   model.G = MatrixX::Zero(n, n);
   model.has_gyroscopic = false;
   if (s.has_frame_coupling()) {
-    const MatrixX G = gyroscopic_matrix(s, ws, q, options.derivatives, options.step_factor);
+    MatrixX G_error;
+    const MatrixX G = gyroscopic_matrix(s, ws, q, options.derivatives, options.step_factor,
+                                        options.derivatives != DerivativeMethod::exact ? &G_error : nullptr);
     require_finite(G, "gyroscopic matrix G", model.coordinates);
     const MatrixX skew = 0.5 * (G - G.transpose());
     // Zero up to rounding relative to its natural size: |Ω|·‖M‖ in a rotating
@@ -230,6 +232,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     if (skew.cwiseAbs().maxCoeff() > 1e-14 * size) {
       model.G = skew;
       model.has_gyroscopic = true;
+      if (G_error.size() > 0 && G_error.allFinite()) model.G_error = G_error;
     }
   }
   if (s.has_constraints()) {  // onto the manifold: X → NᵀXN
@@ -247,6 +250,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     model.D = symmetric_part(N.transpose() * model.D * N);
     model.G = N.transpose() * model.G * N;
     model.G = 0.5 * (model.G - model.G.transpose());
+    if (model.G_error.size() > 0) model.G_error = absN.transpose() * model.G_error * absN;
   }
   return model;
 }

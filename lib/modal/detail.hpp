@@ -58,7 +58,8 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's
 // entries (LinearModel::K_error). Fills modes (ascending λ), morse_index,
-// zero_modes, solver, notes.
+// zero_modes, solver, notes (not the cluster notes: add_cluster_notes, once
+// the eigenvalues are in the caller's units).
 // `solver` picks Eigen's self-adjoint QR or LAPACK's dsygvd (automatic:
 // lapack_wins(n)).
 // `K_systematic_error` (n×n or empty) is the part of K_error measured from
@@ -70,9 +71,30 @@ bool lapack_wins(Eigen::Index n);
 
 // M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
 // first-order system. Fills modes (ascending ω, then σ), morse_index,
-// zero_modes, solver, notes.
-ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C,
-                              const Cholesky& mass);
+// zero_modes, solver, notes (not the cluster notes, as above).
+// `K_systematic_error` and `C_error` (n×n or empty) are measured entrywise
+// errors of K and C (differences: LinearModel::K_systematic_error, G_error),
+// whose effect the estimates include.
+ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C, const Cholesky& mass,
+                              const MatrixX& K_systematic_error = {}, const MatrixX& C_error = {});
+
+// Exact rescaling by powers of two of the magnitudes of a solved pencil:
+// the solvers ran on (αM, √(αβ)C, βK) with α = 4^a, β = 4^b, so that no
+// square of an entry or of λ over- or underflows in the estimates; the
+// eigenvalues of the model are λ = λ' α/β and s = s' 2^(a−b), and a
+// symmetric (M-normalized) shape is φ = 2^a φ'. `symmetric` says which
+// fields carry meaning. Throws NumericalError when an eigenvalue, estimate
+// or bound is not finite afterwards (it overflowed: no class can be given).
+struct Magnitudes {
+  int a = 0, b = 0;  // exponents of four for M and K
+};
+// The exponents that bring the largest absolute entries of M and K (given)
+// near 1 (0 for a zero or non-finite one).
+Magnitudes magnitudes(double largest_M, double largest_K);
+// Multiplies A by 2^p entry by entry; false (A unchanged) when that would
+// not be exact (overflow, underflow to subnormals).
+bool scale_exactly(MatrixX& A, int p);
+void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric);
 
 // A Mode with the eigenvalue fields filled from s = σ + iω (1/s) and its kind:
 // growth_rate, omega, frequency_hz, period, damping_ratio (NaN for zero modes).

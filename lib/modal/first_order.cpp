@@ -29,6 +29,13 @@
 // damping, onset of flutter, an undamped rigid-body motion) κ is infinite and
 // the true error is of the order of the Hölder bound √(η)·‖A‖ for a Jordan
 // block of size 2; the estimate is the smaller of the two.
+// Measured, systematic errors of K and C (differences, a loose equilibrium:
+// entrywise bounds E_K, E_C ≥ 0) move A's lower blocks by
+// −M⁻¹(δK x + δC s x)/w on an eigenvector z = [x; s x/w]; with u = M⁻¹y_v
+// (y_v the velocity half of the left eigenvector) this moves s by at most
+//     |u|ᵀ(E_K|x| + |s| E_C|x|) / (w |yᴴz|)
+// to first order, added to the estimate (for a defective eigenvalue, where
+// that is infinite, its Hölder counterpart √(‖δA‖_F ‖A‖_F)).
 //
 // Kinds: an eigenvalue is zero when |s| ≤ its estimate; real (within error)
 // when ω ≤ its estimate, then divergent if σ > 0, damped if σ < 0; complex
@@ -59,8 +66,8 @@ ModeKind kind_of(Complex s, double error) {
 }
 }  // namespace
 
-ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C,
-                              const Cholesky& mass) {
+ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C, const Cholesky& mass,
+                              const MatrixX& K_systematic_error, const MatrixX& C_error) {
   const Eigen::Index n = M.rows();
   const MatrixX MinvK = mass.solve(K);
   const MatrixX MinvC = mass.solve(C);
@@ -83,6 +90,20 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
   const Eigen::MatrixXcd Mc = M.cast<Complex>(), Kc = K.cast<Complex>(), Cc = C.cast<Complex>();
   const double normM = M.norm(), normK = K.norm(), normC = C.norm();
   const double data_rounding = 2.0 * static_cast<double>(n) * eps;
+  // Measured errors of K and C (see the header comment): U = M⁻¹ Y_vᵀ, one
+  // column per eigenvalue, and the Frobenius norm of δA for the Hölder form.
+  const bool has_K_error = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
+  const bool has_C_error = C_error.rows() == n && C_error.cols() == n;
+  Eigen::MatrixXcd U;
+  double delta_A = 0;
+  if (has_K_error || has_C_error) {
+    const Eigen::MatrixXcd Yv = Y.rightCols(n).transpose();  // n × 2n
+    U.resize(n, 2 * n);
+    U.real() = mass.solve(MatrixX(Yv.real()));
+    U.imag() = mass.solve(MatrixX(Yv.imag()));
+    if (has_K_error) delta_A += mass.solve(K_systematic_error).norm() / w;
+    if (has_C_error) delta_A += mass.solve(C_error).norm();
+  }
 
   ModalResult result;
   result.solver = "dense first-order 2n×2n (Eigen: Cholesky solves with M, real Schur EigenSolver, "
@@ -104,7 +125,16 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     const double kappa = Y.row(i).norm() * z.norm() / std::abs(yz);
     const double first_order = eta * normA * kappa;
     const double holder = std::sqrt(eta) * normA;
-    const double error = std::isfinite(first_order) ? std::min(first_order, holder) : holder;
+    double error = std::isfinite(first_order) ? std::min(first_order, holder) : holder;
+    if (U.size() > 0) {
+      const VectorX absx = x.cwiseAbs();
+      VectorX moved = VectorX::Zero(n);
+      if (has_K_error) moved += K_systematic_error * absx;
+      if (has_C_error) moved += std::abs(s) * (C_error * absx);
+      const double systematic = U.col(i).cwiseAbs().dot(moved) / (w * std::abs(yz));
+      error += std::isfinite(systematic) ? std::min(systematic, std::sqrt(delta_A * normA))
+                                         : std::sqrt(delta_A * normA);
+    }
 
     const ModeKind kind = kind_of(s, error);
     Mode mode = make_mode(s, error, kind);
@@ -123,7 +153,6 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
   if (worst_backward > 1e-10)
     result.notes.push_back("the largest backward error of an eigenpair is " + format_number(worst_backward, 2) +
                            ", far above rounding level: M is probably ill-conditioned; trust the error estimates");
-  add_cluster_notes(result.modes, false, result.notes);
   return result;
 }
 

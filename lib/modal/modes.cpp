@@ -190,7 +190,6 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   const MatrixX C = scaled(velocity_matrix(model, n));
 
   const MatrixX M = symmetric_part(M0);
-  const detail::Cholesky mass = detail::factor_mass(M, names, scale);
 
   ModalResult result;
   std::string asymmetric_note;
@@ -201,9 +200,33 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
         "K is not symmetric although the model declares no circulatory forces; "
         "solved as a general (first-order) problem";
   }
-  result = symmetric ? detail::solve_symmetric(M, symmetric_part(K0), mass, scaled(model.K_error),
-                                               scaled(model.K_systematic_error), options.dense_solver)
-                     : detail::solve_first_order(M, K0, C, mass);
+  // Magnitudes: the solvers see (αM, √(αβ)C, βK) with α, β powers of four
+  // that bring the largest entries of M and K near 1 (detail::Magnitudes),
+  // so that ω² = 1e160 does not overflow to an infinite estimate (which made
+  // every mode a "zero" mode); exact, and undone on the results.
+  detail::Magnitudes magnitude = detail::magnitudes(M.cwiseAbs().maxCoeff(), K0.cwiseAbs().maxCoeff());
+  MatrixX Ms = M, Ks = K0, Cs = C, K_error = scaled(model.K_error), K_systematic = scaled(model.K_systematic_error),
+          G_error = scaled(model.G_error);
+  {
+    const int a = 2 * magnitude.a, b = 2 * magnitude.b, ab = magnitude.a + magnitude.b;
+    if (!(detail::scale_exactly(Ms, a) && detail::scale_exactly(Ks, b) && detail::scale_exactly(Cs, ab) &&
+          detail::scale_exactly(K_error, b) && detail::scale_exactly(K_systematic, b) &&
+          detail::scale_exactly(G_error, ab))) {
+      magnitude = {};
+      Ms = M;
+      Ks = K0;
+      Cs = C;
+      K_error = scaled(model.K_error);
+      K_systematic = scaled(model.K_systematic_error);
+      G_error = scaled(model.G_error);
+    }
+  }
+  const detail::Cholesky mass = detail::factor_mass(Ms, names, scale);
+  result = symmetric ? detail::solve_symmetric(Ms, symmetric_part(Ks), mass, K_error, K_systematic,
+                                               options.dense_solver)
+                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_systematic, G_error);
+  detail::restore_magnitudes(result, magnitude, symmetric);
+  detail::add_cluster_notes(result.modes, symmetric, result.notes);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
   unscale_shapes(scale, symmetric, result.modes);
@@ -280,6 +303,64 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
       notes.push_back(out.str());
     }
     first = last + 1;
+  }
+}
+
+Magnitudes magnitudes(double largest_M, double largest_K) {
+  // 4^k near 1/x: k = −⌊(e + 1)/2⌋ with e = ⌊log₂ x⌋, as equilibrating_scale.
+  auto exponent = [](double x) {
+    return x > 0 && std::isfinite(x) ? -static_cast<int>(std::floor((std::ilogb(x) + 1) / 2.0)) : 0;
+  };
+  return {exponent(largest_M), exponent(largest_K)};
+}
+
+bool scale_exactly(MatrixX& A, int p) {
+  if (p == 0 || A.size() == 0) return true;
+  const MatrixX B = A.unaryExpr([p](double v) { return std::ldexp(v, p); });
+  const MatrixX back = B.unaryExpr([p](double v) { return std::ldexp(v, -p); });
+  if (back != A || !B.allFinite()) return false;
+  A = B;
+  return true;
+}
+
+void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric) {
+  const int d = m.a - m.b;  // λ = λ'·4^d, s = s'·2^d
+  const double root = std::ldexp(1.0, d), shape = std::ldexp(1.0, m.a);
+  for (std::size_t j = 0; j < result.modes.size(); ++j) {
+    Mode& mode = result.modes[j];
+    if (d != 0) {
+      mode.s *= root;
+      mode.growth_rate *= root;
+      mode.omega *= root;
+      mode.frequency_hz *= root;
+      mode.period /= root;
+      if (symmetric) {
+        mode.omega2 = std::ldexp(mode.omega2, 2 * d);
+        mode.error_estimate = std::ldexp(mode.error_estimate, 2 * d);
+        mode.residual_bound = std::ldexp(mode.residual_bound, 2 * d);
+      } else {
+        mode.error_estimate *= root;
+      }
+    }
+    if (symmetric && m.a != 0) mode.shape *= shape;
+    const bool finite = std::isfinite(mode.s.real()) && std::isfinite(mode.s.imag()) &&
+                        std::isfinite(mode.error_estimate) &&
+                        (!symmetric || (std::isfinite(mode.omega2) && std::isfinite(mode.residual_bound)));
+    // An eigenvalue told from zero whose value fell below the normal range
+    // when scaled back has lost its digits (a subnormal or 0).
+    const double value = symmetric ? std::abs(mode.omega2) : std::abs(mode.s);
+    if (mode.kind != ModeKind::zero && value < std::numeric_limits<double>::min())
+      throw NumericalError("mode " + std::to_string(j + 1) + ": its eigenvalue (" + (symmetric ? "ω² " : "s ") +
+                           format_number(value, 3) +
+                           ") lies below the range of double precision, so it cannot be given to any accuracy; "
+                           "rescale the scene's units (masses, lengths, stiffnesses or g)");
+    if (!finite)
+      throw NumericalError("mode " + std::to_string(j + 1) + ": its " +
+                           (symmetric ? "eigenvalue ω², error estimate or residual bound" : "eigenvalue or error estimate") +
+                           " is not finite (" + format_number(symmetric ? mode.omega2 : std::abs(mode.s), 3) + " ± " +
+                           format_number(mode.error_estimate, 3) +
+                           "): it exceeds the range of double precision, so no stability class can be given; "
+                           "rescale the scene's units (masses, lengths, stiffnesses or g)");
   }
 }
 

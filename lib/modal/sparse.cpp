@@ -667,6 +667,14 @@ class MassProduct {
   SparseMatrix M_;
 };
 
+// Eigenvalues and shifts as the user sees them: the solver works on the
+// pencil scaled by detail::Magnitudes, whose λ is the model's divided by
+// `lambda`; every σ in a note or message goes through here.
+struct Units {
+  double lambda = 1;
+  std::string operator()(double sigma, int digits) const { return detail::format_number(lambda * sigma, digits); }
+};
+
 // The `nev` eigenpairs nearest σ, ascending in λ.
 struct LanczosRun {
   double sigma = 0;
@@ -677,7 +685,7 @@ struct LanczosRun {
 };
 
 LanczosRun run_lanczos(ShiftedFactor& factor, MassProduct& mass_op, double sigma, Index nev,
-                       const SparseModalOptions& options) {
+                       const SparseModalOptions& options, const Units& units) {
   const Index n = mass_op.rows();
   LanczosRun run;
   run.sigma = sigma;
@@ -693,7 +701,7 @@ LanczosRun run_lanczos(ShiftedFactor& factor, MassProduct& mass_op, double sigma
     run.solves = eigs.num_operations();
     if (eigs.info() != Spectra::CompInfo::Successful)
       throw NumericalError("solve_sparse_modes: the shift-invert Lanczos iteration at σ = " +
-                           detail::format_number(sigma, 6) + " did not converge: " + std::to_string(converged) +
+                           units(sigma, 6) + " did not converge: " + std::to_string(converged) +
                            " of " + std::to_string(nev) + " eigenvalues converged after " +
                            std::to_string(run.restarts) + " restarts (max_iterations " +
                            std::to_string(options.max_iterations) + ", tolerance " +
@@ -710,9 +718,9 @@ LanczosRun run_lanczos(ShiftedFactor& factor, MassProduct& mass_op, double sigma
   return run;
 }
 
-std::string describe_run(const LanczosRun& run, Index nev) {
+std::string describe_run(const LanczosRun& run, Index nev, const Units& units) {
   std::ostringstream out;
-  out << run.factor << " of K − σM at σ = " << detail::format_number(run.sigma, 6) << ", " << nev << " wanted, ncv "
+  out << run.factor << " of K − σM at σ = " << units(run.sigma, 6) << ", " << nev << " wanted, ncv "
       << run.ncv << ", " << run.restarts << " restarts, " << run.solves << " solves";
   return out.str();
 }
@@ -769,7 +777,7 @@ std::string plural(Index count, const char* one, const char* many) {
 // K, M and `systematic` equilibrated (`scale`), as in the Lanczos path.
 ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, Index k,
                                  const SparseModalOptions& options, const SparseMatrix& systematic,
-                                 const VectorX& scale) {
+                                 const VectorX& scale, const Units& units) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
   std::vector<std::string> names;
@@ -792,17 +800,14 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
     modes.resize(static_cast<std::size_t>(k));
     std::stable_sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
     result.notes.push_back("the " + plural(k, "mode", "modes") + " nearest the shift σ = " +
-                           detail::format_number(sigma, 8) + "; " + plural(below, "eigenvalue lies", "eigenvalues lie") +
+                           units(sigma, 8) + "; " + plural(below, "eigenvalue lies", "eigenvalues lie") +
                            " below σ");
   } else {
     modes.resize(static_cast<std::size_t>(k));
   }
-  for (const std::string& note : all.notes)
-    if (note.rfind("modes ", 0) != 0) result.notes.push_back(note);  // cluster notes are redone below
-  result.zero_modes = static_cast<int>(
-      std::count_if(modes.begin(), modes.end(), [](const Mode& m) { return m.kind == ModeKind::zero; }));
+  for (const std::string& note : all.notes) result.notes.push_back(note);
+  result.zero_modes = all.zero_modes;  // every mode, not only the k kept
   result.modes = std::move(modes);
-  detail::add_cluster_notes(result.modes, true, result.notes);
   return result;
 }
 
@@ -811,7 +816,7 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
 // `scale` only names directions in a diagnosis. Shapes are those of the
 // scaled pencil.
 ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
-                                const SparseMatrix& systematic, const VectorX& coordinate_scale);
+                                const SparseMatrix& systematic, const VectorX& coordinate_scale, const Units& units);
 
 }  // namespace
 
@@ -871,9 +876,46 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       scale = VectorX::Ones(n);
     }
   }
+  // Magnitudes (as solve_modes: detail::Magnitudes): M and K scaled by
+  // powers of four so that their largest entries are near 1. Exact, undone
+  // on the modes; shifts in the notes are shown in the model's units. Besides
+  // keeping the estimates inside the range of double precision (λ² at
+  // ω² = 1e160), it keeps the shift-invert eigenvalues 1/(λ − σ) of order
+  // one or more: Spectra's convergence test compares residuals with
+  // max(ε^(2/3), |θ|), so with θ ≈ 1e-26 (a chain with K ≈ 1e30) it accepted
+  // unconverged Ritz values, 2× off and classed zero.
+  detail::Magnitudes magnitude;
+  SparseModalOptions scaled_options = options;
+  {
+    auto largest = [](const SparseMatrix& A) {
+      return A.nonZeros() > 0 ? Eigen::Map<const VectorX>(A.valuePtr(), A.nonZeros()).cwiseAbs().maxCoeff() : 0.0;
+    };
+    magnitude = detail::magnitudes(largest(M), largest(K));
+    auto exactly = [](SparseMatrix& A, int p) {
+      if (A.nonZeros() == 0 || p == 0) return true;
+      Eigen::Map<VectorX> v(A.valuePtr(), A.nonZeros());
+      const VectorX scaled = v.unaryExpr([p](double x) { return std::ldexp(x, p); });
+      if (!scaled.allFinite() || scaled.unaryExpr([p](double x) { return std::ldexp(x, -p); }) != v) return false;
+      v = scaled;
+      return true;
+    };
+    SparseMatrix Ms = M, Ks = K, Ss = systematic;
+    if (exactly(Ms, 2 * magnitude.a) && exactly(Ks, 2 * magnitude.b) && exactly(Ss, 2 * magnitude.b)) {
+      M = std::move(Ms);
+      K = std::move(Ks);
+      systematic = std::move(Ss);
+      if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
+    } else {
+      magnitude = {};
+    }
+  }
+  const Units units{std::ldexp(1.0, 2 * (magnitude.a - magnitude.b))};
   ModalResult result = n <= dense_limit || k >= n - 1
-                           ? solve_dense_fallback(K, M, k, options, systematic, scale)
-                           : solve_lanczos_modes(std::move(K), std::move(M), k, options, systematic, scale);
+                           ? solve_dense_fallback(K, M, k, scaled_options, systematic, scale, units)
+                           : solve_lanczos_modes(std::move(K), std::move(M), k, scaled_options, systematic, scale,
+                                                 units);
+  detail::restore_magnitudes(result, magnitude, true);
+  detail::add_cluster_notes(result.modes, true, result.notes);
   for (Mode& mode : result.modes) {  // φ = Sφ̃, largest component positive
     mode.shape = scale.cast<std::complex<double>>().cwiseProduct(mode.shape);
     if (mode.shape(detail::dominant_index(mode.shape)).real() < 0) mode.shape = -mode.shape;
@@ -884,7 +926,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
 namespace {
 
 ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
-                                const SparseMatrix& systematic, const VectorX& coordinate_scale) {
+                                const SparseMatrix& systematic, const VectorX& coordinate_scale, const Units& units) {
   const Index n = K.rows();
   // ---- mass factor, scale, ζ
   const std::unique_ptr<CholmodFactor> mass = factor_sparse_mass(M, coordinate_scale);
@@ -920,12 +962,12 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
       if (const std::optional<Index> below = factor.factor(sigma, true, expect_indefinite)) return *below;
       const double moved = sigma + 1e-6 * std::max(std::abs(sigma), scale);
       result.notes.push_back(std::string("K − σM has no LDLᵀ factorization without pivoting at the ") + what +
-                             " σ = " + detail::format_number(sigma, 10) + " (a zero pivot); moved to σ = " +
-                             detail::format_number(moved, 10));
+                             " σ = " + units(sigma, 10) + " (a zero pivot); moved to σ = " +
+                             units(moved, 10));
       sigma = moved;
     }
     throw NumericalError(std::string("solve_sparse_modes: K − σM cannot be factored near the ") + what + " σ = " +
-                         detail::format_number(sigma, 10));
+                         units(sigma, 10));
   };
 
   double s0 = sigma0;
@@ -944,8 +986,8 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
   if (options.shift) {
     user_sigma = *options.shift;
     below_user_shift = factor_at(user_sigma, "requested");
-    const LanczosRun run = run_lanczos(factor, mass_op, user_sigma, k, options);
-    runs.push_back(describe_run(run, k));
+    const LanczosRun run = run_lanczos(factor, mass_op, user_sigma, k, options, units);
+    runs.push_back(describe_run(run, k, units));
     take(run, [](double) { return true; });
   } else if (m == 0) {
     // Completeness by inertia: a single-vector Lanczos run can skip a copy of
@@ -957,8 +999,8 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
     // repeated with more wanted.
     Index nev = k;
     for (int attempt = 0;; ++attempt) {
-      const LanczosRun run = run_lanczos(factor, mass_op, s0, nev, options);
-      runs.push_back(describe_run(run, nev));
+      const LanczosRun run = run_lanczos(factor, mass_op, s0, nev, options, units);
+      runs.push_back(describe_run(run, nev, units));
       const double lambda_k = run.lambda(k - 1);
       double bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
       if (!(bound > s0)) {  // the k-th is (near) zero: nothing to check between σ₀ and it
@@ -972,11 +1014,11 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
       if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
         if (count > found)
           result.notes.push_back("the inertia counts " + std::to_string(count) + " eigenvalues below " +
-                                 detail::format_number(bound, 8) + " but the Lanczos iteration found " +
+                                 units(bound, 8) + " but the Lanczos iteration found " +
                                  std::to_string(found) + ": some modes in this range may be missing");
         else
           result.notes.push_back("completeness checked by the inertia of K − σM at σ = " +
-                                 detail::format_number(bound, 8) + ", just below the highest returned eigenvalue: exactly " +
+                                 units(bound, 8) + ", just below the highest returned eigenvalue: exactly " +
                                  std::to_string(count) + " eigenvalues lie below it, as found");
         Index kept = 0;
         take(run, [&](double) { return kept++ < k; });
@@ -988,8 +1030,8 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
     // Divergent: m eigenvalues below σ₀.
     Index negatives_found = 0;
     if (k > m) {
-      const LanczosRun run = run_lanczos(factor, mass_op, s0, k, options);
-      runs.push_back(describe_run(run, k));
+      const LanczosRun run = run_lanczos(factor, mass_op, s0, k, options, units);
+      runs.push_back(describe_run(run, k, units));
       negatives_found = (run.lambda.array() < s0).count();
       if (negatives_found == m) {
         take(run, [](double) { return true; });
@@ -1001,7 +1043,7 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
             ++kept;
           }
         if (kept < k - m)
-          throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + detail::format_number(s0, 3) +
+          throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(s0, 3) +
                                " returned " + std::to_string(kept) + " eigenvalues above it, fewer than the " +
                                std::to_string(k - m) + " that the inertia guarantees");
       }
@@ -1016,13 +1058,13 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
         d_hi *= 4;
         if (++tries > 200 || !std::isfinite(d_hi))
           throw NumericalError("solve_sparse_modes: found no shift below the spectrum (K − σM is indefinite down to σ = " +
-                               detail::format_number(s0 - d_hi, 3) + ")");
+                               units(s0 - d_hi, 3) + ")");
       }
       // Up towards λ₁ (at most 200 factorizations in all: λ₁ can only be
       // closer to σ₀ than that if it is within rounding of σ₀).
       auto no_shift = [&] {
         return NumericalError("solve_sparse_modes: could not place a shift just below the lowest eigenvalue "
-                              "(it lies within rounding of −ζ = " + detail::format_number(s0, 3) + ")");
+                              "(it lies within rounding of −ζ = " + units(s0, 3) + ")");
       };
       if (d_lo == 0) {
         for (;;) {
@@ -1045,19 +1087,19 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
       if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
         throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
       const Index nev = std::min(k, m);
-      const LanczosRun run = run_lanczos(factor, mass_op, sigma_low, nev, options);
-      runs.push_back(describe_run(run, nev));
+      const LanczosRun run = run_lanczos(factor, mass_op, sigma_low, nev, options, units);
+      runs.push_back(describe_run(run, nev, units));
       const Index below = (run.lambda.array() < s0).count();
       if (below != nev)
-        throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + detail::format_number(s0, 6) +
+        throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + units(s0, 6) +
                              " counts " + std::to_string(m) + " eigenvalues below it, but the Lanczos iteration from σ = " +
-                             detail::format_number(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
+                             units(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
                              std::to_string(nev) + " lowest there; try a larger max_iterations or a user shift");
       take(run, [](double) { return true; });
     }
     if (k < m)
       result.notes.push_back("the equilibrium has " + plural(m, "negative eigenvalue", "negative eigenvalues") +
-                             " below −ζ = " + detail::format_number(s0, 3) + "; only the " + std::to_string(k) +
+                             " below −ζ = " + units(s0, 3) + "; only the " + std::to_string(k) +
                              " most negative are returned (morse_index counts all of them)");
   }
 
@@ -1093,13 +1135,32 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
     if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
   }
   result.morse_index = static_cast<int>(m + resolved_small_negative);
+  // Zero modes beyond the k returned: when the highest returned mode is
+  // itself a zero mode, more may follow (a free body has 6, --modes 3 returns
+  // 3). The inertia at t, the largest error estimate of a returned zero mode,
+  // counts the eigenvalues in [σ₀, t): every one of them is a zero mode at
+  // that accuracy, returned or not.
+  if (!options.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::zero) {
+    double t = 0;
+    for (const Mode& mode : result.modes)
+      if (mode.kind == ModeKind::zero) t = std::max(t, mode.error_estimate);
+    t = std::max(t, std::nextafter(result.modes.back().omega2, std::numeric_limits<double>::infinity()));
+    const Index near_zero = factor_at(t, "zero-mode count", true) - m - resolved_small_negative;
+    if (near_zero > result.zero_modes) {
+      result.notes.push_back("the inertia of K − σM at σ = " + units(t, 3) + " counts " +
+                             plural(near_zero, "eigenvalue", "eigenvalues") +
+                             " within the zero modes' error estimates of zero, " + std::to_string(result.zero_modes) +
+                             " of them returned (--modes): " + std::to_string(near_zero) + " zero modes in all");
+      result.zero_modes = static_cast<int>(near_zero);
+    }
+  }
 
   result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
   if (options.shift) {
     const auto returned_below = std::count_if(result.modes.begin(), result.modes.end(),
                                               [&](const Mode& mode) { return mode.omega2 < user_sigma; });
     result.notes.push_back("the " + plural(k, "mode", "modes") + " nearest the shift σ = " +
-                           detail::format_number(user_sigma, 8) + "; " +
+                           units(user_sigma, 8) + "; " +
                            plural(below_user_shift, "eigenvalue lies", "eigenvalues lie") +
                            " below σ (inertia of K − σM)");
     if (returned_below > below_user_shift)
@@ -1116,16 +1177,15 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
       if (below_plus - m > returned_near_zero) {
         result.stability = Stability::marginal;
         result.notes.push_back(plural(below_plus - m - returned_near_zero, "eigenvalue", "eigenvalues") +
-                               " within ζ = " + detail::format_number(zeta, 3) +
+                               " within ζ = " + units(zeta, 3) +
                                " of zero (a zero mode) lie outside the returned modes; stability is marginal");
       }
     }
   }
   result.solver = "sparse shift-invert Lanczos (Spectra SymGEigsShiftSolver; ";
   for (std::size_t i = 0; i < runs.size(); ++i) result.solver += (i ? "; then " : "") + runs[i];
-  result.solver += "; inertia of K − σM at σ₀ = −ζ = " + detail::format_number(s0, 3) + ": " +
+  result.solver += "; inertia of K − σM at σ₀ = −ζ = " + units(s0, 3) + ": " +
                    plural(m, "eigenvalue", "eigenvalues") + " below)";
-  detail::add_cluster_notes(result.modes, true, result.notes);
   result.timings = {{"factorization", std::chrono::duration<double>(factored - started).count()},
                     {"eigen-solution", std::chrono::duration<double>(std::chrono::steady_clock::now() - factored).count()}};
   return result;

@@ -293,7 +293,6 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     result.notes.push_back("mode " + std::to_string(worst + 1) + " has a relative residual ‖Kφ − λMφ‖/((‖K‖ + |λ|‖M‖)‖φ‖) of " +
                            format_number(worst_relative_residual, 2) +
                            ", far above rounding level: M is probably ill-conditioned; trust its error estimate");
-  add_cluster_notes(result.modes, true, result.notes);
   return result;
 }
 

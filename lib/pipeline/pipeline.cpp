@@ -221,6 +221,10 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   eo.large_method = options.large_equilibrium;
   if (options.step_factor > 0 && options.derivatives == DerivativeMethod::exact)
     throw InputError("--step sets the step of differences: give --derivatives central, forward or complex-step");
+  if (!(options.step_factor >= 0 && options.step_factor <= max_step_factor))
+    throw InputError(fmt::format("--step {:g}: the step factor must be above 0 and at most {:g} (a tenth of a radian "
+                                 "or of the scene's length scale); larger steps do not measure a derivative",
+                                 options.step_factor, max_step_factor));
   if (options.derivatives == DerivativeMethod::complex_step && sys.is_map())
     throw InputError("--derivatives complex-step: not available for kinematic maps (their expressions are "
                      "evaluated in real arithmetic); use exact, central or forward");

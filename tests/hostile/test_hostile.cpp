@@ -307,4 +307,36 @@ TEST_F(Hostile, SweepsBeyondTheLimitAreRefusedWithTheLimit) {
   EXPECT_EQ(modal::parse_vary("P=0:4:" + limit).count, modal::max_sweep_points);
 }
 
+
+// Silently wrong numbers (issue 20, part 2), from the command line: huge
+// frequencies are answered, not classed zero, and --require-stable holds;
+// steps beyond the largest factor are refused in words; a free lattice's six
+// rigid-body modes are counted whatever --modes asks for, on both solvers.
+TEST_F(Hostile, HugeFrequenciesLargeStepsAndUnrequestedZeroModes) {
+  const std::string pendulum = std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.toml";
+  for (const char* g : {"1e155", "1e160", "1e250", "1e300"}) {
+    const Outcome r = run({"analyze", pendulum, "--set", std::string("g=") + g, "--require-stable"});
+    EXPECT_EQ(r.status, 0) << g << ": " << r.err;
+    EXPECT_NE(r.out.find("Stability: stable"), std::string::npos) << g << ": " << r.out;
+    EXPECT_EQ(r.out.find("zero"), std::string::npos) << g << ": " << r.out;
+  }
+  for (const char* step : {"0.11", "1", "3.14159", "6.2831853", "1e300", "inf", "nan", "-0.01", "0"}) {
+    const Outcome r = run({"analyze", pendulum, "--derivatives", "central", "--step", step});
+    EXPECT_EQ(r.status, 1) << step << ": " << r.err;  // a usage error (CLI11 validation)
+    EXPECT_NE(r.err.find("at most 0.1"), std::string::npos) << step << ": " << r.err;
+    EXPECT_TRUE(r.out.empty()) << step;
+  }
+  const std::string lattice = write("free_lattice.toml",
+                                    "title = \"free block\"\ngravity = [0, 0, 0]\n[[lattice]]\nname = \"b\"\n"
+                                    "size = [5, 5, 5]\nspacing = 0.1\nmass = 0.01\nstiffness = 1000\n"
+                                    "diagonals = true\n");
+  for (const char* solver : {"sparse", "dense"})
+    for (const char* modes : {"1", "3", "6", "7"}) {
+      const Outcome r = run({"analyze", lattice, "--solver", solver, "--modes", modes});
+      EXPECT_EQ(r.status, 0) << solver << " " << modes << ": " << r.err;
+      EXPECT_NE(r.out.find("marginal: 6 zero-frequency modes"), std::string::npos)
+          << solver << " --modes " << modes << ": " << r.out;
+    }
+}
+
 }  // namespace

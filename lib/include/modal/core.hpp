@@ -454,20 +454,29 @@ const char* to_string(DerivativeMethod method);  // "exact", "central", "forward
 std::optional<DerivativeMethod> parse_derivative_method(std::string_view word);
 // The default step factor of a method (0 for exact).
 double default_step_factor(DerivativeMethod method);
+// The largest step factor accepted (std::invalid_argument above it): steps
+// of a tenth of a radian or of the scene's length scale. Larger steps do
+// not measure a derivative: at a factor near π or 2π a force periodic in an
+// angle takes the same value at every step, its differences vanish, and so
+// does their measured error.
+inline constexpr double max_step_factor = 0.1;
 
 // The generalized force at rest f(q) = ∇V(q) − Q(q, 0) − ∇c(q)ᵀ s (n), whose
 // zero is an equilibrium and whose Jacobian is the stiffness K; s are fixed
 // constraint multipliers (m, N) or empty.
 VectorX rest_force(const System& s, Workspace& w, const VectorX& q, const VectorX& multipliers = {});
 // K = ∂f/∂q (n×n) by `method` (exact: ∇∇V − ∂Q/∂q − Σ sᵢ∇∇cᵢ); step_factor
-// 0: the default of the method. With `error` (differences only; exact leaves
-// it alone) the entrywise estimate 2|K_h − K_2h| of K's error (n×n, same
-// units), at the cost of a second set of evaluations.
+// 0: the default of the method, else in (0, max_step_factor]. With `error`
+// (differences only; exact leaves it alone) the entrywise estimate of K's
+// error (n×n, same units) 2 max(|K_h − K_2h|, |K_2h − K_4h|/2^p), p the
+// method's order, at the cost of two more sets of evaluations.
 MatrixX rest_force_jacobian(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method,
                             const VectorX& multipliers = {}, double step_factor = 0, MatrixX* error = nullptr);
 // G (n×n, skew) with ∂g/∂q by `method` (exact: gyroscopic_matrix(s, w, q)).
+// With `error` (differences only) the entrywise estimate of G's error, as
+// for rest_force_jacobian.
 MatrixX gyroscopic_matrix(const System& s, Workspace& w, const VectorX& q, DerivativeMethod method,
-                          double step_factor = 0);
+                          double step_factor = 0, MatrixX* error = nullptr);
 
 // --- steady motions (maps with ignorable coordinates) -------------------------
 struct SteadyRate {

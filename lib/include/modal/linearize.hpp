@@ -63,6 +63,11 @@ struct LinearModel {
   // (equilibrium_stiffness_change). Unlike rounding it is smooth from entry to
   // entry, so the eigenvalues' estimates add it without cancellation.
   MatrixX K_systematic_error;
+  // The measured error of G (dof×dof) when it comes from differences
+  // (gyroscopic_matrix with an error), systematic like the above; empty when
+  // G is exact or absent. The first-order solver adds its effect, with that
+  // of K_systematic_error, to the estimates.
+  MatrixX G_error;
   DerivativeMethod derivatives = DerivativeMethod::exact;  // how K and G were obtained
   // Steady motion: rates and momenta of ignorable coordinates (maps analyzed
   // through Routh's reduction); empty otherwise.
