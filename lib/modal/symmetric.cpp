@@ -31,7 +31,7 @@
 //     |M_ij|), the standard deviation of δλ is
 //     2ε·sqrt(Σ_ij (x_i K_ij x_j)² + λ² Σ_ij (x_i M_ij x_j)²),
 //     and the estimate takes twice that. When K comes from differences
-//     (--derivatives), their measured error D = 2|K_h − K_2h| is systematic
+//     (--derivatives), their measured error D (from K at h, 2h, 4h) is systematic
 //     (smooth from entry to entry, not independent) and is added as |x|ᵀD|x|;
 //     the normwise floor below is for rounding only. The worst case Σ|x_i K_ij x_j| (or the
 //     normwise n·ε·(‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper

@@ -275,7 +275,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     if (lo.derivatives != DerivativeMethod::exact)
       result.notes.push_back(fmt::format(
           "K{} by {} differences (step factor {:.2g}) instead of exact derivatives; the error estimates include "
-          "their error, measured as 2|K(h) - K(2h)| (largest {:.2g})",
+          "their error, measured from K at h, 2h and 4h (largest {:.2g})",
           lin.has_gyroscopic ? " and G" : "", to_string(lo.derivatives),
           lo.step_factor > 0 ? lo.step_factor : default_step_factor(lo.derivatives),
           lin.K_error.cwiseAbs().maxCoeff()));

@@ -54,7 +54,7 @@ struct LinearModel {
   // for the eigenvalues' error estimates: 4ε × Σ|terms| of each entry (see
   // potential_hessian_magnitude: where terms cancel, the error is not that of
   // the small result), plus, for K from differences, their measured error
-  // 2|K_h − K_2h| (rest_force_jacobian). Empty: 4ε|K| is taken (a model
+  // from K at h, 2h and 4h (rest_force_jacobian). Empty: 4ε|K| is taken (a model
   // written by hand).
   MatrixX K_error;
   // The part of K_error that is systematic (dof×dof; empty when there is
