@@ -30,7 +30,7 @@ std::string format_bytes(double bytes) {
     ++u;
   }
   char text[64];
-  std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.2g %s", bytes, units[u]);
+  std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.3g %s", bytes, units[u]);
   return text;
 }
 

@@ -101,7 +101,7 @@ bool use_sparse(const System& sys, SolverChoice choice, double limit) {
     throw InputError("this scene cannot be analyzed here: " + reason + advice);
   };
   if (choice == SolverChoice::dense) {
-    if (const auto r = dense_refusal()) refuse(*r, why ? "" : "; the sparse solver (--solver sparse) may fit");
+    if (const auto r = dense_refusal()) refuse(*r, why || sparse_refusal() ? "" : "; the sparse solver (--solver sparse) fits");
     return false;
   }
   if (choice == SolverChoice::sparse) {

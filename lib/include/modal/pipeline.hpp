@@ -122,7 +122,10 @@ VectorX parse_coordinates(const System& system, const std::string& option, const
 
 // Which eigen-solver `analyze` uses: automatic = sparse above
 // large_system_coordinates coordinates when the sparse model describes the
-// scene (no dampers, followers, constraints, rotating frame or map), else dense.
+// scene (no dampers, followers, constraints, rotating frame or map), else dense;
+// when that path's memory estimate exceeds the limit (Model::limits.memory, or
+// the machine's available memory) the other if it fits, else InputError with
+// both estimates. A forced path that does not fit is refused the same way.
 enum class SolverChoice { automatic, dense, sparse };
 const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse"
 

@@ -68,7 +68,9 @@ struct Scene {
 };
 
 // Upper bounds on what the generators may expand to. The defaults are what
-// modal supports (a 5·10⁶-particle lattice needs about 6 GiB to analyze); a
+// modal supports (a 5·10⁶-particle lattice with diagonals takes about 14 GB
+// once built, as scene_memory estimates, and is refused where that does not
+// fit); a
 // caller that must bound memory and time more tightly (the fuzzer: a mutated
 // size would otherwise exhaust its memory limit) passes smaller ones. Beyond
 // them the scene is refused with a SceneError at the key.
