@@ -676,7 +676,7 @@ PYBIND11_MODULE(_modal, m) {
   m.def(
       "_equilibria",
       [](std::shared_ptr<const modal::Model> model, int starts, double tol, int max_iterations) {
-        if (starts < 0) throw modal::InputError("starts must be a number >= 0");
+        if (starts < -1) throw modal::InputError("starts must be a number >= 0");  // -1: the default
         if (!(tol > 0 && tol < 1)) throw modal::InputError("tol must lie in (0, 1)");
         modal::EquilibriumOptions o;
         o.starts = starts;

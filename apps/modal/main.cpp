@@ -77,6 +77,7 @@ struct SceneArgs {
   std::string file;
   std::vector<std::string> sets;
   bool allow_outside_data = false;
+  std::string max_memory;
 };
 
 void add_scene_options(CLI::App* cmd, SceneArgs& s) {
@@ -86,11 +87,16 @@ void add_scene_options(CLI::App* cmd, SceneArgs& s) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_flag("--allow-outside-data", s.allow_outside_data,
                 "read data files (a network's CSV) from anywhere, not only from the scene file's directory and below");
+  cmd->add_option("--max-memory", s.max_memory,
+                  "memory the scene and the command may use, e.g. 4G or 512M (default: what the machine has "
+                  "available); larger work is refused before it starts")
+      ->type_name("SIZE");
 }
 
 modal::Model load(const SceneArgs& s) {
   modal::SceneLimits limits;
   limits.allow_outside_data = s.allow_outside_data;
+  if (!s.max_memory.empty()) limits.memory = modal::parse_memory_size(s.max_memory);
   return modal::load_model(s.file, s.sets, limits);
 }
 
@@ -195,7 +201,10 @@ int main(int argc, char** argv) {
   CLI::App* equilibria =
       app.add_subcommand("equilibria", "enumerate equilibria with their stability and Morse index");
   add_scene_options(equilibria, equilibria_scene);
-  equilibria->add_option("--starts", eo.starts, "number of deterministic search starts")->check(at_least(0));
+  equilibria
+      ->add_option("--starts", eo.starts,
+                   "number of deterministic search starts (default: 64 up to 30 coordinates, then 64·(30/n)², at least 2)")
+      ->check(at_least(0));
   equilibria->add_option("--csv", equilibria_out.csv, "write the equilibria table as CSV")->type_name("FILE");
   equilibria->add_option("--json", equilibria_out.json, "write all equilibria and their modes as JSON")
       ->type_name("FILE");
@@ -331,7 +340,10 @@ int main(int argc, char** argv) {
     } else if (*equilibria) {
       modal::check_outputs(modal::Command::equilibria, equilibria_out, equilibria_scene.file);
       const modal::Model model = load(equilibria_scene);
+      modal::ProgressBar bar("equilibria");
+      eo.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::EquilibriumSurvey survey = modal::equilibria(model, eo);
+      bar.finish();
       modal::write_equilibria(std::cout, survey, equilibria_out);
       for (const std::string& note : survey.unanalyzed) std::cerr << "modal: " << note << '\n';
     } else if (*check) {

@@ -347,7 +347,11 @@ Equilibrium find_constrained_equilibrium(const System& s, const VectorX& start, 
 std::vector<Equilibrium> find_constrained_equilibria(const System& s, const EquilibriumOptions& options) {
   Constrained k(s);
   Candidates all;
-  for (const VectorX& start : starting_points(s, std::max(options.starts, 0))) try_start(k, start, options, all);
+  const std::vector<VectorX> starts = starting_points(s, halton_starts(s, options));
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    if (options.progress) options.progress(static_cast<int>(i), static_cast<int>(starts.size()));
+    try_start(k, starts[i], options, all);
+  }
   if (!all.feasible) throw NumericalError(infeasible_message(k, all.best_projection, all.starts));
   if (all.found.empty()) throw NumericalError(no_equilibrium(k, all.best_failure, all.starts));
   deduplicate_and_sort(s, all.found);

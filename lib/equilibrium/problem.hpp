@@ -71,6 +71,8 @@ struct SearchResult {
 SearchResult search(Problem& p, const EquilibriumOptions& options);
 
 // The deterministic starts of the multi-start search (search.cpp header).
+// The Halton starts to make: options.starts, or the default for the system.
+int halton_starts(const System& s, const EquilibriumOptions& options);
 std::vector<VectorX> starting_points(const System& s, int halton_count);
 
 // Constrained systems (constrained.cpp): the nearest equilibrium from a

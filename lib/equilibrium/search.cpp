@@ -61,6 +61,10 @@ bool starts_rotation_vector(const System& s, int i) {
 
 }  // namespace
 
+int halton_starts(const System& s, const EquilibriumOptions& options) {
+  return options.starts >= 0 ? options.starts : default_equilibrium_starts(s);
+}
+
 std::vector<VectorX> starting_points(const System& s, int halton_count) {
   const int n = s.size();
   const VectorX q0 = s.initial_configuration();
@@ -274,14 +278,16 @@ void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
 SearchResult search(Problem& p, const EquilibriumOptions& options) {
   const System& s = p.system();
   SearchResult out;
-  const std::vector<VectorX> starts = starting_points(s, std::max(options.starts, 0));
+  const std::vector<VectorX> starts = starting_points(s, halton_starts(s, options));
   out.starts = static_cast<int>(starts.size());
   if (s.size() == 0) {  // nothing can move: the one configuration is the equilibrium
     Polished pol = polish(p, VectorX(0), options);
     out.found.push_back(pol.best);
     return out;
   }
+  int done = 0;
   for (const VectorX& start : starts) {
+    if (options.progress) options.progress(done++, out.starts);
     const VectorX reached = minimize_residual(p, start);
     Polished pol = polish(p, reached, options);
     if (pol.converged) {
@@ -295,3 +301,13 @@ SearchResult search(Problem& p, const EquilibriumOptions& options) {
 }
 
 }  // namespace modal::equilibrium_detail
+
+namespace modal {
+int default_equilibrium_starts(const System& system) {
+  constexpr double full = 64, small = 30;
+  constexpr int least = 2;
+  const double n = system.size();
+  if (n <= small) return static_cast<int>(full);
+  return std::max(least, static_cast<int>(full * (small / n) * (small / n)));
+}
+}  // namespace modal

@@ -74,16 +74,64 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
                                nearest));
 }
 
+bool first_order(const System& sys) {
+  return sys.has_damping() || sys.has_frame_coupling() || sys.has_follower_loads();
+}
+
 // The documented rule: sparse for more than large_system_coordinates
-// coordinates when the sparse model describes the scene, else dense.
-bool use_sparse(const System& sys, SolverChoice choice) {
-  if (choice == SolverChoice::dense) return false;
+// coordinates when the sparse model describes the scene, else dense; and
+// automatically the other path when the preferred one would not fit in
+// memory (`limit`, SceneLimits::memory) and the other would. A path that does
+// not fit is refused before anything is allocated (InputError, exit 2).
+bool use_sparse(const System& sys, SolverChoice choice, double limit) {
   const auto why = sparse_unsupported(sys);
+  if (choice == SolverChoice::sparse && why)
+    throw InputError("--solver sparse: the sparse solver does not apply to this scene: " + *why);
+  const auto dense_refusal = [&] {
+    return memory_refusal(dense_analysis_memory(sys),
+                          fmt::format("the dense analysis of {} coordinates", sys.size()), limit);
+  };
+  const auto sparse_refusal = [&] {
+    return memory_refusal(sparse_analysis_memory(sys),
+                          fmt::format("the sparse analysis of {} coordinates ({:.3g} coupled coordinate pairs)",
+                                      sys.size(), coupled_pairs(sys)),
+                          limit);
+  };
+  const auto refuse = [&](const std::string& reason, const std::string& advice) {
+    throw InputError("this scene cannot be analyzed here: " + reason + advice);
+  };
+  if (choice == SolverChoice::dense) {
+    if (const auto r = dense_refusal()) refuse(*r, why || sparse_refusal() ? "" : "; the sparse solver (--solver sparse) fits");
+    return false;
+  }
   if (choice == SolverChoice::sparse) {
-    if (why) throw InputError("--solver sparse: the sparse solver does not apply to this scene: " + *why);
+    if (const auto r = sparse_refusal()) refuse(*r, "");
     return true;
   }
-  return !why && sys.size() > large_system_coordinates;
+  const bool prefer_sparse = !why && sys.size() > large_system_coordinates;
+  const auto preferred = prefer_sparse ? sparse_refusal() : dense_refusal();
+  if (!preferred) return prefer_sparse;
+  const auto other = why ? preferred : prefer_sparse ? dense_refusal() : sparse_refusal();
+  if (!other) return !prefer_sparse;
+  refuse(*preferred, why ? "" : fmt::format("; the {} path would need about {}", prefer_sparse ? "dense" : "sparse",
+                                            format_bytes(prefer_sparse ? dense_analysis_memory(sys)
+                                                                       : sparse_analysis_memory(sys))));
+  return false;
+}
+
+// Runs `work`, turning memory exhaustion into OutOfMemory with the estimate
+// of what `what` was expected to need.
+template <class Work>
+auto within_estimate(double bytes, const std::string& what, Work&& work) {
+  try {
+    return work();
+  } catch (const OutOfMemory&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw OutOfMemory(fmt::format("out of memory: {} was estimated to need about {} and needed more than this "
+                                  "machine could give it",
+                                  what, format_bytes(bytes)));
+  }
 }
 
 // Exit status when no point of a sweep worked: the first failure says why.
@@ -131,6 +179,7 @@ ExitStatus exit_status(const std::exception& error) {
 namespace {
 std::string raw_error_message(const std::exception& error) {
   if (dynamic_cast<const SceneError*>(&error)) return error.what();
+  if (dynamic_cast<const OutOfMemory*>(&error)) return std::string("modal: ") + error.what();
   if (dynamic_cast<const std::bad_alloc*>(&error))
     return "modal: out of memory: the computation needed more memory than this machine could give it";
   if (exit_status(error) == ExitStatus::bad_input) return std::string("modal: ") + error.what();
@@ -151,6 +200,31 @@ std::string error_message(const std::exception& error) {
     from = end + 1;
   }
 }
+
+double parse_memory_size(const std::string& text) {
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  const std::string unit = text.substr(used);
+  double factor = 0;
+  for (const auto& [suffix, f] : {std::pair{"", 1.0}, std::pair{"k", 1e3}, std::pair{"K", 1e3}, std::pair{"M", 1e6},
+                                  std::pair{"G", 1e9}, std::pair{"T", 1e12}})
+    if (unit == suffix || unit == std::string(suffix) + "B") factor = f;
+  if (used == 0 || factor == 0 || !std::isfinite(value) || !(value > 0))
+    throw InputError("--max-memory must be a size such as 4G, 512M or a number of bytes, got '" + text + "'");
+  return value * factor;
+}
+
+double dense_analysis_memory(const System& system) {
+  const double n = (first_order(system) ? 2.0 : 1.0) * system.size();
+  return 224 * n * n;
+}
+
+double sparse_analysis_memory(const System& system) { return 200 * coupled_pairs(system); }
 
 // --- the model -------------------------------------------------------------------------
 
@@ -233,12 +307,15 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   lo.step_factor = options.step_factor;
   // An equilibrium accepted at a looser tolerance is accepted by the linearization too.
   lo.tolerance = std::max(lo.tolerance, options.equilibrium_tolerance);
-  const bool sparse = use_sparse(sys, options.solver);
+  const bool sparse = use_sparse(sys, options.solver, model.limits.memory);
   if (sparse && options.derivatives != DerivativeMethod::exact)
     throw InputError(std::string("--derivatives ") + to_string(options.derivatives) +
                      ": the sparse path assembles K exactly from the elements' derivatives; differences apply to the "
                      "dense path (--solver dense)");
   if (!sparse && options.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
+  const double estimate = sparse ? sparse_analysis_memory(sys) : dense_analysis_memory(sys);
+  return within_estimate(estimate, fmt::format("the {} analysis of {} coordinates", sparse ? "sparse" : "dense",
+                                               sys.size()), [&] {
 
   const Equilibrium eq = !options.at ? find_equilibrium(sys, sys.initial_configuration(), eo)
                                      : equilibrium_at(sys, *options.at, eo);
@@ -283,7 +360,8 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   }
   a.report = make_report(sys, model.scene.file, model.scene.parameters);
   a.report.equilibria.push_back({eq, std::move(result)});
-  return a;
+  return std::move(a);  // a is the caller's, captured by reference: not copied
+  });
 }
 
 // --- equilibria --------------------------------------------------------------------------
@@ -293,7 +371,10 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
   EquilibriumSurvey survey;
   survey.report = make_report(sys, model.scene.file, model.scene.parameters);
   const auto names = sys.coordinate_names();
-  for (const Equilibrium& e : find_equilibria(sys, options)) {
+  const std::vector<Equilibrium> found = find_equilibria(sys, options);
+  for (const Equilibrium& e : found) {
+    if (options.progress)  // the analyses, after the starts
+      options.progress(static_cast<int>(&e - found.data()), static_cast<int>(found.size()));
     try {
       survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q))});
     } catch (const NumericalError& error) {

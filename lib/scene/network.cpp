@@ -65,10 +65,6 @@ void add_particle(std::vector<Body>& bodies, std::string name, const Vec3& posit
   b.initial = VectorX::Zero(n);
 }
 
-std::string count_text(double count) {
-  return count < 1e15 ? std::to_string(static_cast<long long>(count)) : format_number(count);
-}
-
 // --- [[lattice]] ---------------------------------------------------------------
 
 // Which ends of each lattice direction (i, j, k) are fixed.
@@ -193,6 +189,27 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
   if (!far.allFinite() || !std::isfinite((far - origin).stableNorm()))
     s.fail("spacing", "the lattice is too large to place: its far corner is not finite");
 
+  // Springs to the neighbours along each direction and, with diagonals, to
+  // both diagonal neighbours in each lattice plane; each pair once.
+  std::vector<std::array<long long, 3>> offsets{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  if (diagonals) {
+    offsets.insert(offsets.end(), {{1, 1, 0}, {1, -1, 0}});
+    if (!net) offsets.insert(offsets.end(), {{1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}});
+  }
+  std::vector<double> rest;
+  double springs = 0;
+  for (const auto& o : offsets) {
+    rest.push_back((1 - prestrain) * (static_cast<double>(o[0]) * step[0] + static_cast<double>(o[1]) * step[1] +
+                                      static_cast<double>(o[2]) * step[2]).stableNorm());
+    if (!std::isfinite(rest.back()))
+      s.fail("spacing", "a spring between neighbouring particles would be longer than the largest number (its rest "
+                        "length overflows); give a smaller spacing");
+    double count = 1;
+    for (std::size_t d = 0; d < 3; ++d) count *= static_cast<double>(std::max(0LL, n[d] - std::abs(o[d])));
+    springs += count;
+  }
+  reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, springs);
+
   // Particles, the last index fastest: index = (i n2 + j) n3 + k.
   g.bodies.reserve(static_cast<std::size_t>(total));
   // One index as ".<digits>", written where the name is built (no temporary strings).
@@ -222,25 +239,6 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
         add_particle(g.bodies, std::move(name), position, mass, {fixed, fixed, fixed});
       }
 
-  // Springs to the neighbours along each direction and, with diagonals, to
-  // both diagonal neighbours in each lattice plane; each pair once.
-  std::vector<std::array<long long, 3>> offsets{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  if (diagonals) {
-    offsets.insert(offsets.end(), {{1, 1, 0}, {1, -1, 0}});
-    if (!net) offsets.insert(offsets.end(), {{1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}});
-  }
-  std::vector<double> rest;
-  double springs = 0;
-  for (const auto& o : offsets) {
-    rest.push_back((1 - prestrain) * (static_cast<double>(o[0]) * step[0] + static_cast<double>(o[1]) * step[1] +
-                                      static_cast<double>(o[2]) * step[2]).stableNorm());
-    if (!std::isfinite(rest.back()))
-      s.fail("spacing", "a spring between neighbouring particles would be longer than the largest number (its rest "
-                        "length overflows); give a smaller spacing");
-    double count = 1;
-    for (std::size_t d = 0; d < 3; ++d) count *= static_cast<double>(std::max(0LL, n[d] - std::abs(o[d])));
-    springs += count;
-  }
   g.springs.reserve(static_cast<std::size_t>(springs));
   const auto flat = [&](long long i, long long j, long long k) { return static_cast<int>((i * n[1] + j) * n[2] + k); };
   for (long long i = 0; i < n[0]; ++i)
@@ -513,6 +511,8 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   if (node_index[mass_column] < 0 && !has_mass)
     s.fail("mass", "the nodes file '" + nodes.path + "' has no mass column, so [[network]] needs a default 'mass'");
 
+  reader.add_to_scene(*s.find("nodes"), s.key("nodes"), "the network's nodes",
+                      static_cast<double>(nodes.rows.size()), 0, 0);
   std::unordered_map<std::string_view, int> by_name;  // node name → index in g.bodies
   by_name.reserve(nodes.rows.size());
   g.bodies.reserve(nodes.rows.size());
@@ -558,6 +558,8 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   if (edge_index[stiffness_column] < 0 && !has_stiffness && !edges.rows.empty())
     s.fail("stiffness",
            "the edges file '" + edges.path + "' has no stiffness column, so [[network]] needs a default 'stiffness'");
+  reader.add_to_scene(*s.find("edges"), s.key("edges"), "the network's edges", 0, 0,
+                      static_cast<double>(edges.rows.size()));
   g.springs.reserve(edges.rows.size());
   const std::size_t prefix = g.name.size() + 1;
   const auto node = [&](const RowReader& r, std::size_t c) {

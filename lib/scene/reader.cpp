@@ -19,6 +19,10 @@ std::string format_number(double value) {
   return std::string(buffer, result.ptr);
 }
 
+std::string count_text(double count) {
+  return count < 1e15 ? std::to_string(static_cast<long long>(count)) : format_number(count);
+}
+
 bool is_identifier(std::string_view s) {
   if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) != 0 || s[0] == '_')) return false;
   return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; });
@@ -46,6 +50,26 @@ std::string describe_type(const toml::node& node) {
 std::string file_stem(const std::string& path) { return std::filesystem::path(path).stem().string(); }
 
 // --- Reader -----------------------------------------------------------------
+
+void Reader::add_to_scene(const toml::node& node, const std::string& key, const std::string& what, double particles,
+                          double bodies, double springs) const {
+  particles_ += particles;
+  bodies_ += bodies;
+  springs_ += springs;
+  const std::string in_all = particles_ > particles || springs_ > springs || bodies_ > bodies ? " in all" : "";
+  if (particles > 0 && particles_ > static_cast<double>(limits_.particles))
+    fail(node, key, "with " + what + " the scene would have " + count_text(particles_) + " particles" + in_all +
+                        " (lattices and networks together); at most " + count_text(static_cast<double>(limits_.particles)) +
+                        " are supported");
+  if (springs > 0 && springs_ > static_cast<double>(limits_.springs))
+    fail(node, key, "with " + what + " the scene would have " + count_text(springs_) + " springs" + in_all +
+                        "; at most " + count_text(static_cast<double>(limits_.springs)) + " are supported");
+  if (const auto refusal = memory_refusal(scene_memory(particles_, bodies_, springs_),
+                                          "the scene's " + count_text(particles_ + bodies_) + " bodies and " +
+                                              count_text(springs_) + " springs" + in_all,
+                                          limits_.memory))
+    fail(node, key, "with " + what + " " + *refusal);
+}
 
 Reader::Reader(std::string file, std::string_view text, SceneLimits limits)
     : file_(std::move(file)), limits_(limits) {

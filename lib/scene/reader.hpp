@@ -31,6 +31,8 @@ enum class Range { any, nonnegative, positive };
 
 // "1.5", "-2", "nan": shortest round-trip text of a value, for messages.
 std::string format_number(double value);
+// "5000000" for a count (whole digits up to 10¹⁵, then as format_number).
+std::string count_text(double count);
 // A name expressions can use: letters, digits and _, not starting with a digit.
 bool is_identifier(std::string_view s);
 // "body[3]": the dotted key of entry `index` (0-based) of an array of tables.
@@ -67,6 +69,14 @@ class Reader {
   // The tables of an array of tables ([[body]]), in file order.
   std::vector<const toml::table*> tables(const toml::node& node, const std::string& key) const;
 
+  // Counts what a generator is about to add (before it allocates anything)
+  // and refuses it at `node`, `key` when the scene would then hold more
+  // particles (lattices and networks together) or springs than limits()
+  // allow, or need more memory (scene_memory) than limits().memory or the
+  // machine's available memory. `what` names the generator ("the lattice").
+  void add_to_scene(const toml::node& node, const std::string& key, const std::string& what, double particles,
+                    double bodies, double springs) const;
+
   // Turns an expression error in the string node `node` into a SceneError
   // pointing at the offending character.
   [[noreturn]] void fail_expression(const toml::node& node, const std::string& key, const std::string& text,
@@ -77,6 +87,7 @@ class Reader {
   std::vector<std::string_view> lines_;  // the scene text, line by line
   Parameters parameters_;
   SceneLimits limits_;
+  mutable double particles_ = 0, bodies_ = 0, springs_ = 0;  // added so far (add_to_scene)
 };
 
 // One table of the scene: reads its keys with defaults and checks.

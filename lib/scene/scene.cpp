@@ -224,6 +224,7 @@ std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table
   if (links_value < 1) s.fail("links", "must be at least 1, got " + format_number(links_value));
   if (links_value > max_links) s.fail("links", "at most " + format_number(max_links) + " links are supported");
   const int links = static_cast<int>(links_value);
+  reader.add_to_scene(*s.find("links"), s.key("links"), "the chain", 0, links, 0);
 
   const double length = s.required_number("length", Range::positive);  // total, m
   const double mass = s.required_number("mass", Range::nonnegative);   // total, kg
@@ -824,6 +825,10 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   for (std::size_t i = 0; i < constraints.size(); ++i)
     d.constraints.push_back(read_constraint(reader, *constraints[i], i, names, frames, constraint_names));
   return scene;
+}
+
+double scene_memory(double particles, double bodies, double springs) {
+  return 1200 * particles + 2000 * bodies + 170 * springs;
 }
 
 std::string read_scene_file(const std::string& path) {

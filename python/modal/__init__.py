@@ -131,13 +131,14 @@ def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, 
     return _modal._analyze(model, options)
 
 
-def equilibria(scene, set=None, *, starts=64, tol=1e-12, max_iterations=100):
-    """Enumerates the equilibria from `starts` deterministic starts (each
+def equilibria(scene, set=None, *, starts=None, tol=1e-12, max_iterations=100):
+    """Enumerates the equilibria from `starts` deterministic starts (default:
+    64 up to 30 coordinates, then 64·(30/n)², at least 2; each
     polished by Newton's method to the relative residual `tol`) and analyzes
     each: `modal equilibria`. Returns Equilibria (q, potential, stability,
     morse_index, omega2, … one row per equilibrium, sorted by potential).
     """
-    return _modal._equilibria(_model(scene, set), starts, tol, max_iterations)
+    return _modal._equilibria(_model(scene, set), -1 if starts is None else starts, tol, max_iterations)
 
 
 def sweep(scene, vary, set=None, *, modes=None, extrapolate=False, tol=1e-10, refine=True, max_evaluations=200):

@@ -340,3 +340,159 @@ TEST_F(Hostile, HugeFrequenciesLargeStepsAndUnrequestedZeroModes) {
 }
 
 }  // namespace
+
+namespace {
+
+// --- work and memory beyond what fits (issue 20 parts 3 and 6) ---------------------------------
+
+std::string chain_scene(int links) {
+  return "title = \"chain\"\ngravity = [0, 0, -9.81]\n[[chain]]\nname = \"link\"\nlinks = " + std::to_string(links) +
+         "\nlength = 1\nmass = 1\nmass_model = \"point\"\n";
+}
+
+// The hanging chain's force scale in closed form: link i (1-based) carries
+// m = 1/N at depth i·a, moved by hinges k ≤ i with levers (i − k + 1)·a, so
+// ‖J_i‖² = a² Σ_{j ≤ i} j² and the scale is Σ_i m g ‖J_i‖.
+double chain_force_scale(int links) {
+  const double a = 1.0 / links, m = 1.0 / links, g = 9.81;
+  double squares = 0, scale = 0;
+  for (int i = 1; i <= links; ++i) {
+    squares += static_cast<double>(i) * i;
+    scale += m * g * a * std::sqrt(squares);
+  }
+  return scale;
+}
+
+// force_scale walked every body's path (O(n²) for a chain: over a minute at
+// the documented 10⁵ links); at the limit it must take no longer than
+// building the chain, and still be the sum it was.
+TEST(hostile_limits, ForceScaleOfTheLongestChainIsLinearAndExact) {
+  for (int links : {1, 7, 300, modal::SceneLimits{}.links}) {
+    const modal::Model model = modal::model_from_text(chain_scene(links), "chain.toml");
+    modal::Workspace ws(model.system);
+    const double scale = modal::force_scale(model.system, ws, model.system.initial_configuration());
+    EXPECT_NEAR(scale, chain_force_scale(links), 1e-12 * chain_force_scale(links)) << links << " links";
+  }
+}
+
+// Chains near and above what fits: refused before anything is allocated,
+// with the estimate and the limit in words (exit 2), on both paths.
+TEST_F(Hostile, ChainsThatDoNotFitAreRefusedWithTheEstimate) {
+  for (int links : {1500, 3000, 20000, modal::SceneLimits{}.links}) {
+    const std::string scene = write("chain" + std::to_string(links) + ".toml", chain_scene(links));
+    for (const char* solver : {"auto", "dense", "sparse"}) {
+      const Outcome r = run({"analyze", scene, "--max-memory", "100M", "--solver", solver});
+      EXPECT_EQ(r.status, 2) << links << " " << solver << ": " << r.err;
+      EXPECT_NE(r.err.find("would need about"), std::string::npos) << r.err;
+      EXPECT_NE(r.err.find("more than the 100 MB allowed (--max-memory)"), std::string::npos) << r.err;
+      EXPECT_EQ(r.err.find("bad_alloc"), std::string::npos) << r.err;
+      EXPECT_TRUE(r.out.empty());
+    }
+  }
+  // The documented maximum needs terabytes: no machine's available memory holds it.
+  const std::string longest = write("longest.toml", chain_scene(modal::SceneLimits{}.links));
+  const Outcome r = run({"analyze", longest});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("TB of memory"), std::string::npos) << r.err;
+  // check needs no matrices: the longest chain is summarized.
+  EXPECT_EQ(run({"check", longest}).status, 0);
+}
+
+// The automatic choice takes the path that fits: the bundled lattice (540
+// coordinates, dense by default) goes sparse under a limit the dense path
+// exceeds; forcing the dense path is refused with a pointer to the other.
+TEST_F(Hostile, TheAutomaticSolverTakesThePathThatFits) {
+  const std::string scene = std::string(MODAL_SOURCE_DIR) + "/models/lattice.toml";
+  const Outcome fits = run({"analyze", scene, "--max-memory", "20M"});
+  EXPECT_EQ(fits.status, 0) << fits.err;
+  const Outcome dense = run({"analyze", scene, "--max-memory", "20M", "--solver", "dense"});
+  EXPECT_EQ(dense.status, 2) << dense.err;
+  EXPECT_NE(dense.err.find("--solver sparse) fits"), std::string::npos) << dense.err;
+  for (const char* size : {"0", "-1G", "4X", "G", "nan"}) {
+    const Outcome bad = run({"analyze", scene, "--max-memory", size});
+    EXPECT_EQ(bad.status, 2) << size;
+    EXPECT_NE(bad.err.find("--max-memory must be a size"), std::string::npos) << bad.err;
+  }
+  EXPECT_EQ(modal::parse_memory_size("4G"), 4e9);
+  EXPECT_EQ(modal::parse_memory_size("512MB"), 512e6);
+}
+
+std::string lattices_scene(int count, const std::string& size) {
+  std::string text = "title = \"lattices\"\n";
+  for (int i = 0; i < count; ++i)
+    text += "[[lattice]]\nname = \"l" + std::to_string(i) + "\"\nsize = " + size +
+            "\nspacing = 0.1\nmass = 0.01\nstiffness = 1000\ndiagonals = true\nfixed = \"x-\"\n";
+  return text;
+}
+
+// Many lattices: the particles of all of them count against the limit, and the
+// scene's memory against the memory limit, refused at the size key of the
+// lattice that goes over, before it is generated.
+TEST(hostile_limits, LatticeTotalsAreBoundedAtTheLatticeThatGoesOver) {
+  modal::SceneLimits limits;
+  limits.particles = 1000;
+  for (int count : {2, 11, 40}) {
+    const std::string text = lattices_scene(count, "[10, 10, 1]");
+    if (count * 100 <= limits.particles) {
+      EXPECT_NO_THROW((void)modal::parse_scene(text, "many.toml", {}, limits));
+      continue;
+    }
+    try {
+      (void)modal::parse_scene(text, "many.toml", {}, limits);
+      ADD_FAILURE() << count << " lattices accepted";
+    } catch (const modal::SceneError& e) {
+      EXPECT_EQ(e.key(), "lattice[11].size") << e.what();
+      EXPECT_NE(e.reason().find("1100 particles in all"), std::string::npos) << e.what();
+      EXPECT_NE(e.reason().find("at most 1000"), std::string::npos) << e.what();
+    }
+  }
+  // One lattice within the particle limit but beyond the memory limit.
+  modal::SceneLimits memory;
+  memory.memory = 50e6;
+  try {
+    (void)modal::parse_scene(lattices_scene(1, "[100, 100, 10]"), "big.toml", {}, memory);
+    ADD_FAILURE() << "a 10⁵-particle lattice fitted in 50 MB";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.key(), "lattice[1].size") << e.what();
+    EXPECT_NE(e.reason().find("more than the 50 MB allowed"), std::string::npos) << e.what();
+  }
+  // The defaults: two lattices of 3·10⁶ particles are 6·10⁶ in all.
+  try {
+    (void)modal::parse_scene(lattices_scene(2, "[3000, 1000, 1]") + "", "two.toml", {}, memory);
+    ADD_FAILURE() << "two 3·10⁶-particle lattices accepted in 50 MB";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.key(), "lattice[1].size") << e.what();
+  }
+}
+
+// Out of memory is said in words with the estimate, never "std::bad_alloc".
+TEST(hostile_limits, OutOfMemoryReadsAsARealReason) {
+  const modal::OutOfMemory oom("out of memory: the dense analysis of 20000 coordinates was estimated to need about "
+                               "90 GB and needed more than this machine could give it");
+  EXPECT_EQ(modal::error_message(oom), std::string("modal: ") + oom.what());
+  EXPECT_EQ(modal::exit_status(oom), modal::ExitStatus::numerical);
+  const std::bad_alloc plain;
+  EXPECT_NE(modal::error_message(plain).find("out of memory"), std::string::npos);
+  EXPECT_EQ(modal::error_message(plain).find("bad_alloc"), std::string::npos);
+}
+
+// The survey's default number of starts falls with the scene's size, and its
+// progress is reported once per start.
+TEST(hostile_limits, EquilibriumSurveysScaleTheirStartsAndReportProgress) {
+  const modal::Model lattice = modal::load_model(std::string(MODAL_SOURCE_DIR) + "/models/lattice.toml");
+  EXPECT_EQ(modal::default_equilibrium_starts(lattice.system), 2);
+  const modal::Model pendulum = modal::load_model(std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.toml");
+  EXPECT_EQ(modal::default_equilibrium_starts(pendulum.system), 64);
+  modal::EquilibriumOptions options;
+  int calls = 0, total = 0;
+  options.progress = [&](int done, int of) {
+    EXPECT_EQ(done, calls);
+    total = of;
+    ++calls;
+  };
+  (void)modal::find_equilibria(pendulum.system, options);
+  EXPECT_EQ(calls, total);
+  EXPECT_GE(total, 64);
+}
+
+}  // namespace

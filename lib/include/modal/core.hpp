@@ -556,4 +556,24 @@ VectorX canonical_coordinates(const System& s, const VectorX& q);
 // by the length scale, other coordinates by their difference).
 double configuration_distance(const System& s, const VectorX& a, const VectorX& b);
 
+// --- memory, estimated before allocating (docs/design.md, "Memory policy") ---
+
+// What the machine can still give a process: MemAvailable of /proc/meminfo,
+// in bytes; 0 when it cannot be read.
+double available_memory();
+// "3.2 GB", "850 MB", "12 kB": a size in decimal units, for messages.
+std::string format_bytes(double bytes);
+// Nothing when `bytes` fit the limit; else the sentence that refuses: "… needs
+// about 90 GB for <what>, more than the 21 GB …", naming the limit's source.
+// `limit` > 0 is a limit the user set (`--max-memory`, SceneLimits::memory);
+// 0 stands for the machine's available memory (no refusal when unknown).
+std::optional<std::string> memory_refusal(double bytes, const std::string& what, double limit);
+
+// Coordinate pairs (j, k), both orders, that the tree couples in M and in the
+// potential's Hessian: those of each body's coordinates with its own and its
+// ancestors', and those across the paths of each spring's two ends. An upper
+// bound of the nonzeros of the sparse M or K, in O(bodies + springs); a chain
+// of n hinges couples every pair: n².
+double coupled_pairs(const System& s);
+
 }  // namespace modal

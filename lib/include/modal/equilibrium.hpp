@@ -32,6 +32,7 @@
 
 #include "modal/core.hpp"
 
+#include <functional>
 #include <string>
 #include <optional>
 #include <vector>
@@ -54,11 +55,21 @@ enum class LargeEquilibriumMethod { newton, lbfgs };
 struct EquilibriumOptions {
   double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q (− ∇c s)‖ / force_scale
                              // (and constraint violation ‖c‖ / length_scale)
-  int starts = 64;           // deterministic starts of find_equilibria (besides the
-                             // initial configuration and the {0, π} corners of hinges)
+  int starts = -1;           // deterministic starts of find_equilibria (besides the
+                             // initial configuration and the {0, π} corners of hinges);
+                             // -1: default_equilibrium_starts(system)
   int max_iterations = 100;  // per Newton polish
   LargeEquilibriumMethod large_method = LargeEquilibriumMethod::newton;
+  // find_equilibria: called after each start with the starts done and their
+  // number (long surveys show it on a terminal). Empty: nothing is called.
+  std::function<void(int done, int total)> progress = nullptr;
 };
+
+// The number of Halton starts find_equilibria makes unless told: 64 up to 30
+// coordinates, then 64·(30/n)², at least 2. Each start costs a dense Newton
+// search, O(n³) per step: about 8 s for the bundled 540-coordinate lattice,
+// which makes 2 starts rather than spend minutes on 64.
+int default_equilibrium_starts(const System& system);
 
 struct Equilibrium {
   VectorX q;                 // canonical coordinates (n)

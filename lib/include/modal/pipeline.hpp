@@ -37,6 +37,7 @@
 
 #include <exception>
 #include <iosfwd>
+#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -55,6 +56,32 @@ class InputError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// Memory ran out although the estimate made before allocating fitted (the
+// estimates are measured per coordinate pair, body and spring, not exact).
+// what() says so, with the estimate of what was being computed; exit status 4
+// like every std::bad_alloc.
+class OutOfMemory : public std::bad_alloc {
+ public:
+  explicit OutOfMemory(std::string message) : message_(std::move(message)) {}
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
+};
+
+// "4G", "512M", "100k" or a number of bytes, as `--max-memory` takes it
+// (decimal units: k = 10³, M = 10⁶, G = 10⁹, T = 10¹²); InputError otherwise.
+double parse_memory_size(const std::string& text);
+
+// What a command on `model` would need, estimated before allocating
+// (docs/design.md, "Memory policy"): the dense path of analyze (M, K, the
+// eigenvectors and the solvers' workspaces: 224 bytes per coordinate pair,
+// measured; first-order problems as for 2n coordinates), and the sparse path
+// (200 bytes per coordinate pair the tree couples, coupled_pairs: a chain's
+// factor is dense).
+double dense_analysis_memory(const System& system);
+double sparse_analysis_memory(const System& system);
 
 // The exit status for an exception thrown by any modal function (see above;
 // std::bad_alloc and anything unknown count as numerical failures).
@@ -95,7 +122,10 @@ VectorX parse_coordinates(const System& system, const std::string& option, const
 
 // Which eigen-solver `analyze` uses: automatic = sparse above
 // large_system_coordinates coordinates when the sparse model describes the
-// scene (no dampers, followers, constraints, rotating frame or map), else dense.
+// scene (no dampers, followers, constraints, rotating frame or map), else dense;
+// when that path's memory estimate exceeds the limit (Model::limits.memory, or
+// the machine's available memory) the other if it fits, else InputError with
+// both estimates. A forced path that does not fit is refused the same way.
 enum class SolverChoice { automatic, dense, sparse };
 const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse"
 

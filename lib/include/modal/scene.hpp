@@ -68,13 +68,21 @@ struct Scene {
 };
 
 // Upper bounds on what the generators may expand to. The defaults are what
-// modal supports (a 5·10⁶-particle lattice needs about 6 GiB to analyze); a
+// modal supports (a 5·10⁶-particle lattice with diagonals takes about 14 GB
+// once built, as scene_memory estimates, and is refused where that does not
+// fit); a
 // caller that must bound memory and time more tightly (the fuzzer: a mutated
 // size would otherwise exhaust its memory limit) passes smaller ones. Beyond
 // them the scene is refused with a SceneError at the key.
 struct SceneLimits {
-  long long particles = 5'000'000;  // particles of one [[lattice]]
+  long long particles = 5'000'000;  // particles of one [[lattice]], and of all [[lattice]]s and [[network]]s together
   int links = 100'000;              // links of one [[chain]]
+  long long springs = 50'000'000;   // springs of the whole scene (generated and written)
+  // Bytes the scene may take once built (System, description and names,
+  // estimated per body and spring before the generators run: scene_memory);
+  // 0: the memory this machine has available (MemAvailable). The commands
+  // check their own estimates against the same limit.
+  double memory = 0;
   // Data files (a [[network]]'s CSV files) are read only from the scene
   // file's directory and below (symbolic links resolved), so that a scene
   // from someone else cannot read other files; true allows any path
@@ -88,6 +96,10 @@ struct SceneLimits {
 // (scene files are small: generators expand large scenes, and networks read
 // their nodes and edges from separate CSV files).
 inline constexpr std::size_t max_scene_bytes = 16u << 20;  // 16 MiB
+// Bytes a built scene takes, estimated from what its generators will make
+// (measured: a particle about 1.2 kB with its name and its entry in the
+// description, a chain link or written body 2 kB, a spring 170 bytes).
+double scene_memory(double particles, double bodies, double springs);
 std::string read_scene_file(const std::string& path);
 // read_scene_file + parse_scene.
 Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {},
