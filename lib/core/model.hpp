@@ -372,12 +372,23 @@ template <class S, class Set> void mass_matrix_entries(const System& sys, const 
       auto visit = [&](int j, const V3<S>& lever) {  // lever = p_b − p_a
         const auto jj = static_cast<std::size_t>(j);
         const V3<S> v = st.omega[jj].cross(lever) + st.centre_velocity[jj];
-        S m = st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>());
-        if (j == k && bodies[b].armature != 0.0) m += bodies[b].armature;  // rotor inertia on the diagonal
-        set(j, k, m);
+        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>())));
       };
       V3<S> lever = V3<S>::Zero();
-      for (int j = k0; j <= k; ++j) visit(j, lever);
+      const double armature = bodies[b].armature;
+      for (int j = k0; j <= k; ++j) {
+        if (armature == 0.0) {
+          visit(j, lever);
+          continue;
+        }
+        // The joint's armature (rotor inertia a): kinetic energy ½a(|ω|² + |v|²) of
+        // the joint's own relative motion, so a on the diagonal of a hinge or
+        // slide and a·J_lᵀJ_l on a rotation vector's block.
+        const auto jj = static_cast<std::size_t>(j), kk = static_cast<std::size_t>(k);
+        const V3<S> v = st.centre_velocity[jj];
+        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>()) +
+                    armature * (st.omega[jj].dot(st.omega[kk]) + v.dot(st.centre_velocity[kk]))));
+      }
       for (std::size_t c = b; bodies[c].parent >= 0; c = static_cast<std::size_t>(bodies[c].parent)) {
         lever += st.offset[c];
         const int a = bodies[c].parent;

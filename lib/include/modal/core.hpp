@@ -138,8 +138,10 @@ struct Body {
   Mat3 inertia = Mat3::Zero();   // about the centre of mass, body frame, kg·m²
   double stiffness = 0;          // joint spring, N·m/rad (hinge, ball) or N/m (slide)
   double damping = 0;            // joint damper, N·m·s/rad or N·s/m
-  // Rotor inertia added to M's diagonal entry of each of the joint's
-  // coordinates (MuJoCo's armature), kg·m² (angles, rotations) or kg (lengths).
+  // Rotor inertia of the joint (MuJoCo's armature), kg·m² (rotations) or kg
+  // (translations): kinetic energy ½a(|ω|² + |v|²) of the joint's own relative
+  // motion, which adds a to M's diagonal for a hinge or slide and a·J_lᵀJ_l
+  // (a at φ = 0) to a rotation vector's block.
   double armature = 0;
   VectorX rest;                  // joint spring rest values (size = joint coordinates)
   VectorX initial;               // joint starting values (size = joint coordinates)
