@@ -20,6 +20,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -339,6 +340,38 @@ TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
   EXPECT_NE(scene_error("", "empty.urdf").find("empty.urdf:1: not a URDF file"), std::string::npos);
 }
 
+// The scene format's `orientation` and `armature`: a body turned by 90° about z
+// with its hinge about its own x axis is the unturned body on a hinge about y
+// with its geometry turned; armature adds to M's diagonal.
+TEST(Import, OrientationAndArmatureInTomlScenes) {
+  const double h = std::sqrt(0.5);
+  const std::string turned = "gravity = [0, 0, -9.81]\n[[body]]\nname = \"a\"\njoint = \"hinge\"\naxis = [1, 0, 0]\n"
+                             "orientation = [" + std::to_string(h) + ", 0, 0, " + std::to_string(h) + "]\n"
+                             "mass = 2\ncom = [0.3, 0, -1]\ninertia = [0.1, 0.2, 0.25, 0, 0, 0]\narmature = 0.5\n";
+  const std::string plain = "gravity = [0, 0, -9.81]\n[[body]]\nname = \"a\"\njoint = \"hinge\"\naxis = [0, 1, 0]\n"
+                            "mass = 2\ncom = [0, 0.3, -1]\ninertia = [0.2, 0.1, 0.25, 0, 0, 0]\n";
+  const modal::Model a = modal::model_from_text(turned, "turned.toml");
+  const modal::Model b = modal::model_from_text(plain, "plain.toml");
+  modal::Workspace wa(a.system), wb(b.system);
+  const modal::VectorX q = modal::VectorX::Constant(1, 0.3);
+  EXPECT_NEAR(modal::mass_matrix(a.system, wa, q)(0, 0), modal::mass_matrix(b.system, wb, q)(0, 0) + 0.5, 1e-6);
+  EXPECT_NEAR(modal::potential_hessian(a.system, wa, q)(0, 0), modal::potential_hessian(b.system, wb, q)(0, 0), 1e-6);
+  const auto bad = [](const std::string& text) {
+    try {
+      modal::model_from_text(text, "bad.toml");
+    } catch (const modal::SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(bad("[[body]]\nname = \"a\"\njoint = \"hinge\"\nmass = 1\norientation = [0, 0, 0, 0]\n")
+                .find("body[1].orientation: a quaternion"),
+            std::string::npos);
+  EXPECT_NE(bad("[[body]]\nname = \"a\"\njoint = \"fixed\"\nmass = 1\narmature = 1\n")
+                .find("'armature' is not used by a fixed joint"),
+            std::string::npos);
+}
+
 TEST(Import, FormatDetection) {
   using modal::SceneFormat;
   EXPECT_EQ(modal::scene_format("a.xml", ""), SceneFormat::mjcf);
@@ -375,6 +408,10 @@ TEST(ImportCli, AnalyzeConvertAndErrors) {
   const auto forced = run_modal({"check", toml, "--format", "mjcf"});
   EXPECT_EQ(forced.status, 2);
   EXPECT_NE(forced.err.find("not an MJCF file"), std::string::npos) << forced.err;
+  // MJCF files have no parameters to sweep: the message says how to get some.
+  const auto swept = run_modal({"sweep", model, "--vary", "g=1:2:3"});
+  EXPECT_EQ(swept.status, 2);
+  EXPECT_NE(swept.err.find("modal convert"), std::string::npos) << swept.err;
   std::filesystem::remove_all(dir);
 }
 

@@ -314,6 +314,11 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
   if (options.extrapolate && axes.size() != 1)
     throw InputError("--extrapolate works along one --vary, not on a stability map");
   if (options.extrapolate) check_extrapolation_axis(axes[0]);  // before the sweep runs
+  if (model.format != SceneFormat::toml && model.scene.parameters.empty())
+    throw InputError(fmt::format("--vary: {} is an {} file, which has no parameters to vary; `modal convert {} -o "
+                                 "scene.toml` writes it as a TOML scene in which numbers can be made [parameters]",
+                                 model.scene.file, model.format == SceneFormat::urdf ? "URDF" : "MJCF",
+                                 model.scene.file));
   SweepStudy study;
   study.scene_file = model.scene.file;
   study.axes = axes;
