@@ -276,7 +276,8 @@ TEST_P(Bundled, MatchesMuJoCo) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, Bundled,
-                         testing::Values("double_pendulum.xml", "arm7.xml", "ball_tree.xml", "arm.urdf"));
+                         testing::Values("double_pendulum.xml", "arm7.xml", "ball_tree.xml", "arm.urdf",
+                                         "pendulum_tool.urdf"));
 
 // --- errors ------------------------------------------------------------------------------
 
