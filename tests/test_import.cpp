@@ -339,6 +339,8 @@ TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
   EXPECT_NE(wrong_root.find("robot.xml:1: not an MJCF file: its root element is <robot>"), std::string::npos)
       << wrong_root;
   EXPECT_NE(scene_error("", "empty.urdf").find("empty.urdf:1: not a URDF file"), std::string::npos);
+  EXPECT_NE(scene_error("<mujoco/>", "empty.xml").find("empty.xml: the model has no body besides the world"),
+            std::string::npos);
 }
 
 // The scene format's `orientation` and `armature`: a body turned by 90° about z

@@ -463,6 +463,10 @@ std::string import_scene(std::string_view text, const std::string& file, SceneFo
     if (pos != std::string::npos) line = std::atoi(message.c_str() + pos + 5);
     throw SceneError({file, std::max(line, 0), 0}, "", "MuJoCo could not load the model: " + message);
   }
+  if (model->nbody < 2)
+    throw SceneError({file, 0, 0}, "",
+                     std::string("the model has no body besides the world: nothing moves, nothing to analyze (") +
+                         (format == SceneFormat::urdf ? "a URDF file needs links joined by joints" : "add a <body> to <worldbody>") + ")");
   const Importer importer(*model, text, file, format);
   try {
     importer.check_unsupported();
