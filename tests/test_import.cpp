@@ -279,6 +279,42 @@ INSTANTIATE_TEST_SUITE_P(Models, Bundled,
                          testing::Values("double_pendulum.xml", "arm7.xml", "ball_tree.xml", "arm.urdf",
                                          "pendulum_tool.urdf"));
 
+// A connect equality becomes a point [[constraint]]: the four-bar linkage's
+// frequency against MuJoCo's M and finite-difference K projected onto the
+// null space of MuJoCo's constraint Jacobian efc_J (at the written
+// configuration, where springs hold it with zero constraint force, so the
+// multipliers' curvature term vanishes).
+TEST(Import, ConnectEqualityIsAPointConstraint) {
+  const std::string path = std::string(MODAL_SOURCE_DIR) + "/models/four_bar.xml";
+  const modal::Model model = modal::load_model(path);
+  ASSERT_EQ(model.system.constraints().size(), 1u);
+  char error[1000] = "";
+  const MjModel m(mj_loadXML(path.c_str(), nullptr, error, sizeof error));
+  ASSERT_TRUE(m) << error;
+  const modal::Analysis a = modal::analyze(model);
+  const modal::VectorX q = a.equilibrium().q;
+  EXPECT_LT(q.norm(), 1e-12);
+  Reference ref(*m, model.system);
+  const modal::MatrixX M = ref.mass(q);
+  const modal::MatrixX K = ref.stiffness(q, 1e-5);
+  const MjData d(mj_makeData(m.get()));
+  mj_forward(m.get(), d.get());
+  modal::MatrixX J(d->nefc, m->nv);
+  for (int i = 0; i < d->nefc; ++i)
+    for (int j = 0; j < m->nv; ++j) J(i, j) = d->efc_J[i * m->nv + j];
+  const Eigen::JacobiSVD<modal::MatrixX> svd(J, Eigen::ComputeFullV);
+  int rank = 0;
+  for (Eigen::Index i = 0; i < svd.singularValues().size(); ++i)
+    if (svd.singularValues()[i] > 1e-10 * svd.singularValues()[0]) ++rank;
+  const modal::MatrixX N = svd.matrixV().rightCols(m->nv - rank);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<modal::MatrixX> es(N.transpose() * K * N, N.transpose() * M * N,
+                                                                    Eigen::EigenvaluesOnly);
+  ASSERT_EQ(static_cast<Eigen::Index>(a.result().modes.size()), es.eigenvalues().size());
+  for (std::size_t i = 0; i < a.result().modes.size(); ++i)
+    EXPECT_NEAR(a.result().modes[i].omega2, es.eigenvalues()[static_cast<Eigen::Index>(i)],
+                1e-7 * es.eigenvalues().cwiseAbs().maxCoeff());
+}
+
 // --- errors ------------------------------------------------------------------------------
 
 std::string scene_error(const std::string& xml, const std::string& name = "bad.xml") {
@@ -312,9 +348,9 @@ TEST(Import, UnsupportedElementsAreRefusedWithNameAndLine) {
   EXPECT_NE(scene_error(limit).find("bad.xml:4: joint 'pivot': its limit is active"), std::string::npos)
       << scene_error(limit);
   const std::string equality = "<mujoco>\n<worldbody>\n" + pendulum_body +
-                               "\n</worldbody>\n<equality>\n<connect name=\"loop\" body1=\"link\" anchor=\"0 0 -1\"/>"
+                               "\n</worldbody>\n<equality>\n<weld name=\"loop\" body1=\"link\"/>"
                                "\n</equality>\n</mujoco>";
-  EXPECT_NE(scene_error(equality).find("bad.xml:6: equality 'loop': a connect equality"), std::string::npos)
+  EXPECT_NE(scene_error(equality).find("bad.xml:6: equality 'loop': a weld equality"), std::string::npos)
       << scene_error(equality);
   const std::string contact = "<mujoco>\n<worldbody>\n<geom name=\"floor\" type=\"plane\" size=\"5 5 1\"/>\n"
                               "<body name=\"box\" pos=\"0 0 0.05\"><joint name=\"drop\" type=\"slide\" axis=\"0 0 1\"/>"

@@ -9,8 +9,9 @@
 // the compiler, frames resolved, defaults applied) is written as the
 // equivalent TOML scene, a tree of [[body]] tables, which modal then reads like
 // any other scene, so every command and the exact derivatives apply to it.
-// What would change the linear model but has no counterpart in a modal scene
-// (tendon springs, actuators acting at rest, equality constraints, contacts or
+// Active connect equalities become point [[constraint]]s. What would change
+// the linear model but has no counterpart in a modal scene (tendon springs,
+// actuators acting at rest, other equality constraints, contacts or
 // joint limits active in the written configuration, dry friction, fluid
 // viscosity) is refused with a SceneError naming the element, its name and,
 // when it can be found in the text, its line.
