@@ -56,6 +56,8 @@ modal_dependency(fmt::fmt PRIVATE FIND fmt PKG_CONFIG fmt)
 # modules (cmake/FindCHOLMOD.cmake, cmake/FindMUMPS.cmake) are installed with
 # the package.
 modal_dependency(CHOLMOD::CHOLMOD PRIVATE FIND CHOLMOD LIBS -lcholmod -lsuitesparseconfig)
+# libmujoco (MJCF and URDF import): Debian's own CMake config is unusable (cmake/FindMuJoCo.cmake).
+modal_dependency(MuJoCo::MuJoCo PRIVATE FIND MuJoCo LIBS -lmujoco)
 modal_dependency(MUMPS::MUMPS PRIVATE FIND MUMPS LIBS -ldmumps_seq -lmumps_common_seq -lpord_seq -lmpiseq_seq)
 
 # --- stages -----------------------------------------------------------------------

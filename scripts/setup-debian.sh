@@ -19,6 +19,7 @@ packages=(
   libgsl-dev           # GSL: ODE integration (energy conservation, simulation)
   libcli11-dev         # command line
   libtomlplusplus-dev  # scene files (TOML)
+  libmujoco-dev        # MJCF and URDF scenes: libmujoco compiles them (mj_loadXML), modal imports the compiled model
   libfmt-dev           # text tables
   nlohmann-json3-dev   # JSON output
   libgtest-dev libgmock-dev  # tests

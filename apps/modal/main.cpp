@@ -78,10 +78,21 @@ struct SceneArgs {
   std::vector<std::string> sets;
   bool allow_outside_data = false;
   std::string max_memory;
+  std::string format = "auto";
 };
 
+void add_format_option(CLI::App* cmd, std::string& format) {
+  cmd->add_option("--format", format,
+                  "how to read the scene file: toml, mjcf (MuJoCo XML), urdf, or auto (by its extension .toml, "
+                  ".xml, .urdf, then its content)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "toml", "mjcf", "urdf"}));
+}
+
 void add_scene_options(CLI::App* cmd, SceneArgs& s) {
-  cmd->add_option("SCENE", s.file, "scene file (TOML, docs/design.md \"Scene format\")")->required();
+  cmd->add_option("SCENE", s.file,
+                  "scene file: TOML (docs/design.md \"Scene format\"), MJCF or URDF (\"Importing MJCF and URDF\")")
+      ->required();
   cmd->add_option("--set", s.sets, "override a parameter: NAME=VALUE (VALUE may be an expression)")
       ->type_name("N=V")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
@@ -91,13 +102,14 @@ void add_scene_options(CLI::App* cmd, SceneArgs& s) {
                   "memory the scene and the command may use, e.g. 4G or 512M (default: what the machine has "
                   "available); larger work is refused before it starts")
       ->type_name("SIZE");
+  add_format_option(cmd, s.format);
 }
 
 modal::Model load(const SceneArgs& s) {
   modal::SceneLimits limits;
   limits.allow_outside_data = s.allow_outside_data;
   if (!s.max_memory.empty()) limits.memory = modal::parse_memory_size(s.max_memory);
-  return modal::load_model(s.file, s.sets, limits);
+  return modal::load_model(s.file, s.sets, limits, *modal::parse_scene_format(s.format));
 }
 
 template <class Enum>
@@ -305,6 +317,14 @@ int main(int argc, char** argv) {
       ->check(between(1e-15, 1e-3));
   amplitude->add_option("--csv", amplitude_out.csv, "write the scan as CSV")->type_name("FILE");
 
+  // --- convert ---
+  std::string convert_file, convert_output, convert_format = "auto";
+  CLI::App* convert = app.add_subcommand(
+      "convert", "write an MJCF or URDF model as the equivalent TOML scene (to standard output, or -o FILE)");
+  convert->add_option("SCENE", convert_file, "the model file (MJCF, URDF; a TOML scene is copied)")->required();
+  convert->add_option("-o,--output", convert_output, "write the TOML scene to FILE")->type_name("FILE");
+  add_format_option(convert, convert_format);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -369,6 +389,16 @@ int main(int argc, char** argv) {
       for (const std::string& note : s.notes) std::cerr << "modal: " << note << '\n';
       modal::write_simulation(std::cout, s, simulate_out);
       modal::print_simulation_summary(std::cerr, s.trajectory, s.options);
+    } else if (*convert) {
+      if (!convert_output.empty()) modal::check_output_paths({convert_output}, {convert_file});
+      std::string toml = modal::convert_scene(convert_file, *modal::parse_scene_format(convert_format));
+      if (convert_output.empty()) {
+        std::cout << toml;
+      } else {
+        modal::OutputFiles files;
+        files.add(convert_output, std::move(toml));
+        files.commit();
+      }
     } else if (*amplitude) {
       modal::check_outputs(modal::Command::amplitude, amplitude_out, amplitude_scene.file);
       const modal::Model model = load(amplitude_scene);

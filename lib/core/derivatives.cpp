@@ -416,7 +416,8 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
     int r0 = -1;
     if (body.joint == JointType::ball || body.joint == JointType::free) {
       r0 = k0 + (body.joint == JointType::free ? 3 : 0);
-      const Mat3 Rp = body.parent >= 0 ? st.rotation[static_cast<std::size_t>(body.parent)] : Mat3::Identity();
+      const Mat3 Rp = (body.parent >= 0 ? st.rotation[static_cast<std::size_t>(body.parent)] : Mat3::Identity()) *
+                      body.orientation;  // the frame the joint acts in
       using D3 = Dual<double, 3>;
       const model::V3<D3> phi(D3(q[r0], 0), D3(q[r0 + 1], 1), D3(q[r0 + 2], 2));
       const model::M3<D3> Jl = model::rotation_left_jacobian(phi);

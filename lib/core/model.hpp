@@ -122,22 +122,26 @@ template <class S> void forward_kinematics(const System& sys, const S* q, TreeSt
     const int k0 = sys.first_coordinate(static_cast<int>(b));
     const auto k = static_cast<std::size_t>(k0);
     V3<S> origin = cast3<S>(body.origin);
+    // The parent frame turned by the body's fixed orientation: the frame the
+    // joint acts in (Rp itself when the orientation is the identity).
+    const bool turned = !body.orientation.isIdentity(0.0);
+    const M3<S> Rq = turned ? M3<S>(Rp * cast33<S>(body.orientation)) : Rp;
     V3<S>& d = st.offset[b];
     switch (body.joint) {
       case JointType::fixed:
-        st.rotation[b] = Rp;
+        st.rotation[b] = Rq;
         d = Rp * origin;
         break;
       case JointType::hinge: {
-        st.rotation[b] = Rp * rotation_axis_angle(body.axis, q[k0]);
+        st.rotation[b] = Rq * rotation_axis_angle(body.axis, q[k0]);
         d = Rp * origin;
-        st.omega[k] = Rp * cast3<S>(body.axis);
+        st.omega[k] = Rq * cast3<S>(body.axis);
         st.centre_velocity[k] = V3<S>::Zero();
         break;
       }
       case JointType::slide: {
-        const V3<S> axis = Rp * cast3<S>(body.axis);
-        st.rotation[b] = Rp;
+        const V3<S> axis = Rq * cast3<S>(body.axis);
+        st.rotation[b] = Rq;
         d = Rp * origin + axis * q[k0];
         st.omega[k] = V3<S>::Zero();
         st.centre_velocity[k] = axis;
@@ -169,9 +173,9 @@ template <class S> void forward_kinematics(const System& sys, const S* q, TreeSt
           r = k + 3;
         }
         const V3<S> phi(q[r], q[r + 1], q[r + 2]);
-        st.rotation[b] = Rp * rotation_exp(phi);
+        st.rotation[b] = Rq * rotation_exp(phi);
         d = Rp * origin;
-        const M3<S> W = Rp * rotation_left_jacobian(phi);
+        const M3<S> W = Rq * rotation_left_jacobian(phi);
         for (std::size_t i = 0; i < 3; ++i) {
           st.omega[r + i] = W.col(static_cast<Eigen::Index>(i));
           st.centre_velocity[r + i] = V3<S>::Zero();
@@ -371,7 +375,20 @@ template <class S, class Set> void mass_matrix_entries(const System& sys, const 
         set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>())));
       };
       V3<S> lever = V3<S>::Zero();
-      for (int j = k0; j <= k; ++j) visit(j, lever);
+      const double armature = bodies[b].armature;
+      for (int j = k0; j <= k; ++j) {
+        if (armature == 0.0) {
+          visit(j, lever);
+          continue;
+        }
+        // The joint's armature (rotor inertia a): kinetic energy ½a(|ω|² + |v|²) of
+        // the joint's own relative motion, so a on the diagonal of a hinge or
+        // slide and a·J_lᵀJ_l on a rotation vector's block.
+        const auto jj = static_cast<std::size_t>(j), kk = static_cast<std::size_t>(k);
+        const V3<S> v = st.centre_velocity[jj];
+        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>()) +
+                    armature * (st.omega[jj].dot(st.omega[kk]) + v.dot(st.centre_velocity[kk]))));
+      }
       for (std::size_t c = b; bodies[c].parent >= 0; c = static_cast<std::size_t>(bodies[c].parent)) {
         lever += st.offset[c];
         const int a = bodies[c].parent;

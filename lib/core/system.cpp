@@ -73,6 +73,13 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     require(finite(body.origin) && finite(body.com) && finite(body.inertia), who + "non-finite geometry");
     require(std::isfinite(body.stiffness) && body.stiffness >= 0, who + "stiffness must be non-negative");
     require(std::isfinite(body.damping) && body.damping >= 0, who + "damping must be non-negative");
+    require(std::isfinite(body.armature) && body.armature >= 0, who + "armature must be non-negative");
+    require(finite(body.orientation) &&
+                (body.orientation.transpose() * body.orientation - Mat3::Identity()).norm() < 1e-12 &&
+                body.orientation.determinant() > 0,
+            who + "orientation must be a rotation matrix");
+    require(body.orientation.isIdentity(0.0) || body.joint != JointType::particle,
+            who + "a particle has no orientation");
     if (body.joint == JointType::hinge || body.joint == JointType::slide)
       require(std::abs(body.axis.norm() - 1.0) < 1e-12, who + "axis must be a unit vector");
     const int nq = joint_coordinate_count(body);
@@ -152,14 +159,18 @@ System::System(SystemDescription description) : d_(std::move(description)) {
 
   // Length scale: farthest joint, centre of mass or attachment from the origin at q = 0.
   std::vector<Vec3> origin_at_zero(nb);
+  std::vector<Mat3> rotation_at_zero(nb);
   double scale = 0;
   for (std::size_t b = 0; b < nb; ++b) {
     const Body& body = d_.bodies[b];
-    origin_at_zero[b] = (body.parent >= 0 ? origin_at_zero[static_cast<std::size_t>(body.parent)] : Vec3::Zero()) + body.origin;
-    scale = std::max({scale, origin_at_zero[b].norm(), (origin_at_zero[b] + body.com).norm()});
+    const auto p = static_cast<std::size_t>(body.parent);
+    origin_at_zero[b] = (body.parent >= 0 ? Vec3(origin_at_zero[p] + rotation_at_zero[p] * body.origin) : body.origin);
+    rotation_at_zero[b] = (body.parent >= 0 ? rotation_at_zero[p] : Mat3::Identity()) * body.orientation;
+    scale = std::max({scale, origin_at_zero[b].norm(), (origin_at_zero[b] + rotation_at_zero[b] * body.com).norm()});
   }
   auto point_at_zero = [&](const Attachment& a) {
-    return a.body < 0 ? a.point : Vec3(origin_at_zero[static_cast<std::size_t>(a.body)] + a.point);
+    const auto b = static_cast<std::size_t>(a.body);
+    return a.body < 0 ? a.point : Vec3(origin_at_zero[b] + rotation_at_zero[b] * a.point);
   };
   for (const Spring& s : d_.springs)
     scale = std::max({scale, point_at_zero(s.a).norm(), point_at_zero(s.b).norm(), s.rest_length});

@@ -229,19 +229,25 @@ double sparse_analysis_memory(const System& system) { return 200 * coupled_pairs
 // --- the model -------------------------------------------------------------------------
 
 Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set,
-                      const SceneLimits& limits) {
-  std::vector<ParameterOverride> overrides = parse_overrides(set);
+                      const SceneLimits& limits, SceneFormat format) {
+  std::vector<ParameterOverride> overrides = parse_overrides(set);  // a bad --set before reading anything
+  format = scene_format(name, text, format);
+  if (format != SceneFormat::toml) text = import_scene(text, name, format);
   Scene scene = parse_scene(text, name, overrides, limits);
   System system = build_system(scene);
-  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits};
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits, format};
 }
 
-Model load_model(const std::string& path, const std::vector<std::string>& set, const SceneLimits& limits) {
-  std::vector<ParameterOverride> overrides = parse_overrides(set);  // a bad --set before reading anything
+Model load_model(const std::string& path, const std::vector<std::string>& set, const SceneLimits& limits,
+                 SceneFormat format) {
+  parse_overrides(set);  // a bad --set before reading anything
+  return model_from_text(read_scene_file(path), path, set, limits, format);
+}
+
+std::string convert_scene(const std::string& path, SceneFormat format) {
   std::string text = read_scene_file(path);
-  Scene scene = parse_scene(text, path, overrides, limits);
-  System system = build_system(scene);
-  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits};
+  format = scene_format(path, text, format);
+  return format == SceneFormat::toml ? text : import_scene(text, path, format);
 }
 
 VectorX parse_coordinates(const System& sys, const std::string& option, const std::string& text) {
@@ -393,6 +399,11 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
   if (options.extrapolate && axes.size() != 1)
     throw InputError("--extrapolate works along one --vary, not on a stability map");
   if (options.extrapolate) check_extrapolation_axis(axes[0]);  // before the sweep runs
+  if (model.format != SceneFormat::toml && model.scene.parameters.empty())
+    throw InputError(fmt::format("--vary: {} is an {} file, which has no parameters to vary; `modal convert {} -o "
+                                 "scene.toml` writes it as a TOML scene in which numbers can be made [parameters]",
+                                 model.scene.file, model.format == SceneFormat::urdf ? "URDF" : "MJCF",
+                                 model.scene.file));
   SweepStudy study;
   study.scene_file = model.scene.file;
   study.axes = axes;

@@ -22,6 +22,7 @@
 #include "scene/reader.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <array>
@@ -172,8 +173,8 @@ BodyEntry named_entry(const Section& s, const std::string& what) {
 
 BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
   const Section s(reader, table, scene_detail::index_key("body", index), "[[body]]");
-  s.check_keys({"name", "parent", "joint", "axis", "origin", "mass", "com", "inertia", "stiffness", "rest",
-                "damping", "initial"});
+  s.check_keys({"name", "parent", "joint", "axis", "origin", "orientation", "mass", "com", "inertia", "stiffness",
+                "rest", "damping", "armature", "initial"});
   BodyEntry e = named_entry(s, "body");
   Body& b = e.body;
 
@@ -189,17 +190,26 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   for (const auto& [key, used] : {std::pair<std::string_view, bool>{"axis", has_axis}, {"stiffness", has_spring},
                                   {"rest", has_spring}, {"damping", has_spring}, {"initial", has_initial}})
     if (!used && s.has(key)) s.fail(key, "'" + std::string(key) + "' is not used by a " + joint + " joint");
+  if (b.joint == JointType::fixed && s.has("armature")) s.fail("armature", "'armature' is not used by a fixed joint");
 
   e.parent = s.string("parent", "world");
   e.parent_node = s.find("parent");
   e.parent_key = s.key("parent");
   if (has_axis) b.axis = s.unit_vector("axis", Vec3::UnitY());
   b.origin = s.vector3("origin", Vec3::Zero());
+  if (s.has("orientation")) {  // a quaternion [w, x, y, z], normalized here
+    const VectorX w = s.numbers("orientation", VectorX::Zero(4));
+    const double norm = w.norm();
+    if (!(norm > 0) || !std::isfinite(norm))
+      s.fail("orientation", "a quaternion [w, x, y, z] must not be zero");
+    b.orientation = Eigen::Quaterniond(w[0] / norm, w[1] / norm, w[2] / norm, w[3] / norm).toRotationMatrix();
+  }
   b.mass = s.number("mass", 0.0, Range::nonnegative);
   b.com = s.vector3("com", Vec3::Zero());
   b.inertia = scene_detail::read_inertia(s);
   b.stiffness = s.number("stiffness", 0.0, Range::nonnegative);
   b.damping = s.number("damping", 0.0, Range::nonnegative);
+  b.armature = s.number("armature", 0.0, Range::nonnegative);
   const int n = joint_coordinate_count(b.joint);
   b.rest = has_spring ? joint_values(s, "rest", n) : VectorX::Zero(n);
   b.initial = joint_values(s, "initial", n);
@@ -564,21 +574,26 @@ Vec3 end_point(const Section& s, std::string_view key, int body, const BodyNames
 }
 
 // World position of an attachment at q = 0.
-Vec3 written_position(const Attachment& at, const std::vector<Vec3>& frames) {
-  return at.body < 0 ? at.point : Vec3(frames[static_cast<std::size_t>(at.body)] + at.point);
+Vec3 written_position(const Attachment& at, const std::vector<Pose>& frames) {
+  if (at.body < 0) return at.point;
+  const Pose& f = frames[static_cast<std::size_t>(at.body)];
+  return f.position + f.rotation * at.point;
 }
 
-// World position of each body frame at q = 0 (frames are translated copies of
-// their parent's, so positions add up along the path).
-std::vector<Vec3> frame_positions(const std::vector<Body>& bodies) {
-  std::vector<Vec3> p(bodies.size());
-  for (std::size_t i = 0; i < bodies.size(); ++i)
-    p[i] = (bodies[i].parent < 0 ? Vec3::Zero() : p[static_cast<std::size_t>(bodies[i].parent)]) + bodies[i].origin;
+// World pose of each body frame at q = 0 (the parent's frame moved to the
+// origin and turned by the body's orientation).
+std::vector<Pose> frame_poses(const std::vector<Body>& bodies) {
+  std::vector<Pose> p(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const Pose parent = bodies[i].parent < 0 ? Pose{} : p[static_cast<std::size_t>(bodies[i].parent)];
+    p[i].position = parent.position + parent.rotation * bodies[i].origin;
+    p[i].rotation = parent.rotation * bodies[i].orientation;
+  }
   return p;
 }
 
 Spring read_spring(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
-                   const std::vector<Vec3>& frames) {
+                   const std::vector<Pose>& frames) {
   const Section s(reader, table, scene_detail::index_key("spring", index), "[[spring]]");
   s.check_keys({"a", "b", "a_point", "b_point", "stiffness", "rest_length", "damping"});
   Spring spring;
@@ -607,7 +622,7 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
 // distance as written). `index` is the table's 0-based position; `used` the
 // names of the constraints read so far (names must be unique).
 Constraint read_constraint(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
-                           const std::vector<Vec3>& frames, std::map<std::string, int>& used) {
+                           const std::vector<Pose>& frames, std::map<std::string, int>& used) {
   const Section s(reader, table, scene_detail::index_key("constraint", index), "[[constraint]]");
   s.check_keys({"type", "name", "a", "b", "a_point", "b_point", "length"});
   Constraint c;
@@ -799,7 +814,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   order_bodies(reader, entries, blocks, scene, particle, block_start);
 
   const BodyNames names(d.bodies, chain_tips, std::move(particle));
-  const std::vector<Vec3> frames = frame_positions(d.bodies);
+  const std::vector<Pose> frames = frame_poses(d.bodies);
   const auto springs = tables_of(reader, root, "spring");
   if (!springs.empty()) {
     std::size_t generated_springs = 0;

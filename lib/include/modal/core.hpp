@@ -53,8 +53,9 @@
 // Conventions (docs/design.md, "Mechanics and sign conventions"): coordinates
 // are joint values relative to the parent body (hinge angle in rad, slide in
 // m, ball: rotation vector relative to the written orientation, free:
-// translation then rotation vector). Body frames coincide with the parent
-// frame moved to the joint origin at q = 0.
+// translation then rotation vector). At q = 0 a body frame is the parent
+// frame moved to the joint origin and turned by the body's fixed
+// `orientation` (identity unless given).
 #pragma once
 
 #include "modal/expression.hpp"
@@ -126,13 +127,22 @@ struct Body {
   std::string name;
   int parent = -1;  // index of the parent body; -1 is the world. Parents precede children.
   JointType joint = JointType::hinge;
-  Vec3 axis = Vec3::UnitY();     // unit axis of a hinge or slide, parent frame
+  Vec3 axis = Vec3::UnitY();     // unit axis of a hinge or slide, body frame (= parent frame turned by `orientation`)
   Vec3 origin = Vec3::Zero();    // joint position, parent frame, m
+  // Orientation of the body frame relative to the parent frame at q = 0 (a
+  // rotation matrix, body → parent; identity: the parent's orientation). The
+  // joint acts after it: R_b = R_parent · orientation · R_joint(q).
+  Mat3 orientation = Mat3::Identity();
   double mass = 0;               // kg
   Vec3 com = Vec3::Zero();       // centre of mass, body frame, m
   Mat3 inertia = Mat3::Zero();   // about the centre of mass, body frame, kg·m²
   double stiffness = 0;          // joint spring, N·m/rad (hinge, ball) or N/m (slide)
   double damping = 0;            // joint damper, N·m·s/rad or N·s/m
+  // Rotor inertia of the joint (MuJoCo's armature), kg·m² (rotations) or kg
+  // (translations): kinetic energy ½a(|ω|² + |v|²) of the joint's own relative
+  // motion, which adds a to M's diagonal for a hinge or slide and a·J_lᵀJ_l
+  // (a at φ = 0) to a rotation vector's block.
+  double armature = 0;
   VectorX rest;                  // joint spring rest values (size = joint coordinates)
   VectorX initial;               // joint starting values (size = joint coordinates)
   // particle joint: which parent axes (x, y, z) carry a coordinate; a fixed

@@ -28,6 +28,7 @@
 #pragma once
 
 #include "modal/equilibrium.hpp"
+#include "modal/import.hpp"
 #include "modal/linearize.hpp"
 #include "modal/modes.hpp"
 #include "modal/report.hpp"
@@ -96,22 +97,29 @@ std::string error_message(const std::exception& error);
 // A scene and the system built from it, with the text it came from (sweeps
 // re-read the text at every parameter value). Constant once made; copyable.
 struct Model {
-  std::string text;                          // the scene file's text
+  std::string text;                          // the scene's TOML text (an MJCF or URDF file's: as converted)
   std::vector<ParameterOverride> overrides;  // --set, in order
   Scene scene;
   System system;
   SceneLimits limits;                        // as read (sweeps read the text again with them)
+  SceneFormat format = SceneFormat::toml;    // what the file was (mjcf, urdf: imported, see modal/import.hpp)
 };
 
 // Reads and builds a scene file (read_scene_file: regular files only, at most
 // max_scene_bytes); `set` are "NAME=VALUE" overrides (VALUE may be an
-// expression over the other parameters). Throws SceneError.
-Model load_model(const std::string& path, const std::vector<std::string>& set = {}, const SceneLimits& limits = {});
+// expression over the other parameters). MJCF and URDF files are imported
+// (import_scene) and then read as the TOML scene they convert to; `format`
+// automatic decides by the file's name and text (scene_format). Throws SceneError.
+Model load_model(const std::string& path, const std::vector<std::string>& set = {}, const SceneLimits& limits = {},
+                 SceneFormat format = SceneFormat::automatic);
 // The same from text in memory; `name` stands for the file in messages (and
 // relative data files, such as a network's CSV, are resolved against its
 // directory).
 Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set = {},
-                      const SceneLimits& limits = {});
+                      const SceneLimits& limits = {}, SceneFormat format = SceneFormat::automatic);
+// The TOML scene of a scene file (`modal convert`): an MJCF or URDF file
+// imported, a TOML file as it is.
+std::string convert_scene(const std::string& path, SceneFormat format = SceneFormat::automatic);
 
 // "q1,q2,..." (one finite number per coordinate of `system`, as for --at or
 // --velocity) → n values; InputError naming `option` and the coordinates

@@ -1,0 +1,457 @@
+// MJCF and URDF import (modal/import.hpp) against libmujoco as the reference:
+// for the bundled models and for seeded random kinematic trees (hinge, slide
+// and ball joints, several joints per body, random frames, inertias, joint
+// anchors, springs with references, armature), modal's M(q) equals MuJoCo's
+// mj_fullM, modal's generalized rest force ∇V equals MuJoCo's
+// qfrc_bias − qfrc_passive (at zero velocity), modal's exact K equals the
+// central difference of that force, and the frequencies at modal's
+// equilibrium agree. Coordinates: a hinge or slide coordinate is qpos − qpos0;
+// a ball joint's rotation vector φ has quaternion exp(φ) and MuJoCo's
+// velocities are the body-frame angular velocity ω = J_r(φ) φ̇, so M_modal =
+// Tᵀ M_mj T and f_modal = Tᵀ f_mj with T the block-diagonal map φ̇ → ω.
+#include "core/model.hpp"
+#include "modal/pipeline.hpp"
+#include "program.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+
+namespace {
+
+struct MjDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using MjModel = std::unique_ptr<mjModel, MjDeleter>;
+using MjData = std::unique_ptr<mjData, MjDeleter>;
+
+MjModel load_mujoco(const std::string& text, const std::string& name = "model.xml") {
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  EXPECT_EQ(mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(text.size())), 0);
+  std::memcpy(vfs->filedata[vfs->nfile - 1], text.data(), text.size());
+  char error[1000] = "";
+  MjModel m(mj_loadXML(name.c_str(), vfs.get(), error, sizeof error));
+  mj_deleteVFS(vfs.get());
+  EXPECT_TRUE(m) << error;
+  return m;
+}
+
+// MuJoCo evaluated at modal's coordinates q.
+class Reference {
+ public:
+  Reference(const mjModel& m, const modal::System& sys) : m_(m), d_(mj_makeData(&m)), sys_(sys) {
+    const auto names = sys.coordinate_names();
+    for (int j = 0; j < m.njnt; ++j) {
+      const std::string name = mj_id2name(&m, mjOBJ_JOINT, j);
+      const std::string first = m.jnt_type[j] == mjJNT_BALL ? name + ".rx" : name;
+      const auto it = std::find(names.begin(), names.end(), first);
+      EXPECT_NE(it, names.end()) << "no coordinate " << first;
+      index_.push_back(static_cast<int>(it - names.begin()));
+    }
+  }
+  // qpos of q, and T (nv × n): MuJoCo's velocities of q̇.
+  void set(const modal::VectorX& q, modal::MatrixX& T) {
+    T.setZero(m_.nv, sys_.size());
+    for (int j = 0; j < m_.njnt; ++j) {
+      const int a = m_.jnt_qposadr[j], v = m_.jnt_dofadr[j], i = index_[static_cast<std::size_t>(j)];
+      if (m_.jnt_type[j] == mjJNT_BALL) {
+        const modal::Vec3 phi = q.segment<3>(i);
+        const double angle = phi.norm();
+        const Eigen::Quaterniond r =
+            angle == 0 ? Eigen::Quaterniond::Identity() : Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle));
+        d_->qpos[a] = r.w();
+        d_->qpos[a + 1] = r.x();
+        d_->qpos[a + 2] = r.y();
+        d_->qpos[a + 3] = r.z();
+        T.block<3, 3>(v, i) = modal::model::rotation_left_jacobian<double>(modal::Vec3(-phi));  // J_r(φ)
+      } else {
+        d_->qpos[a] = m_.qpos0[a] + q[i];
+        T(v, i) = 1;
+      }
+    }
+    mju_zero(d_->qvel, m_.nv);
+    mj_forward(&m_, d_.get());
+  }
+  modal::MatrixX mass(const modal::VectorX& q) {
+    modal::MatrixX T;
+    set(q, T);
+    modal::MatrixX full(m_.nv, m_.nv);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dense(m_.nv, m_.nv);
+    mj_fullM(&m_, dense.data(), d_->qM);
+    full = dense;
+    return T.transpose() * full * T;
+  }
+  // ∇V in modal's coordinates: Tᵀ (qfrc_bias − qfrc_passive) at rest.
+  modal::VectorX force(const modal::VectorX& q) {
+    modal::MatrixX T;
+    set(q, T);
+    modal::VectorX f(m_.nv);
+    for (int i = 0; i < m_.nv; ++i) f[i] = d_->qfrc_bias[i] - d_->qfrc_passive[i];
+    return T.transpose() * f;
+  }
+  modal::MatrixX stiffness(const modal::VectorX& q, double h) {
+    modal::MatrixX K(sys_.size(), sys_.size());
+    for (int k = 0; k < sys_.size(); ++k) {
+      modal::VectorX a = q, b = q;
+      a[k] += h;
+      b[k] -= h;
+      K.col(k) = (force(a) - force(b)) / (2 * h);
+    }
+    return K;
+  }
+
+ private:
+  const mjModel& m_;
+  MjData d_;
+  const modal::System& sys_;
+  std::vector<int> index_;
+};
+
+double relative(const modal::MatrixX& a, const modal::MatrixX& b) {
+  return (a - b).cwiseAbs().maxCoeff() / std::max(b.cwiseAbs().maxCoeff(), 1e-300);
+}
+
+// modal against MuJoCo at q: M to 1e-12, ∇V to 1e-11, K to the central difference's accuracy.
+void compare_at(const mjModel& m, const modal::System& sys, const modal::VectorX& q, const std::string& what) {
+  Reference ref(m, sys);
+  modal::Workspace ws(sys);
+  EXPECT_LT(relative(modal::mass_matrix(sys, ws, q), ref.mass(q)), 1e-12) << what;
+  const modal::VectorX f = ref.force(q);
+  const double fscale = std::max(f.cwiseAbs().maxCoeff(), modal::force_scale(sys, ws, q));
+  EXPECT_LT((modal::potential_gradient(sys, ws, q) - f).cwiseAbs().maxCoeff() / fscale, 1e-11) << what;
+  const modal::MatrixX Kfd = ref.stiffness(q, 1e-5);
+  const modal::MatrixX K = modal::potential_hessian(sys, ws, q);
+  EXPECT_LT((K - Kfd).cwiseAbs().maxCoeff() / std::max(K.cwiseAbs().maxCoeff(), fscale), 1e-7) << what;
+}
+
+// Frequencies at modal's equilibrium: the undamped ω² of modal's linear model
+// (M, K) against the generalized eigenvalues of MuJoCo's M and finite-difference
+// K there (and modal's reported ω² when its model is symmetric), and modal's
+// damping matrix against MuJoCo's dof_damping.
+void compare_frequencies(const mjModel& m, const modal::Model& model, const std::string& what) {
+  const modal::Analysis a = modal::analyze(model);
+  ASSERT_TRUE(a.linear.has_value()) << what;
+  const modal::VectorX q = a.equilibrium().q;
+  Reference ref(m, model.system);
+  const modal::MatrixX M = ref.mass(q);
+  modal::MatrixX K = ref.stiffness(q, 1e-5);
+  K = 0.5 * (K + K.transpose()).eval();
+  const Eigen::GeneralizedSelfAdjointEigenSolver<modal::MatrixX> mujoco(K, M, Eigen::EigenvaluesOnly);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<modal::MatrixX> ours(a.linear->K, a.linear->M, Eigen::EigenvaluesOnly);
+  const double scale = mujoco.eigenvalues().cwiseAbs().maxCoeff();
+  ASSERT_EQ(ours.eigenvalues().size(), mujoco.eigenvalues().size()) << what;
+  for (Eigen::Index i = 0; i < ours.eigenvalues().size(); ++i)
+    EXPECT_NEAR(ours.eigenvalues()[i], mujoco.eigenvalues()[i], 1e-6 * scale) << what << " mode " << i + 1;
+  if (a.linear->symmetric()) {
+    ASSERT_EQ(static_cast<Eigen::Index>(a.result().modes.size()), mujoco.eigenvalues().size()) << what;
+    for (std::size_t i = 0; i < a.result().modes.size(); ++i)
+      EXPECT_NEAR(a.result().modes[i].omega2, mujoco.eigenvalues()[static_cast<Eigen::Index>(i)], 1e-6 * scale)
+          << what << " mode " << i + 1;
+  }
+  modal::MatrixX T;
+  ref.set(q, T);
+  modal::MatrixX D = modal::MatrixX::Zero(m.nv, m.nv);
+  for (int i = 0; i < m.nv; ++i) D(i, i) = m.dof_damping[i];
+  const modal::MatrixX Dq = T.transpose() * D * T;
+  const modal::MatrixX Dm = a.linear->has_damping ? a.linear->D : modal::MatrixX::Zero(q.size(), q.size());
+  EXPECT_LT((Dm - Dq).cwiseAbs().maxCoeff(), 1e-12 * std::max(1.0, Dq.cwiseAbs().maxCoeff())) << what;
+}
+
+// --- random kinematic trees -----------------------------------------------------------
+
+std::string vec(std::mt19937_64& rng, double lo, double hi, int n = 3) {
+  std::uniform_real_distribution<double> u(lo, hi);
+  std::string s;
+  for (int i = 0; i < n; ++i) s += (i ? " " : "") + std::to_string(u(rng));
+  return s;
+}
+
+// A seeded random tree: `bodies` bodies, each under a random earlier one (or
+// the world), with a random frame, one or two joints (hinge, slide or ball,
+// random anchors and axes), a random inertia (principal moments obeying the
+// triangle inequality, random principal frame), springs on every joint (some
+// with a reference), damping and armature.
+std::string random_tree(unsigned seed, int bodies) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<std::string> children(static_cast<std::size_t>(bodies) + 1);
+  std::vector<int> parent(static_cast<std::size_t>(bodies) + 1, 0);
+  for (int b = 1; b <= bodies; ++b) parent[static_cast<std::size_t>(b)] = static_cast<int>(u(rng) * b);
+  int joint = 0;
+  std::vector<std::string> body_xml(static_cast<std::size_t>(bodies) + 1);
+  for (int b = 1; b <= bodies; ++b) {
+    std::string x = "<body name=\"b" + std::to_string(b) + "\" pos=\"" + vec(rng, -0.5, 0.5) + "\" quat=\"" +
+                    vec(rng, -1, 1, 4) + "\">\n";
+    int nj = u(rng) < 0.25 ? 2 : 1;
+    for (int k = 0; k < nj; ++k) {
+      const double t = u(rng);
+      const char* type = t < 0.45 ? "hinge" : t < 0.7 ? "slide" : "ball";
+      if (std::string(type) == "ball") nj = k + 1;  // MuJoCo: nothing may follow a ball joint in its body
+      x += std::string("<joint name=\"j") + std::to_string(joint++) + "\" type=\"" + type + "\" pos=\"" +
+           vec(rng, -0.3, 0.3) + "\"";
+      if (std::string(type) != "ball") x += " axis=\"" + vec(rng, -1, 1) + "\" springref=\"" + vec(rng, -0.3, 0.3, 1) + "\"";
+      if (std::string(type) == "hinge") x += " ref=\"" + vec(rng, -0.5, 0.5, 1) + "\"";
+      x += " stiffness=\"" + vec(rng, 5, 50, 1) + "\" damping=\"" + vec(rng, 0, 1, 1) + "\" armature=\"" +
+           vec(rng, 0, 0.05, 1) + "\"/>\n";
+    }
+    const double i1 = 0.01 + 0.1 * u(rng), i2 = 0.01 + 0.1 * u(rng);
+    const double i3 = std::abs(i1 - i2) + (i1 + i2 - std::abs(i1 - i2)) * (0.1 + 0.8 * u(rng));
+    x += "<inertial pos=\"" + vec(rng, -0.3, 0.3) + "\" quat=\"" + vec(rng, -1, 1, 4) + "\" mass=\"" +
+         vec(rng, 0.2, 3, 1) + "\" diaginertia=\"" + std::to_string(i1) + " " + std::to_string(i2) + " " +
+         std::to_string(i3) + "\"/>\n";
+    body_xml[static_cast<std::size_t>(b)] = x;
+  }
+  // Nest: children are written inside their parents (deepest first).
+  for (int b = bodies; b >= 1; --b) {
+    const auto bb = static_cast<std::size_t>(b);
+    const std::string whole = body_xml[bb] + children[bb] + "</body>\n";
+    children[static_cast<std::size_t>(parent[bb])] = whole + children[static_cast<std::size_t>(parent[bb])];
+  }
+  return "<mujoco model=\"random tree " + std::to_string(seed) +
+         "\">\n<compiler angle=\"radian\"/>\n<option gravity=\"" + vec(rng, -3, 3, 2) +
+         " -9.81\"><flag contact=\"disable\"/></option>\n<worldbody>\n" + children[0] + "</worldbody>\n</mujoco>\n";
+}
+
+modal::VectorX random_configuration(const modal::System& sys, std::mt19937_64& rng, double size) {
+  std::uniform_real_distribution<double> u(-size, size);
+  modal::VectorX q(sys.size());
+  for (int i = 0; i < sys.size(); ++i) q[i] = u(rng);
+  return q;
+}
+
+TEST(Import, RandomTreesMatchMuJoCo) {
+  for (unsigned seed = 1; seed <= 12; ++seed) {
+    const std::string xml = random_tree(seed, 3 + static_cast<int>(seed % 6));
+    const std::string what = "seed " + std::to_string(seed) + "\n" + xml;
+    const modal::Model model = modal::model_from_text(xml, "random.xml");
+    const MjModel m = load_mujoco(xml);
+    ASSERT_TRUE(m);
+    ASSERT_EQ(model.system.size(), m->nv) << what;
+    std::mt19937_64 rng(seed);
+    compare_at(*m, model.system, modal::VectorX::Zero(model.system.size()), what + " at q = 0");
+    for (int k = 0; k < 3; ++k) compare_at(*m, model.system, random_configuration(model.system, rng, 1.0), what);
+    compare_frequencies(*m, model, what);
+  }
+}
+
+// --- the bundled models -----------------------------------------------------------------
+
+class Bundled : public testing::TestWithParam<const char*> {};
+
+TEST_P(Bundled, MatchesMuJoCo) {
+  const std::string path = std::string(MODAL_SOURCE_DIR) + "/models/" + GetParam();
+  const modal::Model model = modal::load_model(path);
+  char error[1000] = "";
+  const MjModel m(mj_loadXML(path.c_str(), nullptr, error, sizeof error));
+  ASSERT_TRUE(m) << error;
+  ASSERT_EQ(model.system.size(), m->nv);
+  const modal::Analysis a = modal::analyze(model);
+  compare_at(*m, model.system, a.equilibrium().q, GetParam());
+  compare_frequencies(*m, model, GetParam());
+  // The converted TOML scene gives the same frequencies (to round-off: here exactly, the import reads it too).
+  const modal::Model again = modal::model_from_text(modal::convert_scene(path), "converted.toml");
+  const modal::Analysis b = modal::analyze(again);
+  ASSERT_EQ(a.result().modes.size(), b.result().modes.size());
+  for (std::size_t i = 0; i < a.result().modes.size(); ++i)
+  {
+    const modal::Mode& x = a.result().modes[i];
+    const modal::Mode& y = b.result().modes[i];
+    EXPECT_NEAR(x.omega, y.omega, 1e-12 * std::max(1.0, x.omega));
+    EXPECT_NEAR(x.growth_rate, y.growth_rate, 1e-12 * std::max(1.0, x.omega));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, Bundled,
+                         testing::Values("double_pendulum.xml", "arm7.xml", "ball_tree.xml", "arm.urdf",
+                                         "pendulum_tool.urdf"));
+
+// A connect equality becomes a point [[constraint]]: the four-bar linkage's
+// frequency against MuJoCo's M and finite-difference K projected onto the
+// null space of MuJoCo's constraint Jacobian efc_J (at the written
+// configuration, where springs hold it with zero constraint force, so the
+// multipliers' curvature term vanishes).
+TEST(Import, ConnectEqualityIsAPointConstraint) {
+  const std::string path = std::string(MODAL_SOURCE_DIR) + "/models/four_bar.xml";
+  const modal::Model model = modal::load_model(path);
+  ASSERT_EQ(model.system.constraints().size(), 1u);
+  char error[1000] = "";
+  const MjModel m(mj_loadXML(path.c_str(), nullptr, error, sizeof error));
+  ASSERT_TRUE(m) << error;
+  const modal::Analysis a = modal::analyze(model);
+  const modal::VectorX q = a.equilibrium().q;
+  EXPECT_LT(q.norm(), 1e-12);
+  Reference ref(*m, model.system);
+  const modal::MatrixX M = ref.mass(q);
+  const modal::MatrixX K = ref.stiffness(q, 1e-5);
+  const MjData d(mj_makeData(m.get()));
+  mj_forward(m.get(), d.get());
+  modal::MatrixX J(d->nefc, m->nv);
+  for (int i = 0; i < d->nefc; ++i)
+    for (int j = 0; j < m->nv; ++j) J(i, j) = d->efc_J[i * m->nv + j];
+  const Eigen::JacobiSVD<modal::MatrixX> svd(J, Eigen::ComputeFullV);
+  int rank = 0;
+  for (Eigen::Index i = 0; i < svd.singularValues().size(); ++i)
+    if (svd.singularValues()[i] > 1e-10 * svd.singularValues()[0]) ++rank;
+  const modal::MatrixX N = svd.matrixV().rightCols(m->nv - rank);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<modal::MatrixX> es(N.transpose() * K * N, N.transpose() * M * N,
+                                                                    Eigen::EigenvaluesOnly);
+  ASSERT_EQ(static_cast<Eigen::Index>(a.result().modes.size()), es.eigenvalues().size());
+  for (std::size_t i = 0; i < a.result().modes.size(); ++i)
+    EXPECT_NEAR(a.result().modes[i].omega2, es.eigenvalues()[static_cast<Eigen::Index>(i)],
+                1e-7 * es.eigenvalues().cwiseAbs().maxCoeff());
+}
+
+// --- errors ------------------------------------------------------------------------------
+
+std::string scene_error(const std::string& xml, const std::string& name = "bad.xml") {
+  try {
+    modal::model_from_text(xml, name);
+  } catch (const modal::SceneError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+const std::string pendulum_body =
+    "<body name=\"link\"><joint name=\"pivot\" axis=\"0 1 0\"/>"
+    "<geom type=\"capsule\" fromto=\"0 0 0 0 0 -1\" size=\"0.05\" mass=\"1\"/></body>";
+
+TEST(Import, UnsupportedElementsAreRefusedWithNameAndLine) {
+  const std::string tendon = "<mujoco>\n<worldbody>\n" + pendulum_body +
+                             "\n</worldbody>\n<tendon>\n<fixed name=\"spring\" stiffness=\"3\">"
+                             "<joint joint=\"pivot\" coef=\"1\"/></fixed>\n</tendon>\n</mujoco>";
+  EXPECT_NE(scene_error(tendon).find("bad.xml:6: tendon 'spring': "), std::string::npos) << scene_error(tendon);
+  const std::string servo = "<mujoco>\n<worldbody>\n" + pendulum_body +
+                            "\n</worldbody>\n<actuator>\n<position name=\"servo\" joint=\"pivot\" kp=\"10\"/>\n"
+                            "</actuator>\n</mujoco>";
+  EXPECT_NE(scene_error(servo).find("bad.xml:6: actuator 'servo': "), std::string::npos) << scene_error(servo);
+  const std::string motor = "<mujoco>\n<worldbody>\n" + pendulum_body +
+                            "\n</worldbody>\n<actuator><motor joint=\"pivot\"/></actuator>\n</mujoco>";
+  EXPECT_EQ(scene_error(motor), "no error");  // a motor does nothing at zero control
+  const std::string limit = "<mujoco>\n<worldbody>\n<body name=\"link\">\n<joint name=\"pivot\" axis=\"0 1 0\" "
+                            "limited=\"true\" range=\"0 1\"/><geom size=\"0.1\" mass=\"1\" pos=\"0 0 -1\"/></body>\n"
+                            "</worldbody>\n</mujoco>";
+  EXPECT_NE(scene_error(limit).find("bad.xml:4: joint 'pivot': its limit is active"), std::string::npos)
+      << scene_error(limit);
+  const std::string equality = "<mujoco>\n<worldbody>\n" + pendulum_body +
+                               "\n</worldbody>\n<equality>\n<weld name=\"loop\" body1=\"link\"/>"
+                               "\n</equality>\n</mujoco>";
+  EXPECT_NE(scene_error(equality).find("bad.xml:6: equality 'loop': a weld equality"), std::string::npos)
+      << scene_error(equality);
+  const std::string contact = "<mujoco>\n<worldbody>\n<geom name=\"floor\" type=\"plane\" size=\"5 5 1\"/>\n"
+                              "<body name=\"box\" pos=\"0 0 0.05\"><joint name=\"drop\" type=\"slide\" axis=\"0 0 1\"/>"
+                              "<geom name=\"cube\" type=\"box\" size=\"0.1 0.1 0.1\" mass=\"1\"/></body>\n"
+                              "</worldbody>\n</mujoco>";
+  EXPECT_NE(scene_error(contact).find("bad.xml:3: geom 'floor': is in contact with geom 'cube'"), std::string::npos)
+      << scene_error(contact);
+  const std::string friction = "<mujoco>\n<worldbody>\n<body name=\"link\">\n<joint name=\"pivot\" "
+                               "frictionloss=\"0.1\"/><geom size=\"0.1\" mass=\"1\" pos=\"0 0 -1\"/></body>\n"
+                               "</worldbody>\n</mujoco>";
+  EXPECT_NE(scene_error(friction).find("bad.xml:4: joint 'pivot': dry friction"), std::string::npos)
+      << scene_error(friction);
+}
+
+TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
+  const std::string broken = scene_error("<mujoco>\n<worldbody>\n<body name=\"a\">\n</worldbody>\n</mujoco>");
+  EXPECT_EQ(broken.rfind("bad.xml:", 0), 0u) << broken;
+  EXPECT_NE(broken.find("MuJoCo could not load the model"), std::string::npos) << broken;
+  const std::string unknown = scene_error("<mujoco><worldbody><bogus/></worldbody></mujoco>");
+  EXPECT_NE(unknown.find("MuJoCo could not load the model"), std::string::npos) << unknown;
+  const std::string wrong_root = scene_error("<robot name=\"r\"/>", "robot.xml");
+  EXPECT_NE(wrong_root.find("robot.xml:1: not an MJCF file: its root element is <robot>"), std::string::npos)
+      << wrong_root;
+  EXPECT_NE(scene_error("", "empty.urdf").find("empty.urdf:1: not a URDF file"), std::string::npos);
+  EXPECT_NE(scene_error("<mujoco/>", "empty.xml").find("empty.xml: the model has no body besides the world"),
+            std::string::npos);
+}
+
+// The scene format's `orientation` and `armature`: a body turned by 90° about z
+// with its hinge about its own x axis is the unturned body on a hinge about y
+// with its geometry turned; armature adds to M's diagonal.
+TEST(Import, OrientationAndArmatureInTomlScenes) {
+  const double h = std::sqrt(0.5);
+  const std::string turned = "gravity = [0, 0, -9.81]\n[[body]]\nname = \"a\"\njoint = \"hinge\"\naxis = [1, 0, 0]\n"
+                             "orientation = [" + std::to_string(h) + ", 0, 0, " + std::to_string(h) + "]\n"
+                             "mass = 2\ncom = [0.3, 0, -1]\ninertia = [0.1, 0.2, 0.25, 0, 0, 0]\narmature = 0.5\n";
+  const std::string plain = "gravity = [0, 0, -9.81]\n[[body]]\nname = \"a\"\njoint = \"hinge\"\naxis = [0, 1, 0]\n"
+                            "mass = 2\ncom = [0, 0.3, -1]\ninertia = [0.2, 0.1, 0.25, 0, 0, 0]\n";
+  const modal::Model a = modal::model_from_text(turned, "turned.toml");
+  const modal::Model b = modal::model_from_text(plain, "plain.toml");
+  modal::Workspace wa(a.system), wb(b.system);
+  const modal::VectorX q = modal::VectorX::Constant(1, 0.3);
+  EXPECT_NEAR(modal::mass_matrix(a.system, wa, q)(0, 0), modal::mass_matrix(b.system, wb, q)(0, 0) + 0.5, 1e-6);
+  EXPECT_NEAR(modal::potential_hessian(a.system, wa, q)(0, 0), modal::potential_hessian(b.system, wb, q)(0, 0), 1e-6);
+  const auto bad = [](const std::string& text) {
+    try {
+      modal::model_from_text(text, "bad.toml");
+    } catch (const modal::SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(bad("[[body]]\nname = \"a\"\njoint = \"hinge\"\nmass = 1\norientation = [0, 0, 0, 0]\n")
+                .find("body[1].orientation: a quaternion"),
+            std::string::npos);
+  EXPECT_NE(bad("[[body]]\nname = \"a\"\njoint = \"fixed\"\nmass = 1\narmature = 1\n")
+                .find("'armature' is not used by a fixed joint"),
+            std::string::npos);
+}
+
+TEST(Import, FormatDetection) {
+  using modal::SceneFormat;
+  EXPECT_EQ(modal::scene_format("a.xml", ""), SceneFormat::mjcf);
+  EXPECT_EQ(modal::scene_format("a.URDF", ""), SceneFormat::urdf);
+  EXPECT_EQ(modal::scene_format("a.toml", "<mujoco/>"), SceneFormat::toml);
+  EXPECT_EQ(modal::scene_format("scene", "<?xml version=\"1.0\"?>\n<!-- c -->\n<mujoco model=\"m\"/>"), SceneFormat::mjcf);
+  EXPECT_EQ(modal::scene_format("scene", "  <robot name=\"r\">"), SceneFormat::urdf);
+  EXPECT_EQ(modal::scene_format("scene", "title = \"x\""), SceneFormat::toml);
+  EXPECT_EQ(modal::scene_format("a.xml", "", SceneFormat::urdf), SceneFormat::urdf);
+}
+
+// The command line: analyze and convert an MJCF file, the documented error and exit status.
+TEST(ImportCli, AnalyzeConvertAndErrors) {
+  const std::string model = std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.xml";
+  const std::string dir = testing::TempDir() + "/modal_import_cli_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  auto run_modal = [&dir](const std::vector<std::string>& args) { return modal::test::run_modal(args, dir); };
+  const auto analyzed = run_modal({"analyze", model});
+  EXPECT_EQ(analyzed.status, 0) << analyzed.err;
+  EXPECT_NE(analyzed.out.find("shoulder"), std::string::npos);
+  const auto converted = run_modal({"convert", model});
+  EXPECT_EQ(converted.status, 0) << converted.err;
+  EXPECT_NE(converted.out.find("name = \"elbow\""), std::string::npos);
+  const std::string bad = dir + "/bad.xml";
+  std::ofstream(bad) << "<mujoco><worldbody><body></worldbody></mujoco>";
+  const auto failed = run_modal({"check", bad});
+  EXPECT_EQ(failed.status, 2);
+  EXPECT_NE(failed.err.find(bad), std::string::npos) << failed.err;
+  const std::string toml = dir + "/converted.toml";
+  EXPECT_EQ(run_modal({"convert", model, "-o", toml}).status, 0);
+  const auto again = run_modal({"analyze", toml});
+  EXPECT_EQ(again.status, 0) << again.err;
+  // The scene file as TOML although it is named .xml: --format decides.
+  const auto forced = run_modal({"check", toml, "--format", "mjcf"});
+  EXPECT_EQ(forced.status, 2);
+  EXPECT_NE(forced.err.find("not an MJCF file"), std::string::npos) << forced.err;
+  // MJCF files have no parameters to sweep: the message says how to get some.
+  const auto swept = run_modal({"sweep", model, "--vary", "g=1:2:3"});
+  EXPECT_EQ(swept.status, 2);
+  EXPECT_NE(swept.err.find("modal convert"), std::string::npos) << swept.err;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
