@@ -107,7 +107,7 @@ void read_fixed_value(const Reader& reader, const toml::node& node, const std::s
 
 }  // namespace
 
-Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index) {
+Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index, LatticePass pass) {
   const Section s(reader, table, index_key("lattice", index), "[[lattice]]");
   s.check_keys({"name", "size", "spacing", "origin", "mass", "stiffness", "damping", "diagonals", "fixed", "prestrain",
                 "plane"});
@@ -141,6 +141,10 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
   if (total > static_cast<double>(max_particles))
     reader.fail(*size_node, size_key, "the lattice would have " + count_text(total) + " particles; at most " +
                                           std::to_string(max_particles) + " are supported");
+  if (pass == LatticePass::count) {
+    reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, 0);
+    return g;
+  }
   const bool net = n[2] == 1;
 
   // spacing: one number, or one per world axis [sx, sy, sz].
@@ -208,7 +212,7 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
     for (std::size_t d = 0; d < 3; ++d) count *= static_cast<double>(std::max(0LL, n[d] - std::abs(o[d])));
     springs += count;
   }
-  reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, springs);
+  reader.add_to_scene(*size_node, size_key, "the lattice", 0, 0, springs);  // its particles: counted before
 
   // Particles, the last index fastest: index = (i n2 + j) n3 + k.
   g.bodies.reserve(static_cast<std::size_t>(total));

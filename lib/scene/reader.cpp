@@ -65,8 +65,9 @@ void Reader::add_to_scene(const toml::node& node, const std::string& key, const 
     fail(node, key, "with " + what + " the scene would have " + count_text(springs_) + " springs" + in_all +
                         "; at most " + count_text(static_cast<double>(limits_.springs)) + " are supported");
   if (const auto refusal = memory_refusal(scene_memory(particles_, bodies_, springs_),
-                                          "the scene's " + count_text(particles_ + bodies_) + " bodies and " +
-                                              count_text(springs_) + " springs" + in_all,
+                                          "the scene's " + count_text(particles_ + bodies_) + " bodies" +
+                                              (springs_ > 0 ? " and " + count_text(springs_) + " springs" : "") +
+                                              in_all,
                                           limits_.memory))
     fail(node, key, "with " + what + " " + *refusal);
 }

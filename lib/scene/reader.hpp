@@ -153,7 +153,13 @@ struct Generated {
   std::string csv;                        // network: the nodes file as resolved
   std::vector<int> lines;                 // network: each node's line in `csv`
 };
-Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index);
+// A lattice is read twice: first `count` (its size only, its particles added
+// to the scene's totals, nothing generated), once for every lattice before
+// any is generated, so that the one over the totals is refused before
+// memory is spent on the others; then `generate`.
+enum class LatticePass { count, generate };
+Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index,
+                       LatticePass pass = LatticePass::generate);
 Generated read_network(const Reader& reader, const toml::table& table, std::size_t index);
 
 // Resolves [parameters] (may be null) with the command-line overrides:

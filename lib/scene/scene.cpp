@@ -801,6 +801,8 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   const auto lattices = tables_of(reader, root, "lattice");
   const auto networks = tables_of(reader, root, "network");
   check_generator_names(reader, lattices, networks);
+  for (std::size_t i = 0; i < lattices.size(); ++i)
+    (void)scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::count);
   for (std::size_t i = 0; i < lattices.size(); ++i) blocks.push_back(scene_detail::read_lattice(reader, *lattices[i], i));
   for (std::size_t i = 0; i < networks.size(); ++i) blocks.push_back(scene_detail::read_network(reader, *networks[i], i));
   if (entries.empty() && blocks.empty())
