@@ -676,7 +676,8 @@ Constraint read_constraint(const Reader& reader, const toml::table& table, std::
 }
 
 // A [[load]]: a dead load, or with `follower = true` a follower load whose
-// force as written is its body-frame force (the scene frame at q = 0).
+// force as written is its body-frame force (at q = 0 the scene frame turned by
+// the orientations of the body and its ancestors).
 void read_load(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
                SystemDescription& d) {
   const Section s(reader, table, scene_detail::index_key("load", index), "[[load]]");

@@ -169,8 +169,8 @@ struct DeadLoad {
 
 // A force that turns with the body it acts on (a follower load, circulatory:
 // Q = Jᵀ R f is not the gradient of any potential). `force` is given in the
-// body frame, which at q = 0 has the orientation of the scene frame, so it is
-// the force as written in the scene at q = 0.
+// body frame; at q = 0 that is the scene frame turned by the `orientation` of
+// the body and its ancestors (the scene frame itself where none is given).
 struct FollowerLoad {
   Attachment at;
   Vec3 force = Vec3::Zero();  // N, body frame
