@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string>
@@ -62,6 +63,14 @@ class Reference {
       EXPECT_NE(it, names.end()) << "no coordinate " << first;
       index_.push_back(static_cast<int>(it - names.begin()));
     }
+  }
+  // The joint limits MuJoCo finds active at q (its constraint rows of type limit).
+  int active_limits(const modal::VectorX& q) {
+    modal::MatrixX T;
+    set(q, T);
+    int count = 0;
+    for (int i = 0; i < d_->nefc; ++i) count += d_->efc_type[i] == mjCNSTR_LIMIT_JOINT;
+    return count;
   }
   // qpos of q, and T (nv × n): MuJoCo's velocities of q̇.
   void set(const modal::VectorX& q, modal::MatrixX& T) {
@@ -185,8 +194,12 @@ std::string vec(std::mt19937_64& rng, double lo, double hi, int n = 3) {
 // random anchors and axes), a random inertia (principal moments obeying the
 // triangle inequality, random principal frame), springs on every joint (some
 // with a reference), damping and armature.
-std::string random_tree(unsigned seed, int bodies) {
-  std::mt19937_64 rng(seed);
+// With `limits`, every joint is limited: a hinge or slide to a random range
+// around its written value, a ball joint to a random cone (drawn from a
+// second generator, so the tree itself is the one without limits).
+std::string random_tree(unsigned seed, int bodies, bool limits = false) {
+  std::mt19937_64 rng(seed), limit_rng(seed + 1000);
+  std::uniform_real_distribution<double> span(0.02, 0.6);
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<std::string> children(static_cast<std::size_t>(bodies) + 1);
   std::vector<int> parent(static_cast<std::size_t>(bodies) + 1, 0);
@@ -204,7 +217,17 @@ std::string random_tree(unsigned seed, int bodies) {
       x += std::string("<joint name=\"j") + std::to_string(joint++) + "\" type=\"" + type + "\" pos=\"" +
            vec(rng, -0.3, 0.3) + "\"";
       if (std::string(type) != "ball") x += " axis=\"" + vec(rng, -1, 1) + "\" springref=\"" + vec(rng, -0.3, 0.3, 1) + "\"";
-      if (std::string(type) == "hinge") x += " ref=\"" + vec(rng, -0.5, 0.5, 1) + "\"";
+      double ref = 0;
+      if (std::string(type) == "hinge") {
+        const std::string r = vec(rng, -0.5, 0.5, 1);
+        ref = std::stod(r);
+        x += " ref=\"" + r + "\"";
+      }
+      if (limits)
+        x += " limited=\"true\" range=\"" +
+             (std::string(type) == "ball" ? "0 " + std::to_string(4 * span(limit_rng))
+                                          : std::to_string(ref - span(limit_rng)) + " " + std::to_string(ref + span(limit_rng))) +
+             "\"";
       x += " stiffness=\"" + vec(rng, 5, 50, 1) + "\" damping=\"" + vec(rng, 0, 1, 1) + "\" armature=\"" +
            vec(rng, 0, 0.05, 1) + "\"/>\n";
     }
@@ -313,6 +336,142 @@ TEST(Import, ConnectEqualityIsAPointConstraint) {
   for (std::size_t i = 0; i < a.result().modes.size(); ++i)
     EXPECT_NEAR(a.result().modes[i].omega2, es.eigenvalues()[static_cast<Eigen::Index>(i)],
                 1e-7 * es.eigenvalues().cwiseAbs().maxCoeff());
+}
+
+// Joint limits at the equilibrium, the class: random trees whose every joint
+// is limited (hinge and slide ranges around the written value, ball cones).
+// modal refuses an equilibrium exactly when MuJoCo, put at modal's
+// equilibrium, finds a limit active there (its constraint rows of type
+// limit), naming a joint of the file with its line; otherwise the analysis
+// lists every hinge and slide limit as inactive. Both outcomes must occur.
+TEST(Import, LimitsAtTheEquilibriumAsMuJoCoSeesThem) {
+  int refused = 0, analyzed = 0;
+  for (unsigned seed = 1; seed <= 30; ++seed) {
+    const std::string xml = random_tree(seed, 2 + static_cast<int>(seed % 5), true);
+    const std::string what = "seed " + std::to_string(seed) + "\n" + xml;
+    // (a written value at its limit cannot happen: the ranges contain it)
+    const modal::Model model = modal::model_from_text(xml, "limits.xml");
+    const MjModel m = load_mujoco(xml);
+    ASSERT_TRUE(m);
+    const modal::Equilibrium eq = modal::find_equilibrium(model.system, model.system.initial_configuration());
+    Reference mujoco(*m, model.system);
+    const int active = mujoco.active_limits(eq.q);
+    try {
+      const modal::Analysis a = modal::analyze(model);
+      EXPECT_EQ(active, 0) << what;
+      int scalar = 0;
+      for (int j = 0; j < m->njnt; ++j) scalar += m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE;
+      EXPECT_EQ(static_cast<int>(a.equilibrium().limits.size()), scalar) << what;
+      for (const modal::JointLimitState& l : a.equilibrium().limits) EXPECT_FALSE(l.active()) << what;
+      ++analyzed;
+    } catch (const modal::SceneError& e) {
+      EXPECT_GT(active, 0) << e.what() << "\n" << what;
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind("limits.xml:", 0), 0u) << message;
+      EXPECT_GT(e.where().line, 0) << message;
+      EXPECT_NE(message.find("limit"), std::string::npos) << message;
+      EXPECT_EQ(modal::exit_status(e), modal::ExitStatus::bad_input);
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 3);
+  EXPECT_GT(analyzed, 3);
+}
+
+// Contacts, hinge limits and ball cones that the written configuration does
+// not touch but the equilibrium does: refused with the element and its line;
+// an inactive limit is listed in the text and the JSON.
+TEST(Import, ContactsAndLimitsAtTheEquilibrium) {
+  // The arm is written horizontal and hangs straight down at equilibrium (90°).
+  auto arm = [](const std::string& joint, const std::string& extra, const std::string& option = "") {
+    return "<mujoco>\n" + option + "<worldbody>\n" + extra + "<body name=\"arm\" pos=\"0 0 1\">\n" + joint +
+           "\n<geom name=\"bob\" type=\"sphere\" pos=\"0.5 0 0\" size=\"0.05\" mass=\"1\"/></body>\n"
+           "</worldbody>\n</mujoco>\n";
+  };
+  const std::string no_contact = "<option><flag contact=\"disable\"/></option>\n";
+  auto analysis_error = [](const std::string& xml) -> std::string {
+    try {
+      modal::analyze(modal::model_from_text(xml, "eq.xml"));
+    } catch (const modal::SceneError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const std::string stopped = arm("<joint name=\"shoulder\" axis=\"0 1 0\" limited=\"true\" range=\"-30 60\"/>", "");
+  EXPECT_NE(analysis_error(stopped).find("eq.xml:4: range: the joint of 'shoulder' is at 1.570796327 rad"),
+            std::string::npos)
+      << analysis_error(stopped);
+  const std::string floor =
+      arm("<joint name=\"shoulder\" axis=\"0 1 0\"/>", "<geom name=\"floor\" type=\"plane\" pos=\"0 0 0.7\" size=\"2 2 0.1\"/>\n");
+  EXPECT_NE(analysis_error(floor).find("eq.xml:3: geom 'floor': is in contact with geom 'bob' in the equilibrium"),
+            std::string::npos)
+      << analysis_error(floor);
+  const std::string cone = "<mujoco>\n<option><flag contact=\"disable\"/></option>\n<worldbody>\n<body name=\"arm\" "
+                           "pos=\"0 0 1\">\n<joint name=\"socket\" type=\"ball\" limited=\"true\" range=\"0 45\"/>\n"
+                           "<geom type=\"sphere\" pos=\"0.5 0 0\" size=\"0.05\" mass=\"1\"/></body>\n</worldbody>\n"
+                           "</mujoco>\n";
+  EXPECT_NE(analysis_error(cone).find("eq.xml:5: joint 'socket': the ball joint is turned by 1.5707963"),
+            std::string::npos)
+      << analysis_error(cone);
+  // Inside its range: analyzed, the limit reported.
+  const std::string free = arm("<joint name=\"shoulder\" axis=\"0 1 0\" limited=\"true\" range=\"-30 120\"/>", "", no_contact);
+  const modal::Analysis a = modal::analyze(modal::model_from_text(free, "eq.xml"));
+  ASSERT_EQ(a.equilibrium().limits.size(), 1u);
+  EXPECT_NEAR(a.equilibrium().limits[0].value, std::numbers::pi / 2, 1e-12);
+  EXPECT_NEAR(a.equilibrium().limits[0].upper, 2 * std::numbers::pi / 3, 1e-15);
+  std::ostringstream text;
+  modal::write_analysis(text, a);
+  EXPECT_NE(text.str().find("shoulder = 1.570796327 in [-0.5235987756, 2.094395102] rad  (90 in [-30, 120] deg)"),
+            std::string::npos)
+      << text.str();
+  const std::string json = modal::analysis_json(a.report);
+  EXPECT_NE(json.find("\"limits\""), std::string::npos);
+  // The survey keeps an equilibrium at a stop out of its table and says why.
+  // Hanging (90°) beyond the range, upright (−90°) inside it:
+  const std::string half = arm("<joint name=\"shoulder\" axis=\"0 1 0\" limited=\"true\" range=\"-120 60\"/>", "");
+  const modal::EquilibriumSurvey survey = modal::equilibria(modal::model_from_text(half, "eq.xml"));
+  ASSERT_EQ(survey.report.equilibria.size(), 1u);
+  EXPECT_NEAR(survey.report.equilibria[0].equilibrium.q[0], -std::numbers::pi / 2, 1e-12);
+  ASSERT_EQ(survey.unanalyzed.size(), 1u);
+  EXPECT_NE(survey.unanalyzed[0].find("eq.xml:4: range: the joint of 'shoulder' is at 1.57"), std::string::npos)
+      << survey.unanalyzed[0];
+  // Both beyond it: nothing can be analyzed, the refusal is the answer (exit status 2).
+  EXPECT_THROW(modal::equilibria(modal::model_from_text(stopped, "eq.xml")), modal::SceneError);
+}
+
+// The scene format's `range` key: read, checked, and carried by `modal convert`.
+TEST(Import, RangeKeyInTomlScenes) {
+  const std::string base = "title = \"r\"\ngravity = [0, 0, -9.81]\n[[body]]\nname = \"p\"\njoint = \"hinge\"\n"
+                           "mass = 1\ncom = [0, 0, -1]\n";
+  auto error = [](const std::string& toml) -> std::string {
+    try {
+      modal::model_from_text(toml, "r.toml");
+    } catch (const modal::SceneError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error(base + "range = [-1, 1]\n"), "no error");
+  EXPECT_NE(error(base + "range = [1, -1]\n").find("r.toml:8:"), std::string::npos) << error(base + "range = [1, -1]\n");
+  EXPECT_NE(error(base + "range = [1, -1]\n").find("body[1].range: a joint range [lower, upper] needs lower < upper"),
+            std::string::npos);
+  EXPECT_NE(error(base + "range = [0.5, 1]\n").find("the initial value 0 is not strictly inside"), std::string::npos);
+  EXPECT_NE(error(base + "initial = 0.7\nrange = [0.5, 1]\n").find("no error"), std::string::npos);
+  EXPECT_NE(error(base + "range = [-1]\n").find("body[1].range"), std::string::npos) << error(base + "range = [-1]\n");
+  const std::string ball = "title = \"r\"\n[[body]]\nname = \"p\"\njoint = \"ball\"\nmass = 1\nrange = [-1, 1]\n";
+  EXPECT_NE(error(ball).find("'range' is not used by a ball joint"), std::string::npos) << error(ball);
+  // modal convert writes the MJCF range (degrees → rad, relative to ref) and the TOML answers the same.
+  const std::string xml = "<mujoco>\n<worldbody>\n<body name=\"arm\" pos=\"0 0 1\">\n<joint name=\"shoulder\" "
+                          "axis=\"0 1 0\" ref=\"10\" limited=\"true\" range=\"-20 130\"/>\n<geom type=\"sphere\" "
+                          "pos=\"0.5 0 0\" size=\"0.05\" mass=\"1\" contype=\"0\" conaffinity=\"0\"/></body>\n"
+                          "</worldbody>\n</mujoco>\n";
+  const std::string toml = modal::import_scene(xml, "arm.xml", modal::SceneFormat::mjcf);
+  const modal::Model converted = modal::model_from_text(toml, "arm.toml");
+  const modal::Body& b = converted.system.bodies()[0];
+  EXPECT_NEAR(b.lower, -30 * std::numbers::pi / 180, 1e-15);
+  EXPECT_NEAR(b.upper, 120 * std::numbers::pi / 180, 1e-15);
+  EXPECT_NEAR(modal::analyze(converted).equilibrium().limits[0].value,
+              modal::analyze(modal::model_from_text(xml, "arm.xml")).equilibrium().limits[0].value, 1e-15);
 }
 
 // --- errors ------------------------------------------------------------------------------

@@ -82,6 +82,12 @@ System::System(SystemDescription description) : d_(std::move(description)) {
             who + "a particle has no orientation");
     if (body.joint == JointType::hinge || body.joint == JointType::slide)
       require(std::abs(body.axis.norm() - 1.0) < 1e-12, who + "axis must be a unit vector");
+    const bool limited = body.lower != -std::numeric_limits<double>::infinity() ||
+                         body.upper != std::numeric_limits<double>::infinity();
+    require(!limited || body.joint == JointType::hinge || body.joint == JointType::slide,
+            who + "only hinge and slide joints take a range");
+    require(!std::isnan(body.lower) && !std::isnan(body.upper) && body.lower < body.upper,
+            who + "a joint range needs lower < upper");
     const int nq = joint_coordinate_count(body);
     if (body.rest.size() == 0) body.rest = VectorX::Zero(nq);
     if (body.initial.size() == 0) body.initial = VectorX::Zero(nq);

@@ -108,6 +108,7 @@ Point evaluate(Constrained& k, const VectorX& q, const VectorX& s, bool fit) {
 Equilibrium record(Constrained& k, const Point& p, int iterations) {
   Equilibrium e;
   e.q = p.q;
+  e.limits = joint_limits(k.problem().system(), p.q);
   e.potential = k.problem().potential(p.q);
   e.residual = p.rel;
   e.residual_norm = p.force.norm();

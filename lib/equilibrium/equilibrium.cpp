@@ -16,6 +16,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <sstream>
 
@@ -48,6 +49,7 @@ VectorX coordinate_scales(const System& s) {
 Equilibrium record(Problem& p, const VectorX& q, double rnorm, double rel, int iterations) {
   Equilibrium e;
   e.q = q;
+  e.limits = joint_limits(p.system(), q);
   e.potential = p.potential(q);
   e.residual = rel;
   e.residual_norm = rnorm;
@@ -252,6 +254,42 @@ std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int star
 }
 
 }  // namespace equilibrium_detail
+
+std::string active_limit(const System& s, const Equilibrium& e) {
+  for (const JointLimitState& l : e.limits) {
+    if (!l.active()) continue;
+    const Body& body = s.bodies()[static_cast<std::size_t>(l.body)];
+    const char* unit = body.joint == JointType::hinge ? " rad" : " m";
+    std::ostringstream out;
+    out << std::setprecision(10) << "the joint of '" << body.name << "' is at " << l.value << unit
+        << " in the equilibrium found, " << (l.value == l.lower || l.value == l.upper ? "at the end of" : "outside")
+        << " its range [" << l.lower << ", " << l.upper << "]" << unit
+        << ": the stop would push there, and a limit has no linear model";
+    return out.str();
+  }
+  return "";
+}
+
+std::vector<JointLimitState> joint_limits(const System& s, const VectorX& q) {
+  std::vector<JointLimitState> out;
+  const std::vector<Body>& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    if (body.lower == -std::numeric_limits<double>::infinity() && body.upper == std::numeric_limits<double>::infinity())
+      continue;
+    const int i = s.first_coordinate(static_cast<int>(b));
+    JointLimitState state{static_cast<int>(b), i, q[i], body.lower, body.upper};
+    // A hinge angle is found modulo 2π (canonical coordinates); a stop makes
+    // it an angle on the line: the turn that lies inside the range, if any.
+    if (body.joint == JointType::hinge && state.active() && std::isfinite(q[i])) {
+      const double turn = 2 * std::numbers::pi;
+      const double inside = q[i] + turn * std::ceil((body.lower - q[i]) / turn);
+      if (inside > body.lower && inside < body.upper) state.value = inside;  // the smallest turn ≥ lower
+    }
+    out.push_back(state);
+  }
+  return out;
+}
 
 using namespace equilibrium_detail;
 

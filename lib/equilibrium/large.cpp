@@ -372,6 +372,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
                          " (large-scene search: L-BFGS, then Newton with the sparse Hessian)");
   }
   best.potential = potential(s, w, best.q);
+  best.limits = joint_limits(s, best.q);
   best.fill_reducing_order = steps.ordering();
   best.method = (lbfgs_evaluations > 0 ? "L-BFGS (" + std::to_string(lbfgs_evaluations) + " evaluations of V and ∇V), then " : std::string()) +
                 (damped_steps > 0 ? "damped Newton (" + std::to_string(damped_steps) + " steps), then " : std::string()) +

@@ -31,6 +31,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -215,13 +216,23 @@ class Importer {
 
   void check_unsupported() const;
   std::string write() const;
+  // Filled by write(): each modal body's name and the line of the element it
+  // comes from (its joint; a fixed body's body or link; 0 when not found), and
+  // the modal body of each MuJoCo joint.
+  const std::vector<std::pair<std::string, int>>& body_lines() const { return body_lines_; }
+  const std::vector<std::string>& joint_bodies() const { return joint_bodies_; }
 
  private:
   const mjModel& m_;
   std::string_view text_;
   std::string file_;
   SceneFormat format_;
+  mutable std::vector<std::pair<std::string, int>> body_lines_;
+  mutable std::vector<std::string> joint_bodies_;
   bool disabled(int flag) const { return (m_.opt.disableflags & flag) != 0; }
+  bool limits_apply(int j) const {
+    return m_.jnt_limited[j] && !disabled(mjDSBL_CONSTRAINT) && !disabled(mjDSBL_LIMIT);
+  }
 };
 
 const char* joint_word(int type) {
@@ -278,8 +289,7 @@ void Importer::check_unsupported() const {
       if (passive && m_.jnt_stiffness[j] != 0.0 && (s[0] != 1.0 || s[1] != 0.0 || s[2] != 0.0 || s[3] != 0.0))
         refuse(mjOBJ_JOINT, j, "joint", "a ball joint's spring reference other than its written orientation" + rewrite);
     }
-    if (m_.jnt_limited[j] && !disabled(mjDSBL_CONSTRAINT) && !disabled(mjDSBL_LIMIT) &&
-        (m_.jnt_type[j] == mjJNT_HINGE || m_.jnt_type[j] == mjJNT_SLIDE)) {
+    if (limits_apply(j) && (m_.jnt_type[j] == mjJNT_HINGE || m_.jnt_type[j] == mjJNT_SLIDE)) {
       const double q0 = m_.qpos0[m_.jnt_qposadr[j]];
       const double lo = m_.jnt_range[2 * j], hi = m_.jnt_range[2 * j + 1];
       if (!(q0 > lo + m_.jnt_margin[j] && q0 < hi - m_.jnt_margin[j]))
@@ -336,6 +346,8 @@ std::string Importer::write() const {
     for (int k = 2; !used.insert(candidate).second; ++k) candidate = n + "_" + std::to_string(k);
     return candidate;
   };
+  body_lines_.clear();
+  joint_bodies_.assign(static_cast<std::size_t>(m_.njnt), std::string());
   std::vector<std::string> last_name(static_cast<std::size_t>(m_.nbody));   // the modal body holding each MuJoCo body
   std::vector<Eigen::Vector3d> last_shift(static_cast<std::size_t>(m_.nbody), Eigen::Vector3d::Zero());
   last_name[0] = "world";
@@ -361,6 +373,8 @@ std::string Importer::write() const {
       std::string own = has_joint ? name(mjOBJ_JOINT, j) : body_label;
       if (own.empty()) own = nj == 1 ? body_label : body_label + ".joint" + std::to_string(i + 1);
       const std::string modal_name = unique(own);
+      body_lines_.emplace_back(modal_name, has_joint ? line(mjOBJ_JOINT, j) : line(mjOBJ_BODY, b));
+      if (has_joint) joint_bodies_[static_cast<std::size_t>(j)] = modal_name;
       const bool first = i == 0, last = i == count - 1;
       out += "\n[[body]]  # " + std::string(kind) + " " + (format_ == SceneFormat::urdf ? "link" : "body") + " " +
              toml_string(body_label);
@@ -403,6 +417,12 @@ std::string Importer::write() const {
           out += "damping = " + number(m_.dof_damping[dof]) + "\n";
         }
         if (m_.dof_armature[dof] != 0.0) out += "armature = " + number(m_.dof_armature[dof]) + "\n";
+        if (scalar && limits_apply(j)) {  // the range by its margin (MuJoCo's limit acts from there on)
+          const double margin = m_.jnt_margin[j];
+          out += "range = [" + number(m_.jnt_range[2 * j] + margin - m_.qpos0[qa]) + ", " +
+                 number(m_.jnt_range[2 * j + 1] - margin - m_.qpos0[qa]) + "]" +
+                 (margin != 0.0 ? "  # the joint's range less its margin " + number(margin) : std::string()) + "\n";
+        }
       }
       parent_name = modal_name;
       previous = shift;
@@ -434,7 +454,16 @@ std::string Importer::write() const {
 
 }  // namespace
 
-std::string import_scene(std::string_view text, const std::string& file, SceneFormat format) {
+// The compiled model behind an imported scene (modal/import.hpp).
+struct ImportedModel {
+  std::shared_ptr<const mjModel> model;
+  std::string text;                       // the file's text (lines for messages)
+  std::string file;
+  SceneFormat format = SceneFormat::mjcf;
+  std::vector<std::string> joint_bodies;  // the modal body of each MuJoCo joint
+};
+
+ImportedScene import_model(std::string_view text, const std::string& file, SceneFormat format) {
   if (format != SceneFormat::mjcf && format != SceneFormat::urdf)
     throw std::invalid_argument("import_scene: the format must be mjcf or urdf");
   const std::lock_guard<std::mutex> lock(mujoco_mutex());
@@ -487,13 +516,103 @@ std::string import_scene(std::string_view text, const std::string& file, SceneFo
                      std::string("the model has no body besides the world: nothing moves, nothing to analyze (") +
                          (format == SceneFormat::urdf ? "a URDF file needs links joined by joints" : "add a <body> to <worldbody>") + ")");
   const Importer importer(*model, text, file, format);
+  ImportedScene out;
   try {
     importer.check_unsupported();
-    return importer.write();
+    out.toml = importer.write();
   } catch (const SceneError&) {
     throw;
   } catch (const std::runtime_error& e) {
     throw SceneError({file, 0, 0}, "", std::string("MuJoCo failed on the model: ") + e.what());
+  }
+  out.body_lines = importer.body_lines();
+  out.model = std::make_shared<const ImportedModel>(
+      ImportedModel{std::shared_ptr<const mjModel>(model.release(), ModelDeleter{}), std::string(text), file, format,
+                    importer.joint_bodies()});
+  return out;
+}
+
+std::string import_scene(std::string_view text, const std::string& file, SceneFormat format) {
+  return import_model(text, file, format).toml;
+}
+
+namespace {
+
+// q (modal coordinates of `system`) as MuJoCo's qpos: hinge and slide
+// coordinates add to qpos0, a ball joint's rotation vector φ turns qpos0's
+// quaternion by exp(φ) after it, a free joint's translation adds to qpos0's
+// position and its rotation vector turns the quaternion the same way.
+std::vector<mjtNum> mujoco_configuration(const ImportedModel& im, const System& system, const VectorX& q) {
+  const mjModel& m = *im.model;
+  std::vector<mjtNum> qpos(m.qpos0, m.qpos0 + m.nq);
+  std::unordered_map<std::string, int> body_index;
+  for (std::size_t b = 0; b < system.bodies().size(); ++b) body_index.emplace(system.bodies()[b].name, static_cast<int>(b));
+  auto turn = [](mjtNum* quat, const Eigen::Vector3d& phi) {
+    const Eigen::Quaterniond q0(quat[0], quat[1], quat[2], quat[3]);
+    const double angle = phi.norm();
+    const Eigen::Quaterniond r = angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, phi / angle))
+                                           : Eigen::Quaterniond::Identity();
+    const Eigen::Quaterniond t = (q0 * r).normalized();
+    quat[0] = t.w(), quat[1] = t.x(), quat[2] = t.y(), quat[3] = t.z();
+  };
+  for (int j = 0; j < m.njnt; ++j) {
+    const auto found = body_index.find(im.joint_bodies[static_cast<std::size_t>(j)]);
+    if (found == body_index.end()) continue;  // not in this system (cannot happen for an unedited conversion)
+    const int i = system.first_coordinate(found->second);
+    mjtNum* p = qpos.data() + m.jnt_qposadr[j];
+    switch (m.jnt_type[j]) {
+      case mjJNT_HINGE:
+      case mjJNT_SLIDE: p[0] += q[i]; break;
+      case mjJNT_BALL: turn(p, q.segment<3>(i)); break;
+      case mjJNT_FREE:
+        for (int k = 0; k < 3; ++k) p[k] += q[i + k];
+        turn(p + 3, q.segment<3>(i + 3));
+        break;
+      default: break;
+    }
+  }
+  return qpos;
+}
+
+}  // namespace
+
+void check_imported_configuration(const ImportedModel& im, const System& system, const VectorX& q) {
+  const mjModel& m = *im.model;
+  if (q.size() != system.size()) throw std::invalid_argument("check_imported_configuration: q has the wrong size");
+  const std::lock_guard<std::mutex> lock(mujoco_mutex());
+  mju_user_error = throw_mujoco_error;
+  mju_user_warning = ignore_mujoco_warning;
+  const Importer names(m, im.text, im.file, im.format);
+  const bool constraints = (m.opt.disableflags & mjDSBL_CONSTRAINT) == 0;
+  const std::vector<mjtNum> qpos = mujoco_configuration(im, system, q);
+  // A ball joint's cone limit: the rotation angle of its quaternion against range[1] less the margin.
+  if (constraints && (m.opt.disableflags & mjDSBL_LIMIT) == 0)
+    for (int j = 0; j < m.njnt; ++j) {
+      if (m.jnt_type[j] != mjJNT_BALL || !m.jnt_limited[j]) continue;
+      const mjtNum* w = qpos.data() + m.jnt_qposadr[j];
+      const double angle = 2 * std::atan2(std::sqrt(w[1] * w[1] + w[2] * w[2] + w[3] * w[3]), std::abs(w[0]));
+      const double limit = std::max(m.jnt_range[2 * j], m.jnt_range[2 * j + 1]) - m.jnt_margin[j];
+      if (!(angle < limit))
+        names.refuse(mjOBJ_JOINT, j, "joint",
+                     "the ball joint is turned by " + number(angle) + " rad in the equilibrium found, not inside its "
+                     "limit " + number(limit) + " rad: the stop would push there, and a limit has no linear model");
+    }
+  if (!constraints || (m.opt.disableflags & mjDSBL_CONTACT) != 0 || m.ngeom < 2) return;
+  DataPtr d(mj_makeData(&m));
+  if (!d) throw std::bad_alloc();
+  std::copy(qpos.begin(), qpos.end(), d->qpos);
+  try {
+    mj_forward(&m, d.get());
+  } catch (const std::runtime_error& e) {
+    throw SceneError({im.file, 0, 0}, "", std::string("MuJoCo failed on the model at the equilibrium: ") + e.what());
+  }
+  if (d->ncon > 0) {
+    const mjContact& c = d->contact[0];
+    names.refuse(mjOBJ_GEOM, c.geom1, "geom",
+                 "is in contact with " + names.label("geom", mjOBJ_GEOM, c.geom2) +
+                     " in the equilibrium found (distance " + number(c.dist) +
+                     " m): contacts have no linear model; exclude the pair (<contact><exclude>), set contype and "
+                     "conaffinity to 0, or disable contacts (<option><flag contact=\"disable\"/>)");
   }
 }
 

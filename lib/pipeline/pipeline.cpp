@@ -12,6 +12,7 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace modal {
@@ -43,6 +44,23 @@ std::vector<ParameterOverride> parse_overrides(const std::vector<std::string>& s
   overrides.reserve(set.size());
   for (const std::string& text : set) overrides.push_back(parse_override(text));
   return overrides;
+}
+
+// SceneError at the limited joint's place in the file the user gave (a
+// converted model's: the joint's element) when an equilibrium has an active limit.
+void refuse_active_limits(const Model& model, const Equilibrium& e) {
+  const std::string why = active_limit(model.system, e);
+  if (why.empty()) {
+    if (model.imported) check_imported_configuration(*model.imported, model.system, e.q);  // contacts, ball limits
+    return;
+  }
+  const auto b = static_cast<std::size_t>(std::find_if(e.limits.begin(), e.limits.end(), [](const JointLimitState& l) {
+                                            return l.active();
+                                          })->body);
+  const SourceLocation where =
+      b < model.scene.body_locations.size() ? model.scene.body_locations[b] : SourceLocation{model.scene.file, 0, 0};
+  throw SceneError(where, model.format == SceneFormat::urdf ? "limit" : "range",
+                   why + "; widen or remove the range, or look for an equilibrium inside it (--at, `modal equilibria`)");
 }
 
 // The equilibrium at a point the user gave (polished), or InputError saying
@@ -232,10 +250,22 @@ Model model_from_text(std::string text, const std::string& name, const std::vect
                       const SceneLimits& limits, SceneFormat format) {
   std::vector<ParameterOverride> overrides = parse_overrides(set);  // a bad --set before reading anything
   format = scene_format(name, text, format);
-  if (format != SceneFormat::toml) text = import_scene(text, name, format);
+  ImportedScene imported;
+  if (format != SceneFormat::toml) {
+    imported = import_model(text, name, format);
+    text = std::move(imported.toml);
+  }
   Scene scene = parse_scene(text, name, overrides, limits);
+  if (imported.model) {  // messages about a body point into the file the user gave
+    std::unordered_map<std::string, int> lines(imported.body_lines.begin(), imported.body_lines.end());
+    for (std::size_t b = 0; b < scene.description.bodies.size() && b < scene.body_locations.size(); ++b) {
+      const auto found = lines.find(scene.description.bodies[b].name);
+      scene.body_locations[b] = {name, found != lines.end() ? found->second : 0, 0};
+    }
+  }
   System system = build_system(scene);
-  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits, format};
+  return Model{std::move(text), std::move(overrides), std::move(scene), std::move(system), limits, format,
+               std::move(imported.model)};
 }
 
 Model load_model(const std::string& path, const std::vector<std::string>& set, const SceneLimits& limits,
@@ -326,6 +356,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   const Equilibrium eq = !options.at ? find_equilibrium(sys, sys.initial_configuration(), eo)
                                      : equilibrium_at(sys, *options.at, eo);
   a.timings.emplace_back("equilibrium", seconds_since(last));
+  refuse_active_limits(model, eq);
   ModalResult result;
   if (sparse) {
     a.sparse = linearize_sparse(sys, eq.q, lo);
@@ -378,9 +409,18 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
   survey.report = make_report(sys, model.scene.file, model.scene.parameters);
   const auto names = sys.coordinate_names();
   const std::vector<Equilibrium> found = find_equilibria(sys, options);
+  std::optional<SceneError> first_refusal;  // an equilibrium at a limit or in contact
   for (const Equilibrium& e : found) {
     if (options.progress)  // the analyses, after the starts
       options.progress(static_cast<int>(&e - found.data()), static_cast<int>(found.size()));
+    try {
+      refuse_active_limits(model, e);
+    } catch (const SceneError& refused) {
+      survey.unanalyzed.push_back(fmt::format("an equilibrium at {} was found but is not analyzed: {}",
+                                              format_point(names, e.q), refused.what()));
+      if (!first_refusal) first_refusal = refused;
+      continue;
+    }
     try {
       survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q))});
     } catch (const NumericalError& error) {
@@ -388,6 +428,8 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
                                               format_point(names, e.q), error.what()));
     }
   }
+  // Every equilibrium is at a stop or in contact: the model cannot be analyzed anywhere (exit status 2).
+  if (survey.report.equilibria.empty() && first_refusal) throw *first_refusal;
   return survey;
 }
 
@@ -466,6 +508,18 @@ Simulation simulate(const Model& model, const SimulationRequest& request) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
+  // modal models no stop: say where the motion leaves a joint's range.
+  for (const JointLimitState& l : joint_limits(sys, q0)) {
+    const Body& body = sys.bodies()[static_cast<std::size_t>(l.body)];
+    for (std::size_t k = 0; k < s.trajectory.size(); ++k) {
+      const double v = s.trajectory.q[k][l.coordinate];
+      if (v > l.lower && v < l.upper) continue;
+      s.notes.push_back(fmt::format("the joint of '{}' leaves its range [{:.10g}, {:.10g}] at t = {:.6g} s: modal "
+                                    "models no stop, so from there on this is the motion without the limit",
+                                    body.name, l.lower, l.upper, s.trajectory.time[k]));
+      break;
+    }
+  }
   return s;
 }
 
@@ -482,6 +536,7 @@ AmplitudeStudy amplitude(const Model& model, const AmplitudeRequest& request) {
                                  sys.size(), amplitude_max_coordinates));
   const Equilibrium eq = !request.at ? find_equilibrium(sys, sys.initial_configuration())
                                      : equilibrium_at(sys, *request.at, EquilibriumOptions{});
+  refuse_active_limits(model, eq);
   const LinearModel lin = linearize(sys, eq.q);
   if (!lin.symmetric())
     throw InputError("amplitude measures the frequency of an undamped mode (K φ = λ M φ); this scene has dampers, "

@@ -40,6 +40,15 @@ Json equilibrium_json(const Report& report, const Equilibrium& e) {
   j["residual_norm"] = e.residual_norm;
   j["iterations"] = e.iterations;
   if (!e.method.empty()) j["method"] = e.method;
+  if (!e.limits.empty()) {  // the limited joints (all inactive: an active limit is refused)
+    Json limits = Json::array();
+    for (const JointLimitState& l : e.limits)
+      limits.push_back({{"coordinate", coordinate_name(report, static_cast<std::size_t>(l.coordinate))},
+                        {"value", l.value},
+                        {"lower", l.lower},
+                        {"upper", l.upper}});
+    j["limits"] = limits;
+  }
   return j;
 }
 

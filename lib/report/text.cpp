@@ -93,6 +93,26 @@ std::string describe_stability(const ModalResult& r) {
   return to_string(r.stability);
 }
 
+// The limited joints at an equilibrium (all inactive: the pipeline refuses an
+// active one), one line each, angles also in degrees.
+void print_limits(std::ostream& out, const Report& report, const Equilibrium& e, const std::string& indent) {
+  if (e.limits.empty()) return;
+  out << indent << "joint limits (inactive: the equilibrium is inside every range)\n";
+  std::size_t w = 0;
+  for (const JointLimitState& l : e.limits)
+    w = std::max(w, coordinate_name(report, static_cast<std::size_t>(l.coordinate)).size());
+  for (const JointLimitState& l : e.limits) {
+    const auto i = static_cast<std::size_t>(l.coordinate);
+    const bool angle = is_angular(report, i);
+    const double deg = 180 / std::numbers::pi;
+    out << fmt::format("{}  {:<{}} = {} in [{}, {}] {}{}\n", indent, coordinate_name(report, i), w, num(l.value, 10),
+                       num(l.lower, 10), num(l.upper, 10), angle ? "rad" : "m",
+                       angle ? fmt::format("  ({} in [{}, {}] deg)", num(l.value * deg, 8), num(l.lower * deg, 8),
+                                           num(l.upper * deg, 8))
+                             : std::string());
+  }
+}
+
 void print_analysis(std::ostream& out, const Report& report) {
   print_header(out, report);
   if (report.equilibria.empty()) {
@@ -125,6 +145,7 @@ void print_analysis(std::ostream& out, const Report& report) {
                      r.constraint_forces.empty() ? "" : " - grad c s", sci(e.residual_norm), e.iterations,
                      e.iterations == 1 ? "" : "s");
   if (!e.method.empty()) out << "  found by " << e.method << "\n";
+  print_limits(out, report, e, "  ");
   if (!r.steady.empty()) {
     out << "  steady motion (ignorable coordinates; the others analyzed at these momenta by Routh's reduction):\n";
     for (const SteadyRate& sr : r.steady)
@@ -242,6 +263,11 @@ void print_equilibria(std::ostream& out, const Report& report) {
       out << fmt::format("  {:>14}", num(v, 8));
     }
     out << '\n';
+  }
+  for (std::size_t e = 0; e < report.equilibria.size(); ++e) {
+    if (report.equilibria[e].equilibrium.limits.empty()) continue;
+    out << fmt::format("\n  equilibrium {}:\n", e + 1);
+    print_limits(out, report, report.equilibria[e].equilibrium, "    ");
   }
   bool any_notes = false;
   for (std::size_t e = 0; e < report.equilibria.size(); ++e)

@@ -174,7 +174,7 @@ BodyEntry named_entry(const Section& s, const std::string& what) {
 BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t index) {
   const Section s(reader, table, scene_detail::index_key("body", index), "[[body]]");
   s.check_keys({"name", "parent", "joint", "axis", "origin", "orientation", "mass", "com", "inertia", "stiffness",
-                "rest", "damping", "armature", "initial"});
+                "rest", "damping", "armature", "initial", "range"});
   BodyEntry e = named_entry(s, "body");
   Body& b = e.body;
 
@@ -188,7 +188,8 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   const bool has_spring = has_axis || b.joint == JointType::ball;
   const bool has_initial = b.joint != JointType::fixed;
   for (const auto& [key, used] : {std::pair<std::string_view, bool>{"axis", has_axis}, {"stiffness", has_spring},
-                                  {"rest", has_spring}, {"damping", has_spring}, {"initial", has_initial}})
+                                  {"rest", has_spring}, {"damping", has_spring}, {"initial", has_initial},
+                                  {"range", has_axis}})
     if (!used && s.has(key)) s.fail(key, "'" + std::string(key) + "' is not used by a " + joint + " joint");
   if (b.joint == JointType::fixed && s.has("armature")) s.fail("armature", "'armature' is not used by a fixed joint");
 
@@ -213,6 +214,18 @@ BodyEntry read_body(const Reader& reader, const toml::table& table, std::size_t 
   const int n = joint_coordinate_count(b.joint);
   b.rest = has_spring ? joint_values(s, "rest", n) : VectorX::Zero(n);
   b.initial = joint_values(s, "initial", n);
+  if (s.has("range")) {  // [lower, upper], the coordinate's units
+    const VectorX r = s.numbers("range", VectorX::Zero(2));
+    if (!(r[0] < r[1]))
+      s.fail("range", "a joint range [lower, upper] needs lower < upper, got [" + format_number(r[0]) + ", " +
+                          format_number(r[1]) + "]");
+    if (!(b.initial[0] > r[0] && b.initial[0] < r[1]))
+      s.fail("range", "the initial value " + format_number(b.initial[0]) + " is not strictly inside the range [" +
+                          format_number(r[0]) + ", " + format_number(r[1]) +
+                          "]: the limit would be active from the start, and a limit has no linear model");
+    b.lower = r[0];
+    b.upper = r[1];
+  }
 
   e.location = s.location();
   e.order = {e.location.line, e.location.column, 0};

@@ -188,6 +188,8 @@ class Evaluator {
     try {
       const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
       e.equilibrium = find_equilibrium(*sys, q0, options_.equilibrium);
+      stage = "at a joint limit";
+      if (const std::string why = active_limit(*sys, e.equilibrium); !why.empty()) throw std::runtime_error(why);
       stage = "linearization failed";
       const LinearModel lin = linearize(*sys, e.equilibrium.q);
       stage = "eigen-solution failed";

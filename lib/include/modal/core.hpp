@@ -64,6 +64,7 @@
 #include <Eigen/SparseCore>
 
 #include <array>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -143,6 +144,13 @@ struct Body {
   // motion, which adds a to M's diagonal for a hinge or slide and a·J_lᵀJ_l
   // (a at φ = 0) to a rotation vector's block.
   double armature = 0;
+  // Joint limits of a hinge or slide: the range [lower, upper] its coordinate
+  // may take, rad or m (the coordinate's own units, so relative to q = 0),
+  // lower < upper; unlimited (the default) is −∞, +∞. modal has no model of a
+  // limit stop: an equilibrium at or beyond a limit has no linear model
+  // (joint_limits, Equilibrium::limits; the pipeline refuses it).
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
   VectorX rest;                  // joint spring rest values (size = joint coordinates)
   VectorX initial;               // joint starting values (size = joint coordinates)
   // particle joint: which parent axes (x, y, z) carry a coordinate; a fixed

@@ -71,6 +71,20 @@ struct EquilibriumOptions {
 // which makes 2 starts rather than spend minutes on 64.
 int default_equilibrium_starts(const System& system);
 
+// A limited joint (Body::lower, Body::upper) at a configuration. The limit is
+// active when the coordinate is not strictly inside its range: the stop then
+// pushes, and the system has no linear model there.
+struct JointLimitState {
+  int body = -1;             // index into System::bodies()
+  int coordinate = -1;       // its coordinate, 0 ≤ coordinate < n
+  double value = 0;          // the coordinate, rad or m
+  double lower = 0, upper = 0;
+  bool active() const { return !(value > lower && value < upper); }
+};
+// The state of every limited joint of `s` at q (n values), in body order;
+// empty when no joint is limited.
+std::vector<JointLimitState> joint_limits(const System& s, const VectorX& q);
+
 struct Equilibrium {
   VectorX q;                 // canonical coordinates (n)
   double potential = 0;      // V(q), J
@@ -88,7 +102,16 @@ struct Equilibrium {
   // spare the modes stage its ordering (about 3 s at 10⁶ coordinates).
   // Empty otherwise.
   std::vector<int> fill_reducing_order;
+  // The scene's limited joints at q (joint_limits), filled by every function
+  // here that returns an Equilibrium; an active one means this is not an
+  // equilibrium modal can linearize (the pipeline refuses it).
+  std::vector<JointLimitState> limits;
 };
+
+// Why an equilibrium of `s` with an active joint limit has no linear model,
+// in words naming the first such joint (its value and range); "" when no
+// limit is active.
+std::string active_limit(const System& s, const Equilibrium& e);
 
 // ∇V(q) − Q(q, 0), n (without the constraint forces ∇c s).
 VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q);

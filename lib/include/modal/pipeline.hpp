@@ -103,6 +103,10 @@ struct Model {
   System system;
   SceneLimits limits;                        // as read (sweeps read the text again with them)
   SceneFormat format = SceneFormat::toml;    // what the file was (mjcf, urdf: imported, see modal/import.hpp)
+  // Imported files: MuJoCo's compiled model, which checks every equilibrium
+  // analyzed for contacts and ball-joint limits (check_imported_configuration);
+  // scene.body_locations then point at the file's joint elements. Null for TOML.
+  std::shared_ptr<const ImportedModel> imported;
 };
 
 // Reads and builds a scene file (read_scene_file: regular files only, at most
