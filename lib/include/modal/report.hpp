@@ -146,7 +146,10 @@ std::vector<std::string> export_matrices(const std::string& dir, const SparseLin
 // force (point: [x, y, z] on end a, null where not determined) | multiplier
 // and tension (distance)}], redundant_equations[names],] modes[{mode, omega2,
 // growth_rate, omega, frequency_hz, period, damping_ratio, error_estimate, kind,
-// stability, shape[real], shape_imag[only when complex]}], solver, notes}
+// stability, shape[real], shape_imag[only when complex], [energy{kinetic{element:
+// share}, potential{term: share} or null}, participation{x|y|z: {participation_factor,
+// effective_mass, cumulative_fraction}}: with an energy distribution]}],
+// [energy_split, participation_directions[{direction, movable_mass}]], solver, notes}
 // for the first equilibrium of the report (indented text).
 std::string analysis_json(const Report& report);
 // `modal equilibria`: {scene, title, parameters, coordinates, equilibria[{index,
