@@ -25,8 +25,9 @@ bool real_modes(const ModalResult& r) {
   return true;
 }
 
-// The kinetic and potential quadratic forms of one mode split by `split`,
-// and its shares and participation, into `out`.
+// One mode's shares: split(v, kinetic, potential) gives the quadratic forms of
+// a real direction v element by element; a complex shape a + ib adds those of
+// a and of b (the time average).
 template <class Split>
 ModeEnergy mode_energy(int index, const Mode& mode, Split&& split) {
   ModeEnergy e;
