@@ -193,6 +193,29 @@ TEST(EnergyClosedForm, DoublePendulum) {
   }
 }
 
+// A point mass m on a rod l standing above its hinge, held up by a joint
+// spring k > m g l: V = ½kθ² − m g l (1 − cos θ), so φᵀKφ ∝ k − m g l and
+// the gravity share is −m g l / (k − m g l) < 0, the spring's k / (k − m g l) > 1.
+TEST(EnergyClosedForm, InvertedPendulumHasANegativeGravityShare) {
+  std::mt19937 rng(61);
+  for (int trial = 0; trial < 10; ++trial) {
+    const double m = uniform(rng, 0.5, 2), l = uniform(rng, 0.5, 2), g = 9.81;
+    const double k = m * g * l * uniform(rng, 1.2, 5);
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "gravity = [0, 0, %.17g]\n[[body]]\nname = \"rod\"\njoint = \"hinge\"\nmass = %.17g\n"
+                  "com = [0, 0, %.17g]\nstiffness = %.17g\n",
+                  -g, m, l, k);
+    const modal::Analysis a = analyze_with_energy(modal::model_from_text(text, "inverted.toml"));
+    const EnergyDistribution& d = *a.report.equilibria.front().energy;
+    ASSERT_EQ(d.modes.size(), 1u);
+    const LD net = LD(k) - LD(m) * g * l;
+    EXPECT_NEAR(share(d.potential_elements, d.modes[0].potential, "rod.gravity"), double(-LD(m) * g * l / net), 1e-12);
+    EXPECT_NEAR(share(d.potential_elements, d.modes[0].potential, "rod.joint"), double(LD(k) / net), 1e-12);
+    EXPECT_EQ(d.modes[0].kinetic, std::vector<double>{1.0});
+  }
+}
+
 // --- generated scenes ------------------------------------------------------------
 
 // L_dᵀM⁻¹L_d in long double, with L_d = −∇V of gravity d alone (modal's
