@@ -154,8 +154,13 @@ int main(int argc, char** argv) {
   analyze->add_option("--modes", ao.modes, "number of lowest modes to report (default: all)")->check(at_least(1));
   CLI::Option* at_option =
       analyze->add_option("--at", at, "analyze the equilibrium at this point: q1,q2,... (one value per coordinate)");
-  analyze->add_option("--csv", analyze_out.csv, "write PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv")
+  analyze->add_option("--csv", analyze_out.csv,
+                      "write PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv (with --energy also "
+                      "PREFIX_energy.csv, PREFIX_participation.csv)")
       ->type_name("PREFIX");
+  analyze->add_flag("--energy", ao.energy,
+                    "each mode's kinetic and potential energy by body, spring and term, and the effective masses "
+                    "of base translation (text, CSV, JSON)");
   analyze->add_option("--json", analyze_out.json, "write the whole result as JSON")->type_name("FILE");
   analyze->add_flag("--require-stable", require_stable,
                     "exit with status 3 if the equilibrium is unstable (divergence or flutter)");
@@ -336,6 +341,7 @@ int main(int argc, char** argv) {
   try {
     auto clock = std::chrono::steady_clock::now();
     if (*analyze) {
+      analyze_out.energy = ao.energy;
       modal::check_outputs(modal::Command::analyze, analyze_out, analyze_scene.file);
       const modal::Model model = load(analyze_scene);
       Seconds seconds{{"parse+build", since(clock)}};

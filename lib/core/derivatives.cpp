@@ -978,6 +978,26 @@ void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, cons
 
 }  // namespace
 
+double movable_mass(const System& s, const VectorX& q, const Vec3& d) {
+  if (s.is_map()) throw std::invalid_argument("movable_mass: a kinematic map has no bodies");
+  check_size(s, q, "movable_mass");
+  TreeState<double> st;
+  model::forward_kinematics(s, q.data(), st);
+  double mass = 0;
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+    const Body& body = s.bodies()[b];
+    if (body.mass == 0.0) continue;
+    bool moves = false;
+    for_each_site_coordinate(s, st, attachment_site(st, Attachment{static_cast<int>(b), body.com}),
+                             [&](int k, const Vec3& lever) {
+                               const Vec3 J = site_velocity(st, k, lever, false);
+                               if (std::abs(d.dot(J)) > 1e-9 * J.norm()) moves = true;
+                             });
+    if (moves) mass += body.mass;
+  }
+  return mass;
+}
+
 VectorX constraint_values(const System& s, Workspace& w, const VectorX& q) {
   VectorX c(s.constraint_equations());
   if (c.size() == 0) return c;

@@ -255,33 +255,53 @@ template <class S> S centrifugal_rotation_energy(const Mat3& I, const Vec3& Omeg
   return -0.5 * w.dot(cast33<S>(I) * w);
 }
 
-// V(q) in J; in a rotating frame V_eff = V − T₀ (docs/design.md, "Energies and forces").
-template <class S> S potential(const System& sys, const TreeState<S>& st, const S* q) {
-  S v(0.0);
+// The terms of V one by one, in a fixed order: for each body its gravity
+// (mass ≠ 0) and its joint spring (stiffness ≠ 0), then the springs, the dead
+// loads and, in a rotating frame, each body's centrifugal terms (centre of mass
+// and rotational inertia: two calls with the same body). term(kind, index,
+// value) gets the term's kind, the index of its body, spring or load, and its
+// energy (J). potential() is their sum; the energy distribution
+// (modal/energy.hpp) takes them one by one.
+enum class PotentialTerm { gravity, joint_spring, spring, load, centrifugal };
+template <class S, class Term> void for_each_potential_term(const System& sys, const TreeState<S>& st, const S* q, Term&& term) {
   const auto& bodies = sys.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     if (body.mass != 0.0) {
       const V3<S> x = st.position[b] + st.rotation[b] * cast3<S>(body.com);
-      v -= body.mass * x.dot(cast3<S>(sys.gravity()));
+      term(PotentialTerm::gravity, b, S(-body.mass * x.dot(cast3<S>(sys.gravity()))));
     }
     if (body.stiffness != 0.0) {
       const int k0 = sys.first_coordinate(static_cast<int>(b));
-      v += joint_spring_energy(body, q + k0, sys.joint_size(static_cast<int>(b)));
+      term(PotentialTerm::joint_spring, b, joint_spring_energy(body, q + k0, sys.joint_size(static_cast<int>(b))));
     }
   }
-  for (const Spring& sp : sys.springs()) v += spring_energy(sp, world_point(st, sp.a), world_point(st, sp.b));
-  for (const DeadLoad& ld : sys.loads()) v -= world_point(st, ld.at).dot(cast3<S>(ld.force));
+  for (std::size_t i = 0; i < sys.springs().size(); ++i) {
+    const Spring& sp = sys.springs()[i];
+    term(PotentialTerm::spring, i, spring_energy(sp, world_point(st, sp.a), world_point(st, sp.b)));
+  }
+  for (std::size_t i = 0; i < sys.loads().size(); ++i) {
+    const DeadLoad& ld = sys.loads()[i];
+    term(PotentialTerm::load, i, S(-world_point(st, ld.at).dot(cast3<S>(ld.force))));
+  }
   if (sys.rotating())
     for (std::size_t b = 0; b < bodies.size(); ++b) {
       const Body& body = bodies[b];
       if (body.mass != 0.0)
-        v += centrifugal_point_energy(body.mass, sys.frame_rotation(), V3<S>(st.position[b] + st.rotation[b] * cast3<S>(body.com)));
+        term(PotentialTerm::centrifugal, b,
+             centrifugal_point_energy(body.mass, sys.frame_rotation(), V3<S>(st.position[b] + st.rotation[b] * cast3<S>(body.com))));
       if (!body.inertia.isZero(0.0)) {
         const V3<S> u[3] = {st.rotation[b].col(0), st.rotation[b].col(1), st.rotation[b].col(2)};
-        v += centrifugal_rotation_energy(body.inertia, sys.frame_rotation(), u);
+        term(PotentialTerm::centrifugal, b, centrifugal_rotation_energy(body.inertia, sys.frame_rotation(), u));
       }
     }
+}
+
+// V(q) in J; in a rotating frame V_eff = V − T₀ (docs/design.md, "Energies and forces").
+template <class S> S potential(const System& sys, const TreeState<S>& st, const S* q) {
+  S v(0.0);
+  // v + (−a) is v − a exactly (IEEE), so the sum is the same as written term by term
+  for_each_potential_term(sys, st, q, [&v](PotentialTerm, std::size_t, const S& e) { v += e; });
   return v;
 }
 

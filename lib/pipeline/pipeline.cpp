@@ -1,6 +1,7 @@
 // lib/pipeline/pipeline.cpp — the whole pipeline behind one header
 // (modal/pipeline.hpp): what every `modal` subcommand computes and writes.
 #include "modal/pipeline.hpp"
+#include "modal/energy.hpp"
 
 #include <fmt/format.h>
 
@@ -11,6 +12,7 @@
 #include <new>
 #include <ostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -173,6 +175,7 @@ std::string suffixed_path(const std::string& csv, const std::string& suffix) {
 Outputs csv_only(const Outputs& o) {
   Outputs c;
   c.csv = o.csv;
+  c.energy = o.energy;
   return c;
 }
 
@@ -395,8 +398,13 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
           lin.K_error.cwiseAbs().maxCoeff()));
     a.timings.emplace_back("eigen", seconds_since(last));
   }
+  std::optional<EnergyDistribution> energy;
+  if (options.energy) {
+    energy = a.sparse ? energy_distribution(sys, *a.sparse, result) : energy_distribution(sys, *a.linear, result);
+    a.timings.emplace_back("energy", seconds_since(last));
+  }
   a.report = make_report(sys, model.scene.file, model.scene.parameters);
-  a.report.equilibria.push_back({eq, std::move(result)});
+  a.report.equilibria.push_back({eq, std::move(result), std::move(energy)});
   return std::move(a);  // a is the caller's, captured by reference: not copied
   });
 }
@@ -422,7 +430,7 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
       continue;
     }
     try {
-      survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q))});
+      survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q)), std::nullopt});
     } catch (const NumericalError& error) {
       survey.unanalyzed.push_back(fmt::format("an equilibrium at {} was found but cannot be analyzed: {}",
                                               format_point(names, e.q), error.what()));
@@ -568,6 +576,10 @@ std::vector<std::string> output_files(Command command, const Outputs& o, bool ex
     switch (command) {
       case Command::analyze:
         files = {o.csv + "_modes.csv", o.csv + "_shapes.csv", o.csv + "_equilibria.csv"};
+        if (o.energy) {
+          files.push_back(o.csv + "_energy.csv");
+          files.push_back(o.csv + "_participation.csv");
+        }
         break;
       case Command::sweep:
         files = {o.csv, suffixed_path(o.csv, "critical")};
@@ -600,6 +612,13 @@ void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
     files.add(paths[0], to_text(write_modes_csv, a.report));
     files.add(paths[1], to_text(write_shapes_csv, a.report));
     files.add(paths[2], to_text(write_equilibria_csv, a.report));
+    if (o.energy) {
+      if (!a.report.equilibria.front().energy)
+        throw std::invalid_argument("write_analysis: outputs.energy asks for the energy files of an analysis made "
+                                    "without AnalysisOptions::energy");
+      files.add(paths[3], to_text(write_energy_csv, a.report));
+      files.add(paths[4], to_text(write_participation_csv, a.report));
+    }
   }
   if (!o.json.empty()) files.add(o.json, analysis_json(a.report));
   files.commit();

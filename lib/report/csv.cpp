@@ -178,6 +178,48 @@ void write_equilibria_csv(std::ostream& out, const Report& report) {
   }
 }
 
+namespace {
+
+// The one equilibrium whose energy distribution the energy files describe
+// (analyze's); ReportError when several carry one (their layout has no
+// equilibrium column).
+const EnergyDistribution* energy_of(const Report& report) {
+  const EnergyDistribution* found = nullptr;
+  for (const AnalyzedEquilibrium& a : report.equilibria) {
+    if (!a.energy) continue;
+    if (found) throw ReportError("the energy and participation files describe one equilibrium; this report has energy "
+                                 "distributions at several");
+    found = &*a.energy;
+  }
+  return found;
+}
+
+}  // namespace
+
+void write_energy_csv(std::ostream& out, const Report& report) {
+  out << "mode,kind,element,fraction\n";
+  const EnergyDistribution* d = energy_of(report);
+  if (!d) return;
+  auto rows = [&](int mode, const char* kind, const std::vector<std::string>& names, const std::vector<double>& f) {
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (f[i] != 0.0) out << mode << ',' << kind << ',' << csv_field(names[i]) << ',' << csv_number(f[i]) << '\n';
+  };
+  for (const ModeEnergy& m : d->modes) {
+    rows(m.mode, "kinetic", d->kinetic_elements, m.kinetic);
+    rows(m.mode, "potential", d->potential_elements, m.potential);
+  }
+}
+
+void write_participation_csv(std::ostream& out, const Report& report) {
+  out << "mode,direction,participation_factor,effective_mass,cumulative_fraction\n";
+  const EnergyDistribution* d = energy_of(report);
+  if (!d) return;
+  for (const ModeEnergy& m : d->modes)
+    for (std::size_t a = 0; a < d->directions.size(); ++a)
+      out << m.mode << ',' << d->directions[a].name << ',' << csv_number(m.participation_factor[a]) << ','
+          << csv_number(m.effective_mass[a]) << ',' << csv_number(m.cumulative_fraction[a]) << '\n';
+}
+
 void write_file(const std::string& path, void (*writer)(std::ostream&, const Report&),
                 const Report& report) {
   std::ofstream file(path, std::ios::binary);
@@ -201,6 +243,14 @@ std::vector<std::string> write_csv_files(const std::string& prefix, const Report
   write_file(paths[0], write_modes_csv, report);
   write_file(paths[1], write_shapes_csv, report);
   write_file(paths[2], write_equilibria_csv, report);
+  const bool energy = std::any_of(report.equilibria.begin(), report.equilibria.end(),
+                                  [](const AnalyzedEquilibrium& a) { return a.energy.has_value(); });
+  if (energy) {
+    paths.push_back(prefix + "_energy.csv");
+    paths.push_back(prefix + "_participation.csv");
+    write_file(paths[3], write_energy_csv, report);
+    write_file(paths[4], write_participation_csv, report);
+  }
   return paths;
 }
 

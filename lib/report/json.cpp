@@ -86,13 +86,45 @@ Json mode_json(std::size_t index, const Mode& m) {
   return j;
 }
 
-void add_result(Json& j, const ModalResult& r) {
+// A mode's "energy" (nonzero shares by element; potential null where not
+// defined) and "participation" (per direction) members.
+void add_energy(Json& j, const EnergyDistribution& d, const ModeEnergy& e) {
+  auto named = [](const std::vector<std::string>& names, const std::vector<double>& f) {
+    Json o = Json::object();
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (f[i] != 0.0) o[names[i]] = f[i];
+    return o;
+  };
+  Json energy;
+  energy["kinetic"] = named(d.kinetic_elements, e.kinetic);
+  energy["potential"] = e.potential.empty() ? Json(nullptr) : named(d.potential_elements, e.potential);
+  j["energy"] = energy;
+  if (d.directions.empty()) return;
+  Json participation = Json::object();
+  for (std::size_t a = 0; a < d.directions.size(); ++a)
+    participation[d.directions[a].name] = {{"participation_factor", e.participation_factor[a]},
+                                           {"effective_mass", e.effective_mass[a]},
+                                           {"cumulative_fraction", e.cumulative_fraction[a]}};
+  j["participation"] = participation;
+}
+
+void add_result(Json& j, const AnalyzedEquilibrium& a) {
+  const ModalResult& r = a.result;
   j["stability"] = to_string(r.stability);
   j["stability_description"] = describe_stability(r);
   j["morse_index"] = r.morse_index;
   j["zero_modes"] = r.zero_modes;
   Json modes = Json::array();
   for (std::size_t k = 0; k < r.modes.size(); ++k) modes.push_back(mode_json(k, r.modes[k]));
+  if (a.energy) {
+    const EnergyDistribution& d = *a.energy;
+    for (const ModeEnergy& e : d.modes) add_energy(modes[static_cast<std::size_t>(e.mode - 1)], d, e);
+    j["energy_split"] = d.split == EnergyDistribution::Split::element ? "element" : "coordinate";
+    Json directions = Json::array();
+    for (const ParticipationDirection& p : d.directions)
+      directions.push_back({{"direction", p.name}, {"movable_mass", p.movable_mass}});
+    j["participation_directions"] = directions;
+  }
   j["modes"] = modes;
   j["solver"] = r.solver;
   j["notes"] = r.notes;
@@ -131,7 +163,7 @@ std::string analysis_json(const Report& report) {
   if (!report.equilibria.empty()) {
     const AnalyzedEquilibrium& a = report.equilibria.front();
     j["equilibrium"] = equilibrium_json(report, a.equilibrium);
-    add_result(j, a.result);
+    add_result(j, a);
   }
   return j.dump(2) + "\n";
 }
@@ -143,7 +175,7 @@ std::string equilibria_json(const Report& report) {
     Json item;
     item["index"] = e + 1;
     item["equilibrium"] = equilibrium_json(report, report.equilibria[e].equilibrium);
-    add_result(item, report.equilibria[e].result);
+    add_result(item, report.equilibria[e]);
     list.push_back(item);
   }
   j["equilibria"] = list;

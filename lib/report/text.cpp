@@ -57,6 +57,62 @@ std::string parameter_line(const std::vector<std::pair<std::string, double>>& pa
   return line;
 }
 
+// "name 0.62, name 0.31, 3 others 0.07": the `top` largest shares by
+// magnitude, then how many others there are and what they add up to.
+std::string largest_shares(const std::vector<std::string>& names, const std::vector<double>& f, std::size_t top) {
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < f.size(); ++i)
+    if (f[i] != 0.0) order.push_back(i);
+  const std::size_t shown = std::min(top, order.size());
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(shown), order.end(),
+                    [&](std::size_t a, std::size_t b) { return std::abs(f[a]) > std::abs(f[b]); });
+  std::string line;
+  for (std::size_t k = 0; k < shown; ++k)
+    line += fmt::format("{}{} {}", k > 0 ? ", " : "", names[order[k]], num(f[order[k]], 4));
+  if (order.size() > shown) {
+    double rest = 0;
+    for (std::size_t k = shown; k < order.size(); ++k) rest += f[order[k]];
+    line += fmt::format(", {} others {}", order.size() - shown, num(rest, 4));
+  }
+  return line;
+}
+
+// `--energy`: each mode's largest kinetic and potential shares, then the
+// participation table (the CSV and JSON have every share).
+void print_energy(std::ostream& out, const EnergyDistribution& d) {
+  constexpr std::size_t top = 5, modes_shown = 20;
+  out << fmt::format("\nEnergy distribution (shares of each mode's kinetic and potential energy {}; "
+                     "the largest {} by magnitude)\n",
+                     d.split == EnergyDistribution::Split::element ? "by element" : "by coordinate", top);
+  for (std::size_t i = 0; i < std::min(d.modes.size(), modes_shown); ++i) {
+    const ModeEnergy& m = d.modes[i];
+    out << fmt::format("  mode {:>3}  kinetic:   {}\n", m.mode, largest_shares(d.kinetic_elements, m.kinetic, top));
+    out << fmt::format("            potential: {}\n",
+                       m.potential.empty() ? std::string("not defined (zero mode)")
+                                           : largest_shares(d.potential_elements, m.potential, top));
+  }
+  if (d.modes.size() > modes_shown)
+    out << fmt::format("  ({} more modes in the CSV/JSON output)\n", d.modes.size() - modes_shown);
+  if (d.directions.empty()) return;
+  out << "\nParticipation in base translation (effective mass in kg; cumulative: over the modes above, "
+         "divided by the movable mass)\n";
+  out << fmt::format("  {:>4}", "mode");
+  for (const ParticipationDirection& p : d.directions)
+    out << fmt::format("  {:>11}  {:>12}  {:>10}", "gamma_" + p.name, "m_eff_" + p.name, "cum_" + p.name);
+  out << '\n';
+  for (std::size_t i = 0; i < std::min(d.modes.size(), modes_shown); ++i) {
+    const ModeEnergy& m = d.modes[i];
+    out << fmt::format("  {:>4}", m.mode);
+    for (std::size_t a = 0; a < d.directions.size(); ++a)
+      out << fmt::format("  {:>11}  {:>12}  {:>10}", num(m.participation_factor[a], 5), num(m.effective_mass[a], 6),
+                         num(m.cumulative_fraction[a], 6));
+    out << '\n';
+  }
+  out << "  movable mass:";
+  for (const ParticipationDirection& p : d.directions) out << fmt::format(" {} {} kg", p.name, num(p.movable_mass, 10));
+  out << '\n';
+}
+
 void print_header(std::ostream& out, const Report& report) {
   out << (report.title.empty() ? std::string("(untitled scene)") : report.title) << '\n';
   if (!report.scene_file.empty()) out << "scene: " << report.scene_file << '\n';
@@ -229,6 +285,8 @@ void print_analysis(std::ostream& out, const Report& report) {
     }
     if (shown < r.modes.size()) out << fmt::format("  ({} more modes in the CSV/JSON output)\n", r.modes.size() - shown);
   }
+
+  if (report.equilibria.front().energy) print_energy(out, *report.equilibria.front().energy);
 
   if (!r.notes.empty()) {
     out << "\nNotes\n";

@@ -558,6 +558,45 @@ ConstraintBasis constraint_basis(const MatrixX& A);
 // equations of `basis` (A: m×n, force: n); 0 on the redundant equations.
 VectorX fit_multipliers(const MatrixX& A, const ConstraintBasis& basis, const VectorX& force);
 
+// --- energy by element (docs/design.md, "Energy distribution and participation") ---
+//
+// The quadratic forms that make up vᵀM v and vᵀK v element by element, for a
+// direction v of the coordinates (n; a mode shape), with the model's own
+// templated elements differentiated along v by forward AD (first order for
+// the kinetic energy, second order for the potential): O(bodies + springs +
+// loads + constraints) per direction, no matrix is formed.
+//   kinetic[b]   = vᵀM_b v: twice the kinetic energy of body b (a particle is a
+//                  body) at q̇ = v, m|v_c|² + ωᵀ R I Rᵀ ω + its joint's armature
+//                  term; Σ_b = vᵀM v.
+//   potential[t] = vᵀK_t v for the terms named by potential_terms(): each body's
+//                  gravity, joint spring and (rotating frame) centrifugal term,
+//                  each spring and dead load (d²V_t/dτ² along q + τv), each
+//                  follower load (−vᵀ ∂Q_t/∂q v) and each constraint
+//                  (−Σ_i s_i vᵀ∇∇c_i v over its equations, multipliers s);
+//                  Σ_t = vᵀK v with K = ∇∇V − ∂Q/∂q − Σ s_i∇∇c_i (its
+//                  symmetric part: only that enters vᵀK v).
+//   momentum     = Σ_b m_b ẋ_b at q̇ = v: the total linear momentum (world
+//                  components; kg times the units of v's translation), so that
+//                  d·momentum = vᵀL_d with L_d = Σ_b m_b J_bᵀ d.
+// Kinematic maps have no elements: std::invalid_argument.
+struct ElementQuadratics {
+  VectorX kinetic;    // per body
+  VectorX potential;  // per potential term
+  Vec3 momentum = Vec3::Zero();
+};
+// Names of the potential terms, in the order of ElementQuadratics::potential:
+// "<body>.gravity", "<body>.joint", "spring<k>", "load<k>", "follower<k>"
+// (k from 1 in the system's order, which is `modal check`'s), "<body>.centrifugal",
+// "<constraint name>".
+std::vector<std::string> potential_terms(const System& s);
+ElementQuadratics element_quadratics(const System& s, const VectorX& q, const VectorX& v,
+                                     const VectorX& multipliers = {});
+// The mass that can move along the unit direction d at q (kg): Σ m_b over the
+// bodies whose centre of mass some coordinate moves along d to first order
+// (|d·J_bk| above 1e-9 |J_bk| for a coordinate k of b or of an ancestor,
+// J_bk = ∂x_b/∂q_k). Constraints are not considered (an upper bound then).
+double movable_mass(const System& s, const VectorX& q, const Vec3& d);
+
 // World pose of every body at q: rotation (body → world) and frame origin.
 struct Pose {
   Mat3 rotation = Mat3::Identity();

@@ -155,6 +155,9 @@ struct AnalysisOptions {
                                  // 0: the method's default
   double equilibrium_tolerance = EquilibriumOptions{}.tolerance;  // accepted relative residual
   LargeEquilibriumMethod large_equilibrium = LargeEquilibriumMethod::newton;
+  // The energy distribution and participation of the modes reported
+  // (modal/energy.hpp; AnalyzedEquilibrium::energy): O(elements) per mode.
+  bool energy = false;
 };
 
 // One analyzed equilibrium: the report values (names, parameters, the
@@ -254,6 +257,9 @@ struct Outputs {
                          // FILE_convergence.csv and FILE_extrapolation.csv); others: FILE
   std::string json;      // analyze, equilibria
   std::string matrices;  // analyze: a directory for M, K (D, G, N) in Matrix Market
+  // analyze: with csv also PREFIX_energy.csv and PREFIX_participation.csv; the
+  // analysis must then have its energy distribution (AnalysisOptions::energy).
+  bool energy = false;
 };
 enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
 // The files `command` will write for `outputs` (the sweep's extra files only

@@ -16,12 +16,14 @@
 // or a line break. JSON writes non-finite numbers as null.
 #pragma once
 
+#include "modal/energy.hpp"
 #include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
 #include "modal/simulate.hpp"
 #include "modal/sweep.hpp"
 
 #include <iosfwd>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -40,6 +42,8 @@ class ReportError : public std::runtime_error {
 struct AnalyzedEquilibrium {
   Equilibrium equilibrium;
   ModalResult result;
+  // Where each mode's energy is (modal/energy.hpp), when asked for (`--energy`).
+  std::optional<EnergyDistribution> energy;
 };
 
 // Everything a report shows. `coordinates` and `kinds` are parallel (n each);
@@ -99,8 +103,18 @@ void write_shapes_csv(std::ostream& out, const Report& report);
 // then <name>_rate,<name>_momentum per ignorable coordinate (steady motions)
 // and <equation>_force per constraint equation (N; empty when redundant).
 void write_equilibria_csv(std::ostream& out, const Report& report);
-// Writes PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv; returns
-// their paths. Throws ReportError when a file cannot be written.
+// Energy distributions (equilibria that have one; docs/design.md, "Energy
+// distribution and participation"): header "mode,kind,element,fraction", one
+// row per nonzero share (kind "kinetic" or "potential"; no
+// potential rows for a mode whose potential shares are not defined).
+void write_energy_csv(std::ostream& out, const Report& report);
+// Header "mode,direction,participation_factor,effective_mass,
+// cumulative_fraction": one row per mode and direction (x, y, z along which
+// mass moves; none for first-order problems and kinematic maps).
+void write_participation_csv(std::ostream& out, const Report& report);
+// Writes PREFIX_modes.csv, PREFIX_shapes.csv, PREFIX_equilibria.csv and, when
+// an equilibrium has its energy distribution, PREFIX_energy.csv and
+// PREFIX_participation.csv; returns their paths. Throws ReportError when a file cannot be written.
 std::vector<std::string> write_csv_files(const std::string& prefix, const Report& report);
 // Writes one file with `writer`; throws ReportError when it cannot be written.
 void write_file(const std::string& path, void (*writer)(std::ostream&, const Report&),
@@ -132,7 +146,10 @@ std::vector<std::string> export_matrices(const std::string& dir, const SparseLin
 // force (point: [x, y, z] on end a, null where not determined) | multiplier
 // and tension (distance)}], redundant_equations[names],] modes[{mode, omega2,
 // growth_rate, omega, frequency_hz, period, damping_ratio, error_estimate, kind,
-// stability, shape[real], shape_imag[only when complex]}], solver, notes}
+// stability, shape[real], shape_imag[only when complex], [energy{kinetic{element:
+// share}, potential{term: share} or null}, participation{x|y|z: {participation_factor,
+// effective_mass, cumulative_fraction}}: with an energy distribution]}],
+// [energy_split, participation_directions[{direction, movable_mass}]], solver, notes}
 // for the first equilibrium of the report (indented text).
 std::string analysis_json(const Report& report);
 // `modal equilibria`: {scene, title, parameters, coordinates, equilibria[{index,
