@@ -139,6 +139,12 @@ std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
     const MatLD R = sl.rotation[b];
     M += static_cast<LD>(body.mass) * Jv[b].transpose() * Jv[b] + Jw[b].transpose() * (R * I * R.transpose()) * Jw[b];
   }
+  MatLD A = MatLD::Zero(n, n);  // joint armatures: ½a|q̇_joint|² (J_l = I at φ = 0)
+  for (std::size_t b = 0; b < nb; ++b)
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
+      A(s.first_coordinate(static_cast<int>(b)) + i, s.first_coordinate(static_cast<int>(b)) + i) =
+          s.bodies()[b].armature;
+  M += T.transpose() * A * T;
   using D = Dual<Dual<LD, 1>, 1>;
   MatLD K(n, n);
   for (int i = 0; i < n; ++i)
@@ -296,6 +302,80 @@ TEST(Graded, DISABLED_ChainsMatchTheLongDoubleReference) {
     check_modes(r, reference_omega2(s, q), "chain " + joints + " trial " + std::to_string(trial), f);
   }
   std::printf("chains: %d cases (%d modes), worst relative error %.1e, worst estimate / max(error, 1e-12 rel) %.1f\n",
+              f.cases, f.modes, f.worst_error, f.worst_looseness);
+}
+
+// Hinge chains, N = 2..8, the axes y (parallel: solved in absolute angles)
+// or, on some joints, x, lengths and masses log-uniform over [1e-6, 1e6] in
+// the three orders; joint springs, armatures and a horizontal spring at the
+// last body's centre of mass (at its rest length: q = 0 stays the
+// equilibrium) on some trials: every term of the absolute-angle assembly.
+// Same reference and tolerances as the chains above.
+// DISABLED (issue 15 open): measured on this commit, of 60 chains 2 are
+// refused as singular (x hinges separated by y hinges, xyyx…: parallel axes
+// that are not parent and child, which absolute_angle_parents does not link),
+// in the 58 solved (278 modes) no mode exceeds its estimate (so the springs,
+// armatures and spring elements of the absolute-angle assembly agree with
+// the reference), the worst relative error is 1.6e-4 (within its estimate),
+// and 15 estimates are more than 1e3 times max(error, 1e-12 rel), by 2 to
+// 6e9 (worst: xxxyxxy, xxyyyy; all-y chains up to 3.4e4, trial 30). Which
+// term of the estimate dominates there is not yet measured.
+TEST(Graded, DISABLED_HingeChainsWithSpringsAndArmaturesMatchTheLongDoubleReference) {
+  std::mt19937_64 rng(1515);
+  Figures f;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int links = 2 + trial % 7;
+    std::vector<double> lengths, masses;
+    for (int i = 0; i < links; ++i) {
+      lengths.push_back(log_uniform(rng, 1e-6, 1e6));
+      masses.push_back(log_uniform(rng, 1e-6, 1e6));
+    }
+    if (trial % 3 == 0) std::sort(lengths.begin(), lengths.end());
+    if (trial % 3 == 1) std::sort(lengths.rbegin(), lengths.rend());
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    Vec3 origin = Vec3::Zero();
+    std::string axes;
+    for (int i = 0; i < links; ++i) {
+      const auto u = static_cast<std::size_t>(i);
+      Body b = link(i - 1, JointType::hinge, origin, masses[u], lengths[u]);
+      if (std::uniform_int_distribution<int>(0, 4)(rng) == 0) b.axis = Vec3::UnitX();
+      const double weight = masses[u] * 9.81 * lengths[u];
+      if (trial % 2 == 0) {
+        b.stiffness = weight * log_uniform(rng, 1e-2, 1e2);
+        b.rest = VectorX::Zero(1);
+      }
+      if (trial % 3 == 2) b.armature = masses[u] * lengths[u] * lengths[u] * log_uniform(rng, 1e-3, 1e-1);
+      axes += b.axis.x() != 0 ? 'x' : 'y';
+      d.bodies.push_back(b);
+      origin = Vec3(0, 0, -lengths[u]);
+    }
+    if (trial % 4 == 1) {
+      // From the second body's centre of mass, horizontally, at its rest
+      // length. Its direction comes from world positions (xa − xb), so the
+      // anchor is near the root and the spring at least as long as the
+      // depth there: a long spring at the end of a deep chain would be tilted
+      // by ε·depth/length, differently in double and in long double.
+      const double z = -(lengths[0] + lengths[1]);  // both round it alike
+      Spring sp;
+      sp.a = {1, Vec3(0, 0, -lengths[1])};
+      sp.rest_length = -2 * z;
+      sp.b = {-1, Vec3(sp.rest_length, 0, z)};
+      sp.stiffness = masses[1] * 9.81 / lengths[1] * log_uniform(rng, 1e-2, 1e2);
+      d.springs.push_back(sp);
+    }
+    const System s(d);
+    const VectorX q = VectorX::Zero(s.size());
+    ModalResult r;
+    try {
+      r = solve_modes(linearize(s, q));
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "chain " << axes << " trial " << trial << ": " << e.what();
+      continue;
+    }
+    check_modes(r, reference_omega2(s, q), "chain " + axes + " trial " + std::to_string(trial), f);
+  }
+  std::printf("hinge chains: %d cases (%d modes), worst relative error %.1e, worst estimate / max(error, 1e-12 rel) %.1f\n",
               f.cases, f.modes, f.worst_error, f.worst_looseness);
 }
 
