@@ -53,6 +53,11 @@ namespace modal {
 template <class R> struct SubtreeSums {
   std::vector<model::V3<R>> F, tau;
   std::vector<model::M3<R>> P;
+  // With held children (absolute angles, model::region_inertias): F and P
+  // over the body's region, each held child c counted by its translation
+  // only (d F_cᵀ in P); filled by accumulate_sums when asked.
+  std::vector<model::V3<R>> region_F;
+  std::vector<model::M3<R>> region_P;
   void resize(std::size_t bodies) {
     F.resize(bodies);
     tau.resize(bodies);
@@ -131,12 +136,21 @@ Vec3 site_velocity(const TreeState<double>& st, int k, const Vec3& lever, bool d
 
 // Calls f(k, lever) for every coordinate k that moves the site, with lever =
 // x − p_a for k's body a, accumulated from r and the offsets on the way up
-// (a direction keeps lever = x: it turns but does not translate).
-template <class F> void for_each_site_coordinate(const System& s, const TreeState<double>& st, const Site& site, F&& f) {
+// (a direction keeps lever = x: it turns but does not translate). With
+// `held` (absolute angles, model::region_inertias): the angle of a parent a
+// reached through a held child c translates the site by ω × offset[c] (f
+// gets lever = offset[c]), and turns no direction (f is not called).
+template <class F>
+void for_each_site_coordinate(const System& s, const TreeState<double>& st, const Site& site, F&& f,
+                              const std::vector<char>* held = nullptr) {
   Vec3 lever = site.r;
-  for (int a = site.body; a >= 0; a = s.bodies()[static_cast<std::size_t>(a)].parent) {
+  for (int a = site.body, from = -1; a >= 0; from = a, a = s.bodies()[static_cast<std::size_t>(a)].parent) {
     const int a0 = s.first_coordinate(a);
-    for (int j = a0; j < a0 + s.joint_size(a); ++j) f(j, lever);
+    if (held && from >= 0 && (*held)[static_cast<std::size_t>(from)]) {
+      if (!site.direction) f(a0, st.offset[static_cast<std::size_t>(from)]);
+    } else {
+      for (int j = a0; j < a0 + s.joint_size(a); ++j) f(j, lever);
+    }
     if (!site.direction) lever += st.offset[static_cast<std::size_t>(a)];
   }
 }
@@ -148,13 +162,17 @@ struct PointJacobian {
 };
 // Into J, whose capacity is reused: the per-element paths of an assembly then
 // allocate nothing (a 10⁶-coordinate net assembles 1.3·10⁶ site Jacobians).
-void site_jacobian(const System& s, const TreeState<double>& st, const Site& site, PointJacobian& J) {
+void site_jacobian(const System& s, const TreeState<double>& st, const Site& site, PointJacobian& J,
+                   const std::vector<char>* held = nullptr) {
   J.index.clear();
   J.column.clear();
-  for_each_site_coordinate(s, st, site, [&](int k, const Vec3& lever) {
-    J.index.push_back(k);
-    J.column.push_back(site_velocity(st, k, lever, site.direction));
-  });
+  for_each_site_coordinate(
+      s, st, site,
+      [&](int k, const Vec3& lever) {
+        J.index.push_back(k);
+        J.column.push_back(site_velocity(st, k, lever, site.direction));
+      },
+      held);
 }
 PointJacobian point_jacobian(const System& s, const TreeState<double>& st, const Attachment& a) {
   PointJacobian J;
@@ -312,7 +330,8 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
 // body's joint centre: a site adds r × e and r eᵀ, a child c shifts into its
 // parent with its offset d: τ += τ_c + d × F_c, P += P_c + d F_cᵀ.
 template <class R, class Source>
-void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order, Source&& source) {
+void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order, Source&& source,
+                     const std::vector<char>* held = nullptr) {
   const auto nb = s.bodies().size();
   c.resize(nb);
   for (std::size_t b = 0; b < nb; ++b) {
@@ -327,11 +346,21 @@ void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c,
     c.tau[b] += site.r.cross(e);
     if (second_order) c.P[b] += site.r * e.transpose();
   });
+  if (held) {
+    c.region_F = c.F;
+    c.region_P = c.P;
+  }
   for (std::size_t b = nb; b-- > 0;) {
     const int p = s.bodies()[b].parent;
     if (p < 0) continue;
     const auto pp = static_cast<std::size_t>(p);
     const model::V3<R>& d = st.offset[b];
+    if (held && (*held)[b]) {
+      c.region_P[pp] += d * c.F[b].transpose();
+    } else if (held) {
+      c.region_F[pp] += c.F[b];
+      c.region_P[pp] += c.P[b] + d * c.F[b].transpose();
+    }
     c.F[pp] += c.F[b];
     c.tau[pp] += c.tau[b] + d.cross(c.F[b]);
     if (second_order) c.P[pp] += c.P[b] + d * c.F[b].transpose();
@@ -340,10 +369,11 @@ void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c,
 
 // The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
 template <class LocalHessian>
-void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian) {
-  accumulate_sums(s, w.cache().st, w.cache(), second_order, [&](auto&& deposit) {
-    for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order);
-  });
+void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian,
+                const std::vector<char>* held = nullptr) {
+  accumulate_sums(
+      s, w.cache().st, w.cache(), second_order,
+      [&](auto&& deposit) { for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order); }, held);
 }
 
 // World force of a follower load at the current kinematics: R_b · (body-frame force).
@@ -401,15 +431,22 @@ void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeS
 
 // add(j, k, h) for H_jk += Σ e·∂²x/∂q_j∂q_k over the deposited cotangents
 // (both triangles; the formulas of the header comment, O(n·depth)).
+// With `held` (absolute angles; the region sums filled): in the basis θ, q =
+// Tθ. Column k of T is e_k − Σ e_c over k's held children c (ω_c = ω_k), so
+// (TᵀHT)_jk = (ω_j − Σ ω_c)·(w_k − Σ_c w_c) with w from the region sums of
+// k's body (P − Σ_c P_c, F − Σ_c F_c, formed directly), and the first factor
+// is zero exactly when k's body lies below a held child of j's: such pairs
+// are skipped.
 template <class Add>
-void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, Add&& add) {
+void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, Add&& add,
+                  const std::vector<char>* held = nullptr) {
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     const int k0 = s.first_coordinate(static_cast<int>(b));
     const int nq = s.joint_size(static_cast<int>(b));
-    const Vec3& F = c.F[b];
-    const Mat3& P = c.P[b];
+    const Vec3& F = held ? c.region_F[b] : c.F[b];
+    const Mat3& P = held ? c.region_P[b] : c.P[b];
     const double trP = P.trace();
     // Rotation-vector joints: derivative of the twists with respect to the joint's own coordinates.
     Eigen::Matrix<double, 3, 9> dW;  // columns 3i..3i+2: ∂(R_p J_l e_k)/∂φ_i for k = 0..2
@@ -442,7 +479,9 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
         if (rot_k && is_rotation_vector(body, j - k0)) continue;  // handled below
         pair(j);
       }
-      for (int a = body.parent; a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
+      for (int a = body.parent, from = static_cast<int>(b); a >= 0;
+           from = a, a = bodies[static_cast<std::size_t>(a)].parent) {
+        if (held && (*held)[static_cast<std::size_t>(from)]) continue;
         const int a0 = s.first_coordinate(a);
         for (int j = a0; j < a0 + s.joint_size(a); ++j) pair(j);
       }
@@ -470,9 +509,9 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
 // H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
 template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
-                       Add&& add) {
+                       Add&& add, const std::vector<char>* held = nullptr) {
   thread_local std::array<PointJacobian, N> J;  // capacity kept from element to element
-  for (std::size_t u = 0; u < N; ++u) site_jacobian(s, st, sites[u], J[u]);
+  for (std::size_t u = 0; u < N; ++u) site_jacobian(s, st, sites[u], J[u], held);
   for (std::size_t u = 0; u < N; ++u)
     for (std::size_t v = 0; v < N; ++v) {
       const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
@@ -492,16 +531,27 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
 }
 
 // ∇∇V of a tree, entry by entry into add(j, k, v): the elements' local
-// Hessians (Jᵀ H_e J), the tree terms, and the joint springs.
-template <class Add> void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add) {
+// Hessians (Jᵀ H_e J), the tree terms, and the joint springs. With `held`:
+// Tᵀ∇∇V T in the absolute angles of parallel hinges (a held body's spring
+// acts on θ_b − θ_parent).
+template <class Add>
+void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add,
+                                const std::vector<char>* held = nullptr) {
   const TreeState<double>& st = kinematics(s, w, q);
-  accumulate(s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add); });
-  tree_hessian(s, st, w.cache(), q, add);
+  accumulate(
+      s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add, held); }, held);
+  tree_hessian(s, st, w.cache(), q, add, held);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
     for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
+    if (held && (*held)[b]) {
+      const int p = s.first_coordinate(bodies[b].parent);
+      add(p, p, bodies[b].stiffness);
+      add(p, k0, -bodies[b].stiffness);
+      add(k0, p, -bodies[b].stiffness);
+    }
   }
 }
 
@@ -645,6 +695,60 @@ VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q) {
       scale[k] = st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3) : Ic[b].block<3, 3>(0, 0).trace();
   }
   return scale;
+}
+
+std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const VectorX& q) {
+  std::vector<int> parent(static_cast<std::size_t>(s.size()), -1);
+  if (s.is_map()) return parent;
+  const TreeState<double>& st = kinematics(s, w, q);
+  const auto& bodies = s.bodies();
+  constexpr double tolerance = 8 * std::numeric_limits<double>::epsilon();  // both unit vectors
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const int a = bodies[b].parent;
+    if (bodies[b].joint != JointType::hinge || a < 0 || bodies[static_cast<std::size_t>(a)].joint != JointType::hinge)
+      continue;
+    const int k = s.first_coordinate(static_cast<int>(b)), j = s.first_coordinate(a);
+    if ((st.omega[static_cast<std::size_t>(k)] - st.omega[static_cast<std::size_t>(j)]).norm() <= tolerance)
+      parent[static_cast<std::size_t>(k)] = j;
+  }
+  return parent;
+}
+
+AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const VectorX& q,
+                                        const std::vector<int>& parents) {
+  const int n = s.size();
+  if (s.is_map() || static_cast<int>(parents.size()) != n)
+    throw std::invalid_argument("absolute_angle_model: a tree and one parent entry per coordinate are required");
+  std::vector<char> held(s.bodies().size(), 0);
+  for (std::size_t b = 0; b < s.bodies().size(); ++b)
+    if (s.joint_size(static_cast<int>(b)) == 1 && parents[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)))] >= 0)
+      held[b] = 1;
+  AbsoluteAngleModel m;
+  m.parent = parents;
+  const TreeState<double>& st = kinematics(s, w, q);
+  const model::Inertias<double> Ic = model::composite_inertias(s, st);
+  model::mass_matrix(s, st, Ic, m.M, &held);
+  // Natural scales as inertia_scale: the region's rotational trace plus the
+  // held children's translation, m_c |offset_c|² (≥ M_kk for a unit ω).
+  const model::Inertias<double> region = model::region_inertias(s, st, Ic, held);
+  m.inertia_scale.resize(n);
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)
+      m.inertia_scale[k] = st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3)
+                                                                              : region[b].block<3, 3>(0, 0).trace();
+  }
+  for (std::size_t c = 0; c < s.bodies().size(); ++c)
+    if (held[c]) {
+      const int k = s.first_coordinate(s.bodies()[c].parent);
+      m.inertia_scale[k] += Ic[c](3, 3) * st.offset[c].squaredNorm() + s.bodies()[c].armature;
+    }
+  m.K.setZero(n, n);
+  assemble_potential_hessian(s, w, q, dense_adder(m.K), &held);
+  m.K = 0.5 * (m.K + m.K.transpose()).eval();
+  m.K_magnitude.setZero(n, n);
+  assemble_potential_hessian(s, w, q, [&m](int j, int k, double v) { m.K_magnitude(j, k) += std::abs(v); }, &held);
+  return m;
 }
 
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {

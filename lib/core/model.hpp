@@ -350,6 +350,28 @@ template <class S> Inertias<S> composite_inertias(const System& sys, const TreeS
   return Ic;
 }
 
+// Absolute angles of parallel hinges (docs/design.md, "Graded scenes"). A
+// body b is `held` (held[b] != 0) when its joint and its parent's are hinges
+// about the same world axis: its coordinate is then replaced by the absolute
+// angle θ_b = θ_parent + q_b (q = Tθ, T unit lower triangular). Moving θ_a
+// with every other θ fixed turns a's body about p_a and TRANSLATES the
+// subtree of each held child c by ω_a × offset[c] (the child's own angle
+// stays), so every column of the new basis is formed from relative offsets
+// and nothing cancels: in relative angles a short link before a long one
+// makes M singular to (l_short/l_long)² and T applied afterwards cannot
+// recover the lost digits. Region inertia: b's own body and the subtrees of
+// its children that are not held, about p_b.
+template <class S> Inertias<S> region_inertias(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic,
+                                               const std::vector<char>& held) {
+  const auto& bodies = sys.bodies();
+  Inertias<S> region(bodies.size());
+  for (std::size_t b = 0; b < bodies.size(); ++b) region[b] = spatial_inertia(bodies[b], st, b);
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    if (bodies[b].parent >= 0 && !held[b])
+      add_shifted_inertia(Ic[b], st.offset[b], region[static_cast<std::size_t>(bodies[b].parent)]);
+  return region;
+}
+
 // Twist of coordinate k about its own body's joint centre, (ω_k, u_k).
 template <class S> Eigen::Matrix<S, 6, 1> coordinate_twist(const TreeState<S>& st, int k) {
   Eigen::Matrix<S, 6, 1> xk;
@@ -381,23 +403,57 @@ template <class S> void frame_coupling(const System& sys, const TreeState<S>& st
 // (p_b − p_a) + u_j) for j of an ancestor a (p_b − p_a accumulated from the
 // offsets), handed to set(j, k, M_jk) once per pair with j at or above k (the
 // caller mirrors it); pairs off a common path are zero and never visited.
-template <class S, class Set> void mass_matrix_entries(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, Set&& set) {
+// With `held` (region_inertias): M in the absolute angles of parallel hinges,
+// TᵀMT assembled directly. The momentum of θ_k is then that of its region
+// turning plus, for each held child c, the subtree of c translated by
+// t = ω_k × offset[c]; its own diagonal is ξ_kᵀ Region ξ_k + Σ_c m_c|t|² (+ the
+// armatures a_c of the held children, whose relative rate is θ̇_c − θ̇_k); and
+// an ancestor a reached through a held child c moves b's subtree by the
+// translation ω_a × offset[c] only.
+template <class S, class Set>
+void mass_matrix_entries(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, Set&& set,
+                         const std::vector<char>* held = nullptr) {
   const auto& bodies = sys.bodies();
   const std::size_t nb = bodies.size();
+  Inertias<S> region;
+  std::vector<std::vector<std::size_t>> held_children;
+  if (held) {
+    region = region_inertias(sys, st, Ic, *held);
+    held_children.resize(nb);
+    for (std::size_t c = 0; c < nb; ++c)
+      if ((*held)[c]) held_children[static_cast<std::size_t>(bodies[c].parent)].push_back(c);
+  }
+  auto c0 = [&](std::size_t c) { return static_cast<std::size_t>(sys.first_coordinate(static_cast<int>(c))); };
   for (std::size_t b = 0; b < nb; ++b) {
     const int k0 = sys.first_coordinate(static_cast<int>(b));
+    const bool holds = held && !held_children[b].empty();  // a hinge: one coordinate
     for (int k = k0; k < k0 + sys.joint_size(static_cast<int>(b)); ++k) {
-      const Eigen::Matrix<S, 6, 1> u = Ic[b] * coordinate_twist(st, k);
+      const Eigen::Matrix<S, 6, 1> own = (held ? region[b] : Ic[b]) * coordinate_twist(st, k);
+      Eigen::Matrix<S, 6, 1> u = own;
+      S translation(0.0);  // Σ_c m_c|t_c|² over the held children
+      if (holds)
+        for (const std::size_t c : held_children[b]) {
+          const V3<S> t = st.omega[static_cast<std::size_t>(k)].cross(st.offset[c]);
+          const S m = Ic[c](3, 3);
+          const V3<S> force = m * t;
+          u.template head<3>() += Ic[c].template block<3, 3>(0, 3) * t + st.offset[c].cross(force);
+          u.template tail<3>() += force;
+          translation += m * t.squaredNorm() + bodies[c].armature * st.omega[c0(c)].squaredNorm();
+        }
       // coordinates of this joint up to k, then of every ancestor
       auto visit = [&](int j, const V3<S>& lever) {  // lever = p_b − p_a
         const auto jj = static_cast<std::size_t>(j);
         const V3<S> v = st.omega[jj].cross(lever) + st.centre_velocity[jj];
-        set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>())));
+        if (holds && j == k)
+          set(j, k, S(st.omega[jj].dot(own.template head<3>()) + v.dot(own.template tail<3>()) + translation +
+                      bodies[b].armature * st.omega[jj].squaredNorm()));
+        else
+          set(j, k, S(st.omega[jj].dot(u.template head<3>()) + v.dot(u.template tail<3>())));
       };
       V3<S> lever = V3<S>::Zero();
       const double armature = bodies[b].armature;
       for (int j = k0; j <= k; ++j) {
-        if (armature == 0.0) {
+        if (armature == 0.0 || holds) {
           visit(j, lever);
           continue;
         }
@@ -413,19 +469,31 @@ template <class S, class Set> void mass_matrix_entries(const System& sys, const 
         lever += st.offset[c];
         const int a = bodies[c].parent;
         const int a0 = sys.first_coordinate(a);
-        for (int j = a0; j < a0 + sys.joint_size(a); ++j) visit(j, lever);
+        for (int j = a0; j < a0 + sys.joint_size(a); ++j) {
+          if (held && (*held)[c])  // the armature of b's own joint, q_b = θ_b − θ_a: −a
+            set(j, k, S(st.omega[static_cast<std::size_t>(j)].cross(st.offset[c]).dot(u.template tail<3>()) -
+                        (c == b ? armature * st.omega[static_cast<std::size_t>(k)].squaredNorm() : S(0.0))));
+          else
+            visit(j, lever);
+        }
       }
     }
   }
 }
 
 // M(q) (n×n, dense).
-template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, MX<S>& M) {
+// With `held`: in the absolute angles of parallel hinges (mass_matrix_entries).
+template <class S>
+void mass_matrix(const System& sys, const TreeState<S>& st, const Inertias<S>& Ic, MX<S>& M,
+                 const std::vector<char>* held = nullptr) {
   M.setZero(sys.size(), sys.size());
-  mass_matrix_entries(sys, st, Ic, [&M](int j, int k, const S& v) {
-    M(j, k) = v;
-    M(k, j) = v;
-  });
+  mass_matrix_entries(
+      sys, st, Ic,
+      [&M](int j, int k, const S& v) {
+        M(j, k) = v;
+        M(k, j) = v;
+      },
+      held);
 }
 
 template <class S> void mass_matrix(const System& sys, const TreeState<S>& st, MX<S>& M) {

@@ -235,6 +235,26 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
       if (G_error.size() > 0 && G_error.allFinite()) model.G_error = G_error;
     }
   }
+  if (!s.is_map() && !s.has_constraints() && !s.has_follower_loads() && !s.has_frame_coupling() && !model.has_damping &&
+      options.derivatives == DerivativeMethod::exact) {
+    const std::vector<int> parents = absolute_angle_parents(s, ws, q);
+    if (std::any_of(parents.begin(), parents.end(), [](int p) { return p >= 0; })) {
+      model.absolute = absolute_angle_model(s, ws, q, parents);
+      model.absolute.K_magnitude *= 4 * std::numeric_limits<double>::epsilon();
+      require_finite(model.absolute.M, "mass matrix in absolute angles", model.coordinates);
+      require_finite(model.absolute.K, "stiffness matrix in absolute angles", model.coordinates);
+      if (model.K_systematic_error.size() > 0) {  // |T|ᵀ A |T|, T = I − (parent links)
+        const MatrixX& E = model.K_systematic_error;
+        MatrixX A = E;
+        for (int c = 0; c < n; ++c)
+          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) A.col(p) += E.col(c);
+        MatrixX B = A;
+        for (int c = 0; c < n; ++c)
+          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) B.row(p) += A.row(c);
+        model.absolute_systematic_error = B;
+      }
+    }
+  }
   if (s.has_constraints()) {  // onto the manifold: X → NᵀXN
     const MatrixX& N = constraints.null_space;
     model.basis = N;

@@ -52,8 +52,11 @@ MatrixX scale_symmetric(const MatrixX& A, const VectorX& s);
 // SingularMassMatrix when M is singular or indefinite within the relative
 // tolerance 16·ε·‖M‖_F; the message names the coordinate combinations that
 // carry no inertia, in the original coordinates (S times the null vectors).
-// `names` has n entries.
-Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {});
+// `names` has n entries. `absolute` (LinearModel::absolute's parent, or
+// empty): M is in the absolute angles θ of parallel hinges, and the named
+// directions are turned back into the coordinates q = Tθ.
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
+                     const std::vector<int>& absolute = {});
 
 // K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's

@@ -79,7 +79,7 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 // is at most `tolerance` (at least the smallest one), as the direction S v in
 // the original coordinates when M is scaled (`scale` = s, or empty).
 [[noreturn]] void diagnose_singular_mass(const MatrixX& M, const std::vector<std::string>& names,
-                                         double tolerance, const VectorX& scale) {
+                                         double tolerance, const VectorX& scale, const std::vector<int>& absolute) {
   Eigen::SelfAdjointEigenSolver<MatrixX> eig(M);
   if (eig.info() != Eigen::Success)
     throw SingularMassMatrix("the mass matrix has no Cholesky factor and its eigen-decomposition failed: "
@@ -97,8 +97,13 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   const bool scaled = scale.size() == M.rows() && (scale.array() != 1.0).any();
   for (Eigen::Index j = 0; j < listed; ++j) {
     if (j > 0) out << "; ";
-    const VectorX v = scaled ? VectorX(scale.cwiseProduct(eig.eigenvectors().col(j)).normalized())
-                             : VectorX(eig.eigenvectors().col(j));
+    VectorX v = scaled ? VectorX(scale.cwiseProduct(eig.eigenvectors().col(j))) : VectorX(eig.eigenvectors().col(j));
+    if (static_cast<Eigen::Index>(absolute.size()) == v.size()) {  // q = Tθ
+      const VectorX theta = v;
+      for (std::size_t c = 0; c < absolute.size(); ++c)
+        if (absolute[c] >= 0) v(static_cast<Eigen::Index>(c)) -= theta(absolute[c]);
+    }
+    v.normalize();
     out << describe_combination(v, names) << (values(j) < -tolerance ? " has negative inertia" : " has no inertia")
         << " (eigenvalue " << format_number(values(j), 2) << " of largest " << format_number(largest, 3)
         << (scaled ? ", M scaled by the coordinates' inertia" : "") << ")";
@@ -148,7 +153,8 @@ VectorX coordinate_scale(const VectorX& inertia, Eigen::Index n) {
 
 MatrixX scale_symmetric(const MatrixX& A, const VectorX& s) { return s.asDiagonal() * A * s.asDiagonal(); }
 
-Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale) {
+Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale,
+                     const std::vector<int>& absolute) {
   const Eigen::Index n = M.rows();
   if (!std::isfinite(M.norm()))
     throw SingularMassMatrix("the mass matrix overflows double precision (largest entry " +
@@ -167,7 +173,7 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
   Cholesky llt(M);
   if (llt.info() != Eigen::Success || !(M.norm() > 0) ||
       smallest_eigenvalue_bound(llt, n) <= tolerance)
-    diagnose_singular_mass(M, names, tolerance, scale);
+    diagnose_singular_mass(M, names, tolerance, scale, absolute);
   return llt;
 }
 

@@ -64,6 +64,21 @@ void unscale_shapes(const VectorX& scale, bool real, std::vector<Mode>& modes) {
   }
 }
 
+// Shapes solved in the absolute angles θ of parallel hinges (LinearModel::
+// absolute) to the model's coordinates: φ_q = T φ_θ, q_c = θ_c − θ_parent(c)
+// (M-normalization carries over: φ_qᵀMφ_q = φ_θᵀ(TᵀMT)φ_θ), real shapes
+// signed again so that their largest component is positive.
+void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes) {
+  for (Mode& m : modes) {
+    if (m.shape.size() != static_cast<Eigen::Index>(parent.size())) continue;
+    const Eigen::VectorXcd theta = m.shape;
+    for (std::size_t c = 0; c < parent.size(); ++c)
+      if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
+    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
+    if (real && top.real() < 0) m.shape = -m.shape;
+  }
+}
+
 // Constrained models: shapes from the manifold's coordinates to all
 // coordinates (N φ; M-normalization carries over since NᵀMN is the reduced M),
 // real shapes signed again so that their largest component is positive.
@@ -174,16 +189,25 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   // of powers of two (detail::equilibrating_scale: exact, the same
   // eigenvalues); shapes are mapped back at the end. Unscaled only where the
   // scaling would overflow or underflow.
-  VectorX scale = detail::coordinate_scale(model.inertia_scale, n);
+  // A graded chain of parallel hinges is solved in their absolute angles θ,
+  // its pencil assembled there (LinearModel::absolute); shapes are mapped back.
+  const AbsoluteAngleModel& abs = model.absolute;
+  const bool absolute = !abs.empty() && !model.constrained() && abs.M.rows() == n && abs.K.rows() == n &&
+                        static_cast<Eigen::Index>(abs.parent.size()) == n && model.symmetric();
+  const MatrixX& M_in = absolute ? abs.M : model.M;
+  const MatrixX& K_in = absolute ? abs.K : model.K;
+  const MatrixX& K_error_in = absolute ? abs.K_magnitude : model.K_error;
+  const MatrixX& K_systematic_in = absolute ? model.absolute_systematic_error : model.K_systematic_error;
+  VectorX scale = detail::coordinate_scale(absolute ? abs.inertia_scale : model.inertia_scale, n);
   auto scaled = [&](const MatrixX& A) {
     return A.rows() == n && A.cols() == n ? detail::scale_symmetric(A, scale) : A;
   };
-  MatrixX M0 = scaled(model.M), K0 = scaled(model.K);
+  MatrixX M0 = scaled(M_in), K0 = scaled(K_in);
   const VectorX inverse = scale.cwiseInverse();
-  if (detail::scale_symmetric(M0, inverse) != model.M || detail::scale_symmetric(K0, inverse) != model.K) {
+  if (detail::scale_symmetric(M0, inverse) != M_in || detail::scale_symmetric(K0, inverse) != K_in) {
     scale = VectorX::Ones(n);
-    M0 = model.M;
-    K0 = model.K;
+    M0 = M_in;
+    K0 = K_in;
   }
   if (!symmetric_within_rounding(M0))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
@@ -205,7 +229,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   // so that ω² = 1e160 does not overflow to an infinite estimate (which made
   // every mode a "zero" mode); exact, and undone on the results.
   detail::Magnitudes magnitude = detail::magnitudes(M.cwiseAbs().maxCoeff(), K0.cwiseAbs().maxCoeff());
-  MatrixX Ms = M, Ks = K0, Cs = C, K_error = scaled(model.K_error), K_systematic = scaled(model.K_systematic_error),
+  MatrixX Ms = M, Ks = K0, Cs = C, K_error = scaled(K_error_in), K_systematic = scaled(K_systematic_in),
           G_error = scaled(model.G_error);
   {
     const int a = 2 * magnitude.a, b = 2 * magnitude.b, ab = magnitude.a + magnitude.b;
@@ -216,12 +240,12 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
       Ms = M;
       Ks = K0;
       Cs = C;
-      K_error = scaled(model.K_error);
-      K_systematic = scaled(model.K_systematic_error);
+      K_error = scaled(K_error_in);
+      K_systematic = scaled(K_systematic_in);
       G_error = scaled(model.G_error);
     }
   }
-  const detail::Cholesky mass = detail::factor_mass(Ms, names, scale);
+  const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
   result = symmetric ? detail::solve_symmetric(Ms, symmetric_part(Ks), mass, K_error, K_systematic,
                                                options.dense_solver)
                      : detail::solve_first_order(Ms, Ks, Cs, mass, K_systematic, G_error);
@@ -230,6 +254,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
   unscale_shapes(scale, symmetric, result.modes);
+  if (absolute) absolute_to_relative(abs.parent, symmetric, result.modes);
   map_shapes_back(model, symmetric, result.modes);
   copy_constraints(model, result);
 

@@ -24,28 +24,25 @@
 //     dense solvers 1.8e-6 and 8e-6 against the sparse solver's λ₁, itself
 //     within 2e-8).
 //  2. What the data carry. M and K are assembled in floating point, entry by
-//     entry, so their errors are componentwise, of a few ε relative to each
-//     entry. For an M-normalized x, first-order perturbation of the pencil
-//     gives δλ = xᵀ(δK − λ δM)x = Σ_ij x_i x_j (δK_ij − λ δM_ij). Taking the
-//     entry errors as independent, of standard deviation 2ε|K_ij| (resp.
-//     |M_ij|), the standard deviation of δλ is
-//     2ε·sqrt(Σ_ij (x_i K_ij x_j)² + λ² Σ_ij (x_i M_ij x_j)²),
-//     and the estimate takes twice that. When K comes from differences
-//     (--derivatives), their measured error D (from K at h, 2h, 4h) is systematic
-//     (smooth from entry to entry, not independent) and is added as |x|ᵀD|x|;
-//     the normwise floor below is for rounding only. The worst case Σ|x_i K_ij x_j| (or the
-//     normwise n·ε·(‖K‖ + |λ|‖M‖)‖x‖²) overstates the observed error of the upper
-//     modes of a 1000-link chain by four to seven orders of magnitude, because
-//     a mode with many sign changes sums many entries with cancellation.
-//     An entry that is itself the result of cancellation carries an absolute
-//     error of a few ε times the terms that cancelled, not times |K_ij|: a
-//     joint spring balancing gravity at its buckling load leaves K_ij ≈ 0
-//     with an error of ε·(k + m g l). So K_ij in the sum above is replaced by
-//     E_ij = Σ|terms| of the entry (LinearModel::K_error is 4ε E), and a
-//     normwise floor 4ε·(‖E‖_F + |λ|‖M‖_F)·‖x‖² covers cancellation across
-//     entries (a zero mode: the spin of a body whose stiffness terms cancel
-//     exactly), so that such an eigenvalue is a zero mode and not a divergent
-//     or stable one with a rounding-size value.
+//     entry, so their errors are componentwise: |δK_ij| ≤ E_ij with E =
+//     LinearModel::K_error (4ε × Σ|terms| of the entry: an entry that is
+//     itself the result of cancellation, a joint spring balancing gravity at
+//     its buckling load, carries the error of the terms that cancelled, not
+//     of |K_ij|), and |δM_ij| ≤ 4ε|M_ij|. For an M-normalized x, first-order
+//     perturbation of the pencil gives δλ = xᵀ(δK − λ δM)x, hence
+//     |δλ| ≤ |x|ᵀE|x| + 4ε|λ| |x|ᵀ|M||x|,
+//     rigorous to first order for these entry errors. It is the same number
+//     for the equilibrated pencil (SKS, SMS) and its shape S⁻¹x (E scales
+//     with K), so graded coordinates cost nothing here. It replaces a
+//     normwise floor 4ε(‖E‖ + |λ|‖M‖)‖x‖² (always larger: |x|ᵀE|x| ≤
+//     ‖E‖₂‖x‖²) that made the estimate of the small root of a graded double
+//     pendulum 1e7 times its true error (the floor is ε times the LARGE
+//     root), and a statistical term that this bound always exceeds. A zero
+//     mode whose stiffness terms cancel exactly (the spin of a body) keeps
+//     an estimate at the size of the cancelled terms through E.
+//     When K comes from differences (--derivatives), their measured error D
+//     (from K at h, 2h, 4h) is systematic and is added as |x|ᵀD|x| (E then
+//     holds the rounding part only).
 //
 // A zero mode is one with |λ| ≤ its estimate: it cannot be told from 0.
 #include "detail.hpp"
@@ -191,7 +188,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX absPhi = Phi.cwiseAbs();
   MatrixX both(n, 2 * n);
   both.leftCols(n) = KPhi - MPhi * lambda.asDiagonal();
-  both.rightCols(n) = product(K.cwiseAbs(), absPhi) + product(M.cwiseAbs(), absPhi) * lambda.cwiseAbs().asDiagonal();
+  const MatrixX absMPhi = product(M.cwiseAbs(), absPhi);  // also for the data term below
+  both.rightCols(n) = product(K.cwiseAbs(), absPhi) + absMPhi * lambda.cwiseAbs().asDiagonal();
   const MatrixX R = both.leftCols(n);  // for the relative residual below
   VectorX absKM_dot(n);                // |φ|ᵀ(|K| + |λ||M|)|φ|, before the solve overwrites it
   for (Eigen::Index j = 0; j < n; ++j) absKM_dot(j) = absPhi.col(j).dot(both.col(n + j));
@@ -240,10 +238,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX E = K_error.rows() == n && K_error.cols() == n
                         ? (differences ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0)) : K_error)
                         : MatrixX(4 * eps * K.cwiseAbs());
-  const double normE = E.norm(), normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
-  // Σ_ij (x_i A_ij x_j)² for every column x of Φ: diag(Sᵀ (A∘A) S), S = Φ∘Φ.
-  const MatrixX S = Phi.cwiseAbs2();
-  const MatrixX E2S = product(E.cwiseAbs2(), S), M2S = product(M.cwiseAbs2(), S);
+  const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
+  const MatrixX EabsPhi = product(E, absPhi);
   const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
 
   ModalResult result;
@@ -259,8 +255,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double residual_estimate = with_gap(typical, std::sqrt(nn), j);
     const double rM = 4 * eps;
     const double difference_bound = differences ? absPhi.col(j).dot(DabsPhi.col(j)) : 0.0;
-    const double data_bound = std::sqrt(S.col(j).dot(E2S.col(j)) + rM * rM * l * l * S.col(j).dot(M2S.col(j))) +
-                              difference_bound + (normE + rM * std::abs(l) * normM) * x2;
+    const double data_bound = absPhi.col(j).dot(EabsPhi.col(j)) + rM * std::abs(l) * absPhi.col(j).dot(absMPhi.col(j)) +
+                              difference_bound;
     const double error = residual_estimate + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);

@@ -415,6 +415,30 @@ const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);    
 // The modal solvers equilibrate M by it (LinearModel::inertia_scale). Empty
 // for kinematic maps, whose coordinates have no such scale.
 VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q);
+
+// Absolute angles of parallel hinges (docs/design.md, "Graded scenes"). A
+// hinge whose parent's joint is a hinge about the same world axis at q (to
+// 8ε) measures its angle from its parent: in a chain with a short link before
+// a long one, M in these relative angles is singular to (l_short/l_long)² in
+// double precision, whatever the diagonal scaling. In the absolute angles
+// θ_b = θ_parent + q_b (q = Tθ, T unit lower triangular) the same chain is
+// as well conditioned as its links, provided the matrices are ASSEMBLED in θ
+// (TᵀMT formed from a rounded M keeps M's lost digits lost).
+// absolute_angle_parents: per coordinate, the coordinate of the parent hinge
+// it is measured from, or -1 (all -1 for maps and where nothing is parallel).
+std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const VectorX& q);
+struct AbsoluteAngleModel {
+  std::vector<int> parent;  // n: as absolute_angle_parents; empty: no change of basis
+  MatrixX M;                // TᵀMT (n×n)
+  MatrixX K;                // Tᵀ∇∇V T (n×n, symmetric)
+  MatrixX K_magnitude;      // Σ|terms| of each entry of K, as potential_hessian_magnitude
+  VectorX inertia_scale;    // n: as inertia_scale, for θ
+  bool empty() const { return parent.empty(); }
+};
+// M, ∇∇V and their companions assembled in θ (trees only: no map; the
+// potential's elements only, so neither follower loads nor constraints).
+AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const VectorX& q,
+                                        const std::vector<int>& parents);
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);  // ½q̇ᵀMq̇, J
 // T + V, J; in a rotating frame ½q̇ᵀMq̇ + V − T₀ (the Jacobi integral).
 double energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);

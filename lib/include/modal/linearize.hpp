@@ -87,6 +87,17 @@ struct LinearModel {
   // (Σ_i |N_ij| √scale_i)² of the reduced coordinate j (|M_ik| ≤ √(M_ii M_kk)).
   // Empty (kinematic maps, hand-made models): no scaling.
   VectorX inertia_scale;
+  // Graded chains (docs/design.md, "Graded scenes"): where hinges about the
+  // same world axis follow one another (and the scene is a tree with
+  // potential forces only, no dampers, exact derivatives), the pencil
+  // assembled again in their absolute angles θ (q = Tθ; modal::
+  // absolute_angle_model), with K_magnitude turned into the rounding part of
+  // K's error (4ε Σ|terms|) and `systematic` (empty or dof×dof) the above
+  // K_systematic_error carried to θ as |T|ᵀ(·)|T|. solve_modes solves this
+  // pencil and maps the shapes back to q (φ_q = T φ_θ). M and K above stay
+  // the pencil in the user's coordinates. Empty otherwise.
+  AbsoluteAngleModel absolute;
+  MatrixX absolute_systematic_error;
 
   int size() const { return static_cast<int>(q.size()); }              // n, all coordinates
   int dof() const { return static_cast<int>(M.rows()); }               // degrees of freedom analyzed (n_r)
