@@ -474,6 +474,135 @@ TEST(Import, RangeKeyInTomlScenes) {
               modal::analyze(modal::model_from_text(xml, "arm.xml")).equilibrium().limits[0].value, 1e-15);
 }
 
+// A number in full (17 significant digits: the XML holds the test's own values).
+std::string exact(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+// Two pendulums on their own pivots (x = 0 and x = 1), each a point-like
+// mass m at distance l below its hinge about y, with joint springs, and
+// an MJCF joint equality between them.
+std::string coupled_pendulums(double m1, double l1, double m2, double l2, double k1, double k2, double ref1,
+                              const std::string& equality) {
+  auto pendulum = [](const std::string& name, double x, double m, double l, double k, double ref) {
+    return "<body name=\"" + name + "\" pos=\"" + exact(x) + " 0 0\">\n<joint name=\"" + name +
+           "\" axis=\"0 1 0\" stiffness=\"" + exact(k) + "\" springref=\"" + exact(ref) +
+           "\"/>\n<inertial pos=\"0 0 " + exact(-l) + "\" mass=\"" + exact(m) +
+           "\" diaginertia=\"1e-3 1e-3 1e-3\"/>\n</body>\n";
+  };
+  return "<mujoco>\n<option><flag contact=\"disable\"/></option>\n<worldbody>\n" + pendulum("p1", 0, m1, l1, k1, ref1) +
+         pendulum("p2", 1, m2, l2, k2, 0) + "</worldbody>\n<equality>\n" + equality + "\n</equality>\n</mujoco>\n";
+}
+
+// A joint equality is a coupling constraint q_a = p(q_b): modal's c(q) equals
+// MuJoCo's equality residual efc_pos at random configurations; a linear
+// gear q1 = r·q2 without springs has the closed form ω² = g(m1 l1 r² +
+// m2 l2)/((m1 l1² + I) r² + m2 l2² + I); with springs that load the coupling
+// and a quadratic term (the multiplier's curvature term counts), the
+// frequency equals a reduction along the constraint computed from MuJoCo
+// alone: t = q2, q(t) = (p(t), t), g(t) = f(q(t))·q'(t) with f MuJoCo's rest
+// force, the equilibrium g(t*) = 0 by Newton, ω² = g'(t*)/(q'ᵀ M q') with g' a
+// central difference (h = 1e-5: about 1e-9 relative, so 1e-7 is asked).
+TEST(Import, JointEqualityIsACoupling) {
+  std::mt19937_64 rng(16);
+  std::uniform_real_distribution<double> u(0, 1);
+  const double g = 9.81, I = 1e-3;
+  for (int trial = 0; trial < 8; ++trial) {
+    const double m1 = 0.5 + u(rng), m2 = 0.5 + u(rng), l1 = 0.3 + u(rng), l2 = 0.3 + u(rng), r = 0.5 + 2 * u(rng);
+    const std::string gear = coupled_pendulums(m1, l1, m2, l2, 0, 0, 0,
+                                               "<joint name=\"gear\" joint1=\"p1\" joint2=\"p2\" polycoef=\"0 " +
+                                                   exact(r) + " 0 0 0\"/>");
+    const modal::Model model = modal::model_from_text(gear, "gear.xml");
+    ASSERT_EQ(model.system.constraints().size(), 1u);
+    EXPECT_EQ(model.system.constraints()[0].type, modal::Constraint::Type::coupling);
+    const modal::Analysis a = modal::analyze(model);
+    ASSERT_EQ(a.result().modes.size(), 1u);
+    const double omega2 = g * (m1 * l1 * r * r + m2 * l2) / ((m1 * l1 * l1 + I) * r * r + m2 * l2 * l2 + I);
+    EXPECT_NEAR(a.result().modes[0].omega2, omega2, 1e-12 * omega2) << gear;
+
+    // Loaded and curved: springs with references fight through the coupling.
+    const double c0 = 0.2 * (u(rng) - 0.5), c1 = 0.5 + u(rng), c2 = u(rng) - 0.5;
+    const std::string curved = coupled_pendulums(
+        m1, l1, m2, l2, 5 + 10 * u(rng), 5 + 10 * u(rng), 0.5 * u(rng),
+        "<joint name=\"cam\" joint1=\"p1\" joint2=\"p2\" polycoef=\"" + exact(c0) + " " + exact(c1) +
+            " " + exact(c2) + " 0 0\"/>");
+    const modal::Model cm = modal::model_from_text(curved, "cam.xml");
+    const MjModel mj = load_mujoco(curved);
+    ASSERT_TRUE(mj);
+    // c(q) against MuJoCo's equality residual
+    {
+      const MjData d(mj_makeData(mj.get()));
+      modal::Workspace ws(cm.system);
+      for (int k = 0; k < 5; ++k) {
+        const modal::VectorX q = random_configuration(cm.system, rng, 1.0);
+        for (int i = 0; i < 2; ++i) d->qpos[i] = mj->qpos0[i] + q[i];
+        mj_forward(mj.get(), d.get());
+        ASSERT_EQ(d->nefc, 1);
+        EXPECT_NEAR(modal::constraint_values(cm.system, ws, q)[0], d->efc_pos[0], 1e-13) << curved;
+      }
+    }
+    const modal::Analysis ca = modal::analyze(cm);
+    ASSERT_EQ(ca.result().modes.size(), 1u);
+    Reference ref(*mj, cm.system);
+    const std::array<double, 5> p{c0, c1, c2, 0, 0};
+    auto q_of = [&](double t) {
+      modal::VectorX q(2);
+      q << modal::coupling_polynomial(p, t)[0], t;
+      return q;
+    };
+    auto tangent = [&](double t) {
+      modal::VectorX v(2);
+      v << modal::coupling_polynomial(p, t)[1], 1.0;
+      return v;
+    };
+    auto slope = [&](double t) { return ref.force(q_of(t)).dot(tangent(t)); };
+    const double h = 1e-5;
+    double t = ca.equilibrium().q[1];
+    for (int it = 0; it < 20; ++it) t -= slope(t) / ((slope(t + h) - slope(t - h)) / (2 * h));
+    EXPECT_LT(std::abs(slope(t)), 1e-10);
+    const double stiffness = (slope(t + h) - slope(t - h)) / (2 * h);
+    const double mass = tangent(t).dot(ref.mass(q_of(t)) * tangent(t));
+    EXPECT_NEAR(ca.result().modes[0].omega2, stiffness / mass, 1e-7 * stiffness / mass) << curved;
+    EXPECT_NEAR(ca.equilibrium().q[1], t, 1e-9);
+  }
+  // Without joint2 the joint is held at polycoef[0].
+  const std::string held = coupled_pendulums(1, 1, 1, 1, 0, 3, 0,
+                                             "<joint name=\"lock\" joint1=\"p1\" polycoef=\"0.3 0 0 0 0\"/>");
+  const modal::Analysis h = modal::analyze(modal::model_from_text(held, "held.xml"));
+  EXPECT_NEAR(h.equilibrium().q[0], 0.3, 1e-14);
+  ASSERT_EQ(h.result().modes.size(), 1u);
+  const double w2 = (g * 1 + 3) / (1 + I);  // the free pendulum alone: (m g l + k)/(m l² + I)
+  EXPECT_NEAR(h.result().modes[0].omega2, w2, 1e-12 * w2);
+}
+
+// The scene format's coupling constraint: its keys and their errors.
+TEST(Import, CouplingKeyErrors) {
+  const std::string bodies = "title = \"c\"\n[[body]]\nname = \"a\"\njoint = \"hinge\"\nmass = 1\ncom = [0, 0, -1]\n"
+                             "[[body]]\nname = \"b\"\njoint = \"hinge\"\norigin = [1, 0, 0]\nmass = 1\ncom = [0, 0, -1]\n"
+                             "[[body]]\nname = \"s\"\njoint = \"ball\"\norigin = [2, 0, 0]\nmass = 1\ncom = [0, 0, -1]\n";
+  auto error = [&](const std::string& constraint) -> std::string {
+    try {
+      modal::model_from_text(bodies + "[[constraint]]\ntype = \"coupling\"\n" + constraint, "c.toml");
+    } catch (const modal::SceneError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error("a = \"a\"\nb = \"b\"\npolynomial = [0, 2]\n"), "no error");
+  EXPECT_EQ(error("a = \"a\"\npolynomial = [0.1]\n"), "no error");
+  EXPECT_NE(error("a = \"a\"\nb = \"s\"\npolynomial = [0, 1]\n").find("constraint[1].b: 's' has a ball joint"),
+            std::string::npos) << error("a = \"a\"\nb = \"s\"\npolynomial = [0, 1]\n");
+  EXPECT_NE(error("a = \"a\"\nb = \"b\"\n").find("a coupling needs its polynomial"), std::string::npos);
+  EXPECT_NE(error("a = \"a\"\nb = \"b\"\npolynomial = [1, 2, 3, 4, 5, 6]\n").find("1 to 5 numbers"), std::string::npos);
+  EXPECT_NE(error("a = \"a\"\npolynomial = [0, 1]\n").find("give one coefficient"), std::string::npos);
+  EXPECT_NE(error("a = \"a\"\nb = \"a\"\npolynomial = [0, 1]\n").find("two different joints"), std::string::npos);
+  EXPECT_NE(error("a = \"a\"\nb = \"b\"\na_point = [0, 0, 0]\npolynomial = [0, 1]\n").find("'a_point' is not used"),
+            std::string::npos);
+  EXPECT_NE(error("a = \"world\"\npolynomial = [0]\n").find("must name a body, not the world"), std::string::npos);
+}
+
 // --- errors ------------------------------------------------------------------------------
 
 std::string scene_error(const std::string& xml, const std::string& name = "bad.xml") {

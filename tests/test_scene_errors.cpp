@@ -226,8 +226,8 @@ TEST(scene_errors, Constraints) {
   const std::string constraint = body_and_particle + "[[constraint]]\n";  // line 9
   check_error(constraint + "type = \"pint\"\na = \"p\"\nb = \"q\"\n",
               {10, 8, "constraint[1].type",
-               "unknown constraint type 'pint'; expected \"point\" (two points coincide) or \"distance\" (two points "
-               "keep their distance) (did you mean 'point'?)"});
+               "unknown constraint type 'pint'; expected \"point\" (two points coincide), \"distance\" (two points "
+               "keep their distance) or \"coupling\" (a joint follows another) (did you mean 'point'?)"});
   check_error(constraint + "a = \"p\"\nb = \"q\"\n", {9, 1, "constraint[1].type", "missing required key 'type' in [[constraint]]"});
   check_error(constraint + "type = \"point\"\nb = \"q\"\n", {9, 1, "constraint[1].a", "missing required key 'a' in [[constraint]]"});
   check_error(constraint + "type = \"point\"\na = \"p\"\nb = \"qq\"\n",

@@ -1053,12 +1053,34 @@ std::pair<model::V3<R>, model::V3<R>> constraint_ends(const TreeState<R>& st, co
 // cotangents: a point constraint sᵀ(x_a − x_b) deposits ±s (no local
 // Hessian); a distance constraint s (|x_a − x_b| − length) is an element
 // whose cotangents and local Hessian come from AD.
+// The couplings' share of ∇c s (their force acts on coordinates, not at
+// sites): sign·s on q_a and −sign·s·p'(q_b) on q_b, added to f (n).
+template <class R>
+void add_coupling_forces(const System& s, const R* q, const VectorX& multipliers, double sign, model::VX<R>& f) {
+  Eigen::Index row = 0;
+  for (const Constraint& k : s.constraints()) {
+    if (k.type == Constraint::Type::coupling) {
+      const double sk = sign * multipliers[row];
+      f[s.first_coordinate(k.a.body)] += sk;
+      if (k.b.body >= 0) {
+        const int b = s.first_coordinate(k.b.body);
+        f[b] -= sk * coupling_polynomial(k.polynomial, q[b])[1];
+      }
+    }
+    row += k.equations();
+  }
+}
+
 template <class R, class Deposit, class LocalHessian>
 void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, const VectorX& multipliers,
                                    Deposit&& deposit, LocalHessian&& local_hessian, bool second_order) {
   using V = model::V3<R>;
   Eigen::Index row = 0;
   for (const Constraint& k : s.constraints()) {
+    if (k.type == Constraint::Type::coupling) {  // acts on coordinates, not at sites: add_coupling_forces
+      row += 1;
+      continue;
+    }
     constraint_ends(st, k);  // throws where a distance is undefined
     if (k.type == Constraint::Type::point) {
       const V f = multipliers.segment<3>(row).cast<R>();
@@ -1143,6 +1165,15 @@ MatrixX constraint_jacobian(const System& s, Workspace& w, const VectorX& q) {
   const TreeState<double>& st = kinematics(s, w, q);
   Eigen::Index row = 0;
   for (const Constraint& k : s.constraints()) {
+    if (k.type == Constraint::Type::coupling) {
+      A(row, s.first_coordinate(k.a.body)) = 1;
+      if (k.b.body >= 0) {
+        const int b = s.first_coordinate(k.b.body);
+        A(row, b) = -coupling_polynomial(k.polynomial, q[b])[1];
+      }
+      row += 1;
+      continue;
+    }
     const auto [xa, xb] = constraint_ends(st, k);
     const PointJacobian Ja = point_jacobian(s, st, k.a), Jb = point_jacobian(s, st, k.b);
     const Vec3 axis = (xa - xb).normalized();  // distance constraints: the direction between the ends
@@ -1177,6 +1208,14 @@ MatrixX constraint_hessian(const System& s, Workspace& w, const VectorX& q, cons
     for_each_constraint_cotangent(s, st, multipliers, deposit, local_hessian, true);
   });
   tree_hessian(s, st, w.cache(), q, dense_adder(H));
+  Eigen::Index row = 0;  // couplings: ∇∇(s c) = −s p''(q_b) on q_b's diagonal
+  for (const Constraint& k : s.constraints()) {
+    if (k.type == Constraint::Type::coupling && k.b.body >= 0) {
+      const int b = s.first_coordinate(k.b.body);
+      H(b, b) -= multipliers[row] * coupling_polynomial(k.polynomial, q[b])[2];
+    }
+    row += k.equations();
+  }
   return 0.5 * (H + H.transpose());
 }
 
@@ -1325,6 +1364,7 @@ void rest_force_at(const System& s, const TreeState<R>& st, const R* q, const Ve
           [&](const SiteT<R>& site, const model::V3<R>& e) { deposit(site, model::V3<R>(-e)); },
           [](auto&&...) {}, false);
   });
+  if (multipliers.size() > 0) add_coupling_forces(s, q, multipliers, -1.0, f);
 }
 
 void check_multipliers(const System& s, const VectorX& multipliers, const char* what) {

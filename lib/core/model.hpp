@@ -97,6 +97,7 @@ template <class S> struct TreeState {
   std::vector<V3<S>> offset;           // per body: p_b − p_parent (roots: p_b), computed directly
   std::vector<V3<S>> omega;            // per coordinate
   std::vector<V3<S>> centre_velocity;  // per coordinate: u_k, the velocity of its body's p_b
+  std::vector<S> q;                    // the coordinates the state was computed at (n)
 
   void resize(const System& sys) {
     const auto nb = sys.bodies().size();
@@ -110,6 +111,7 @@ template <class S> struct TreeState {
 
 template <class S> void forward_kinematics(const System& sys, const S* q, TreeState<S>& st) {
   st.resize(sys);
+  st.q.assign(q, q + sys.size());
   const auto& bodies = sys.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
@@ -207,6 +209,13 @@ template <class S> void constraint_values(const System& sys, const TreeState<S>&
   c.resize(sys.constraint_equations());
   Eigen::Index row = 0;
   for (const Constraint& k : sys.constraints()) {
+    if (k.type == Constraint::Type::coupling) {
+      const S qa = st.q[static_cast<std::size_t>(sys.first_coordinate(k.a.body))];
+      const S qb = k.b.body >= 0 ? st.q[static_cast<std::size_t>(sys.first_coordinate(k.b.body))] : S(0.0);
+      c[row] = qa - coupling_polynomial(k.polynomial, qb)[0];
+      row += 1;
+      continue;
+    }
     const V3<S> d = world_point(st, k.a) - world_point(st, k.b);
     if (k.type == Constraint::Type::point)
       c.template segment<3>(row) = d;

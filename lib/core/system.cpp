@@ -156,6 +156,16 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     check_attachment(k.a, who);
     check_attachment(k.b, who);
     require(k.a.body >= 0 || k.b.body >= 0, who + ": both ends are fixed in the world");
+    if (k.type == Constraint::Type::coupling) {
+      auto scalar_joint = [&](int b) {
+        const JointType t = d_.bodies[static_cast<std::size_t>(b)].joint;
+        return t == JointType::hinge || t == JointType::slide;
+      };
+      require(k.a.body >= 0 && scalar_joint(k.a.body), who + ": a coupling's body a must have a hinge or slide joint");
+      require(k.b.body < 0 || (scalar_joint(k.b.body) && k.b.body != k.a.body),
+              who + ": a coupling's body b must be another body with a hinge or slide joint, or none");
+      for (const double c : k.polynomial) require(std::isfinite(c), who + ": the coupling polynomial is not finite");
+    }
     if (k.type == Constraint::Type::distance)
       require(std::isfinite(k.length) && k.length > 0, who + ": the distance must be positive");
     m_ += k.equations();
@@ -183,7 +193,8 @@ System::System(SystemDescription description) : d_(std::move(description)) {
   for (const DeadLoad& l : d_.loads) scale = std::max(scale, point_at_zero(l.at).norm());
   for (const FollowerLoad& l : d_.followers) scale = std::max(scale, point_at_zero(l.at).norm());
   for (const Constraint& k : d_.constraints)
-    scale = std::max({scale, point_at_zero(k.a).norm(), point_at_zero(k.b).norm(), k.length});
+    if (k.type != Constraint::Type::coupling)
+      scale = std::max({scale, point_at_zero(k.a).norm(), point_at_zero(k.b).norm(), k.length});
   length_scale_ = std::max(scale, 1e-3);
   if (is_map()) build_map();
 }
@@ -195,10 +206,19 @@ std::vector<std::string> System::coordinate_names() const {
   return names;
 }
 
+const char* to_string(Constraint::Type type) {
+  switch (type) {
+    case Constraint::Type::point: return "point";
+    case Constraint::Type::distance: return "distance";
+    case Constraint::Type::coupling: return "coupling";
+  }
+  return "?";
+}
+
 std::vector<std::string> System::constraint_equation_names() const {
   std::vector<std::string> names;
   for (const Constraint& k : d_.constraints) {
-    if (k.type == Constraint::Type::distance) {
+    if (k.type != Constraint::Type::point) {
       names.push_back(k.name);
     } else {
       for (const char* axis : {".x", ".y", ".z"}) names.push_back(k.name + axis);

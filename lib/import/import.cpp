@@ -273,7 +273,7 @@ void Importer::check_unsupported() const {
     }
   if (!disabled(mjDSBL_CONSTRAINT) && !disabled(mjDSBL_EQUALITY))
     for (int e = 0; e < m_.neq; ++e)
-      if (m_.eq_active[e] && m_.eq_type[e] != mjEQ_CONNECT)  // connect: a [[constraint]] (write())
+      if (m_.eq_active[e] && m_.eq_type[e] != mjEQ_CONNECT && m_.eq_type[e] != mjEQ_JOINT)  // [[constraint]]s (write())
         refuse(mjOBJ_EQUALITY, e, "equality",
                std::string("a ") + equality_word(m_.eq_type[e]) +
                    " equality constraint is not mapped onto modal's constraints" + rewrite);
@@ -430,24 +430,35 @@ std::string Importer::write() const {
     last_name[bb] = parent_name;
     last_shift[bb] = previous;
   }
-  // Active connect equalities: point constraints. eq_data holds the anchor in
-  // body1's frame and, computed by the compiler at qpos0, in body2's frame.
+  // Active equalities, in file order. Connect: a point constraint; eq_data
+  // holds the anchor in body1's frame and, computed by the compiler at qpos0,
+  // in body2's frame. Joint: a coupling; MuJoCo's equation is
+  // qpos1 − qpos0_1 = Σ_k eq_data[k]·(qpos2 − qpos0_2)^k (qpos1 − qpos0_1 =
+  // eq_data[0] without joint2), in modal's coordinates (relative to qpos0)
+  // q_a = p(q_b) with the same coefficients.
   if (!disabled(mjDSBL_CONSTRAINT) && !disabled(mjDSBL_EQUALITY))
     for (int e = 0; e < m_.neq; ++e) {
-      if (!m_.eq_active[e] || m_.eq_type[e] != mjEQ_CONNECT) continue;
-      const int b1 = m_.eq_obj1id[e], b2 = m_.eq_obj2id[e];
+      const bool connect = m_.eq_type[e] == mjEQ_CONNECT;
+      if (!m_.eq_active[e] || (!connect && m_.eq_type[e] != mjEQ_JOINT)) continue;
+      const int o1 = m_.eq_obj1id[e], o2 = m_.eq_obj2id[e];
       const mjtNum* data = m_.eq_data + e * mjNEQDATA;
-      const auto b1s = static_cast<std::size_t>(b1), b2s = static_cast<std::size_t>(b2);
-      const Eigen::Vector3d a = Eigen::Vector3d(data) - last_shift[b1s];
-      const Eigen::Vector3d b = Eigen::Vector3d(data + 3) - last_shift[b2s];
       std::string n = name(mjOBJ_EQUALITY, e);
       if (n.empty()) n = "equality" + std::to_string(e);
       const int l = line(mjOBJ_EQUALITY, e);
-      out += "\n[[constraint]]  # " + std::string(kind) + " connect equality" +
+      out += "\n[[constraint]]  # " + std::string(kind) + (connect ? " connect" : " joint") + " equality" +
              (l > 0 ? " at line " + std::to_string(l) : std::string()) + "\n";
-      out += "type = \"point\"\nname = " + toml_string(n) + "\n";
-      out += "a = " + toml_string(last_name[b1s]) + "\na_point = " + numbers(a, 3) + "\n";
-      out += "b = " + toml_string(last_name[b2s]) + "\nb_point = " + numbers(b, 3) + "\n";
+      out += std::string("type = \"") + (connect ? "point" : "coupling") + "\"\nname = " + toml_string(n) + "\n";
+      if (connect) {
+        const auto b1 = static_cast<std::size_t>(o1), b2 = static_cast<std::size_t>(o2);
+        const Eigen::Vector3d a = Eigen::Vector3d(data) - last_shift[b1];
+        const Eigen::Vector3d b = Eigen::Vector3d(data + 3) - last_shift[b2];
+        out += "a = " + toml_string(last_name[b1]) + "\na_point = " + numbers(a, 3) + "\n";
+        out += "b = " + toml_string(last_name[b2]) + "\nb_point = " + numbers(b, 3) + "\n";
+      } else {
+        out += "a = " + toml_string(joint_bodies_[static_cast<std::size_t>(o1)]) + "\n";
+        if (o2 >= 0) out += "b = " + toml_string(joint_bodies_[static_cast<std::size_t>(o2)]) + "\n";
+        out += "polynomial = " + (o2 >= 0 ? numbers(data, 5) : numbers(data, 1)) + "\n";
+      }
     }
   return out;
 }

@@ -139,14 +139,14 @@ void add_result(Json& j, const AnalyzedEquilibrium& a) {
     Json constraints = Json::array();
     std::size_t row = 0;
     for (const ConstraintForce& f : r.constraint_forces) {
-      Json c = {{"name", f.name}, {"type", f.type == Constraint::Type::point ? "point" : "distance"}};
+      Json c = {{"name", f.name}, {"type", to_string(f.type)}};
       auto value = [&](std::size_t i) { return eq[i].determined ? Json(eq[i].force) : Json(nullptr); };
       if (f.type == Constraint::Type::point) {
         c["force"] = Json::array({value(row), value(row + 1), value(row + 2)});
         row += 3;
       } else {
         c["multiplier"] = value(row);
-        c["tension"] = eq[row].determined ? Json(-eq[row].force) : Json(nullptr);
+        if (f.type == Constraint::Type::distance) c["tension"] = eq[row].determined ? Json(-eq[row].force) : Json(nullptr);
         row += 1;
       }
       constraints.push_back(c);

@@ -220,6 +220,10 @@ void print_analysis(std::ostream& out, const Report& report) {
         out << fmt::format("    {:<{}}  point     force on its first end (x, y, z) = ({}, {}, {})\n", f.name, cw,
                            value(row), value(row + 1), value(row + 2));
         row += 3;
+      } else if (f.type == Constraint::Type::coupling) {
+        out << fmt::format("    {:<{}}  coupling  generalized force on its driven joint {} (N·m or N)\n", f.name, cw,
+                           value(row));
+        row += 1;
       } else {
         const std::string t = eq[row].determined ? num(std::abs(eq[row].force), 10) : "undetermined";
         out << fmt::format("    {:<{}}  distance  {} {}\n", f.name, cw,
@@ -464,11 +468,20 @@ void print_summary(std::ostream& out, const std::string& scene_file,
   if (system.has_constraints()) {
     out << fmt::format("\nConstraints ({}, {} equation{})\n", system.constraints().size(),
                        system.constraint_equations(), system.constraint_equations() == 1 ? "" : "s");
-    for (const Constraint& c : system.constraints())
-      out << fmt::format("  {}: {} {} {} -- {} {}{}\n", c.name,
-                         c.type == Constraint::Type::point ? "point" : "distance", body_name(c.a.body), vec(c.a.point),
-                         body_name(c.b.body), vec(c.b.point),
+    for (const Constraint& c : system.constraints()) {
+      if (c.type == Constraint::Type::coupling) {
+        std::string p;
+        for (std::size_t k = 0; k < c.polynomial.size(); ++k)
+          if (c.polynomial[k] != 0.0 && (k == 0 || c.b.body >= 0))
+            p += fmt::format("{}{}{}", p.empty() ? "" : " + ", num(c.polynomial[k], 12),
+                             k == 0 ? "" : k == 1 ? "*" + body_name(c.b.body) : "*" + body_name(c.b.body) + "^" + std::to_string(k));
+        out << fmt::format("  {}: coupling {} = {}\n", c.name, body_name(c.a.body), p.empty() ? "0" : p);
+        continue;
+      }
+      out << fmt::format("  {}: {} {} {} -- {} {}{}\n", c.name, to_string(c.type), body_name(c.a.body),
+                         vec(c.a.point), body_name(c.b.body), vec(c.b.point),
                          c.type == Constraint::Type::distance ? fmt::format(", length {} m", num(c.length, 12)) : "");
+    }
   }
 
   out << fmt::format("\nTotal mass: {} kg\n", num(total_mass.value(), 12));

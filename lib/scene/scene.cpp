@@ -540,6 +540,7 @@ class BodyNames {
   const std::string& name(int index) const { return bodies_[static_cast<std::size_t>(index)].name; }
   // Whether body `index` (≥ 0) is a particle ([[particle]], [[lattice]] or [[network]]; possibly fixed).
   bool particle(int index) const { return particle_[static_cast<std::size_t>(index)]; }
+  JointType joint(int index) const { return bodies_[static_cast<std::size_t>(index)].joint; }
   int find(const Section& s, std::string_view key, const std::string& name, bool allow_world) const {
     if (name == "world") {
       if (!allow_world) s.fail(key, "must name a body, not the world");
@@ -630,6 +631,39 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
   return spring;
 }
 
+// A coupling [[constraint]] (its type and name read): the joint coordinate of
+// body `a` (hinge or slide) equals the polynomial (1 to 5 coefficients, of
+// 1, q_b, q_b², …) of body `b`'s joint coordinate; without `b`, the constant.
+Constraint read_coupling(const Section& s, const BodyNames& names, Constraint c) {
+  for (const char* key : {"a_point", "b_point", "length"})
+    if (s.has(key))
+      s.fail(key, std::string("'") + key + "' is not used by a coupling constraint (it joins joint coordinates, not points)");
+  auto scalar_joint = [&](const char* key, const std::string& name) {
+    const int body = names.find(s, key, name, false);
+    const JointType t = names.joint(body);
+    if (t != JointType::hinge && t != JointType::slide)
+      s.fail(key, "'" + name + "' has a " + to_string(t) + " joint; a coupling joins hinge or slide coordinates");
+    return body;
+  };
+  c.a.body = scalar_joint("a", s.required_string("a"));
+  if (s.has("b")) {
+    const std::string b = s.required_string("b");
+    c.b.body = scalar_joint("b", b);
+    if (c.b.body == c.a.body) s.fail("b", "a coupling joins two different joints; both are '" + b + "'");
+  }
+  const toml::node* node = s.find("polynomial");
+  if (node == nullptr) s.fail("polynomial", "a coupling needs its polynomial: [c0, c1, …] (at most 5 coefficients)");
+  const toml::array* array = node->as_array();
+  const std::size_t count = array != nullptr ? array->size() : 0;
+  if (count < 1 || count > 5)
+    s.fail("polynomial", "expected an array of 1 to 5 numbers (coefficients of 1, q_b, q_b², q_b³, q_b⁴)");
+  if (c.b.body < 0 && count > 1)
+    s.fail("polynomial", "without 'b' the coupling holds 'a' at a constant: give one coefficient, [c0]");
+  const VectorX p = s.numbers("polynomial", VectorX::Zero(static_cast<Eigen::Index>(count)));
+  for (Eigen::Index k = 0; k < p.size(); ++k) c.polynomial[static_cast<std::size_t>(k)] = p[k];
+  return c;
+}
+
 // [[constraint]]: a loop closure between a point of a and a point of b, which
 // coincide ("point") or keep their distance ("distance", by default the
 // distance as written). `index` is the table's 0-based position; `used` the
@@ -637,16 +671,19 @@ Spring read_spring(const Reader& reader, const toml::table& table, std::size_t i
 Constraint read_constraint(const Reader& reader, const toml::table& table, std::size_t index, const BodyNames& names,
                            const std::vector<Pose>& frames, std::map<std::string, int>& used) {
   const Section s(reader, table, scene_detail::index_key("constraint", index), "[[constraint]]");
-  s.check_keys({"type", "name", "a", "b", "a_point", "b_point", "length"});
+  s.check_keys({"type", "name", "a", "b", "a_point", "b_point", "length", "polynomial"});
   Constraint c;
   const std::string type = s.required_string("type");
   if (type == "point") {
     c.type = Constraint::Type::point;
   } else if (type == "distance") {
     c.type = Constraint::Type::distance;
+  } else if (type == "coupling") {
+    c.type = Constraint::Type::coupling;
   } else {
-    s.fail("type", "unknown constraint type '" + type + "'; expected \"point\" (two points coincide) or \"distance\" "
-                   "(two points keep their distance)" + did_you_mean(type, {"point", "distance"}));
+    s.fail("type", "unknown constraint type '" + type + "'; expected \"point\" (two points coincide), \"distance\" "
+                   "(two points keep their distance) or \"coupling\" (a joint follows another)" +
+                       did_you_mean(type, {"point", "distance", "coupling"}));
   }
 
   c.name = s.string("name", "constraint" + std::to_string(index + 1));
@@ -657,6 +694,8 @@ Constraint read_constraint(const Reader& reader, const toml::table& table, std::
     s.fail("name", "duplicate constraint name '" + c.name + "': already used by the [[constraint]] at line " +
                        std::to_string(previous->second));
 
+  if (c.type == Constraint::Type::coupling) return read_coupling(s, names, std::move(c));
+  if (s.has("polynomial")) s.fail("polynomial", "'polynomial' is used by a coupling constraint only");
   const std::string a = s.required_string("a");
   const std::string b = s.required_string("b");
   c.a.body = names.find(s, "a", a, true);

@@ -193,14 +193,30 @@ struct FollowerLoad {
 // components) acts on a at x_a and −s on b (point), or s·u on a and −s·u on b
 // with u = (x_a − x_b)/|x_a − x_b| (distance: s < 0 pulls the ends together,
 // the rod is in tension −s).
+//   coupling:  c = q_a − Σ_k polynomial[k]·q_b^k   1 equation, rad or m: the
+//              joint coordinate of body a (a hinge or slide) follows the joint
+//              coordinate of body b (MuJoCo's joint equality; b.body = −1: q_a is
+//              held at polynomial[0]). Only a.body and b.body are used; the force
+//              s acts on q_a and −s·p'(q_b) on q_b (N·m or N).
 struct Constraint {
-  enum class Type { point, distance };
+  enum class Type { point, distance, coupling };
   Type type = Type::point;
-  std::string name;    // for reports: "<name>.x|y|z" (point) or "<name>" (distance)
+  std::string name;    // for reports: "<name>.x|y|z" (point) or "<name>" (distance, coupling)
   Attachment a, b;
+  std::array<double, 5> polynomial{};  // coupling: coefficients of 1, q_b, q_b², q_b³, q_b⁴
   double length = 0;   // distance constraints, m (> 0)
   int equations() const { return type == Type::point ? 3 : 1; }
 };
+const char* to_string(Constraint::Type type);  // "point", "distance", "coupling"
+
+// A coupling's polynomial p and its first two derivatives at x (any scalar).
+template <class S> std::array<S, 3> coupling_polynomial(const std::array<double, 5>& c, const S& x) {
+  S p = S(c[4]), dp = S(4 * c[4]), ddp = S(12 * c[4]);
+  for (int k = 3; k >= 0; --k) p = p * x + c[static_cast<std::size_t>(k)];
+  for (int k = 3; k >= 1; --k) dp = dp * x + k * c[static_cast<std::size_t>(k)];
+  for (int k = 3; k >= 2; --k) ddp = ddp * x + k * (k - 1) * c[static_cast<std::size_t>(k)];
+  return {p, dp, ddp};
+}
 
 // --- kinematic maps (expression-defined systems) -----------------------------
 //

@@ -9,9 +9,10 @@
 // the compiler, frames resolved, defaults applied) is written as the
 // equivalent TOML scene, a tree of [[body]] tables, which modal then reads like
 // any other scene, so every command and the exact derivatives apply to it.
-// Active connect equalities become point [[constraint]]s. What would change
+// Active connect equalities become point [[constraint]]s, joint equalities
+// coupling [[constraint]]s. What would change
 // the linear model but has no counterpart in a modal scene (tendon springs,
-// actuators acting at rest, other equality constraints, contacts or
+// actuators acting at rest, weld, tendon and distance equalities, contacts or
 // joint limits active in the written configuration, dry friction, fluid
 // viscosity; contacts and ball-joint limits at an equilibrium:
 // check_imported_configuration; hinge and slide limits become `range` keys) is refused with a SceneError naming the element, its name and,
