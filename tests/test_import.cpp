@@ -653,6 +653,18 @@ TEST(Import, UnsupportedElementsAreRefusedWithNameAndLine) {
       << scene_error(friction);
 }
 
+// A name MuJoCo accepts but a scene refuses (a control character, written as
+// an XML character reference): the error names the file the user gave and no
+// line of the converted text (line 8 there would be the XML's closing tag).
+TEST(Import, ErrorsInTheConvertedSceneNameTheFileNotTheConversionsLines) {
+  const std::string xml = "<mujoco>\n<worldbody>\n<body name=\"arm\" pos=\"0 0 1\">\n<joint name=\"sh&#27;[31m\" "
+                          "axis=\"0 1 0\"/>\n<geom type=\"sphere\" pos=\"0.5 0 0\" size=\"0.05\" mass=\"1\"/>\n"
+                          "</body>\n</worldbody>\n</mujoco>\n";
+  const std::string message = scene_error(xml, "esc.xml");
+  EXPECT_EQ(message.rfind("esc.xml: body[1].name: ", 0), 0u) << message;
+  EXPECT_NE(message.find("sh\\x1B[31m"), std::string::npos) << message;
+}
+
 TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
   const std::string broken = scene_error("<mujoco>\n<worldbody>\n<body name=\"a\">\n</worldbody>\n</mujoco>");
   EXPECT_EQ(broken.rfind("bad.xml:", 0), 0u) << broken;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <new>
@@ -258,7 +259,23 @@ Model model_from_text(std::string text, const std::string& name, const std::vect
     imported = import_model(text, name, format);
     text = std::move(imported.toml);
   }
-  Scene scene = parse_scene(text, name, overrides, limits);
+  Scene scene = [&] {
+    try {
+      return parse_scene(text, name, overrides, limits);
+    } catch (const SceneError& e) {
+      if (!imported.model) throw;
+      // The converted text's lines are not the file's: a [[body]]'s error goes
+      // to the element it comes from, anything else names the conversion.
+      const std::string& key = e.key();
+      if (key.rfind("body[", 0) == 0) {
+        const std::size_t k = std::strtoul(key.c_str() + 5, nullptr, 10);
+        if (k >= 1 && k <= imported.body_lines.size())
+          throw SceneError({name, imported.body_lines[k - 1].second, 0}, key, e.reason());
+      }
+      throw SceneError({name + " as converted to TOML (`modal convert`)", e.where().line, e.where().column}, key,
+                       e.reason());
+    }
+  }();
   if (imported.model) {  // messages about a body point into the file the user gave
     std::unordered_map<std::string, int> lines(imported.body_lines.begin(), imported.body_lines.end());
     for (std::size_t b = 0; b < scene.description.bodies.size() && b < scene.body_locations.size(); ++b) {
