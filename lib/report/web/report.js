@@ -58,7 +58,9 @@
   section('Equilibrium', [
     table(['quantity', 'value'], [['potential V (J)', eq.potential], ['relative residual', eq.residual],
       ['residual norm', eq.residual_norm], ['Newton iterations', String(eq.iterations)]], 'equilibrium', [1]),
-    table(['coordinate', 'kind', 'value'], coordinates, 'coordinates', [2])
+    coordinates.length > 12
+      ? el('details', {}, [el('summary', {}, [data.coordinate_count + ' coordinates']), table(['coordinate', 'kind', 'value'], coordinates, 'coordinates', [2])])
+      : table(['coordinate', 'kind', 'value'], coordinates, 'coordinates', [2])
   ].concat(shownNote));
 
   // --- the mode table -------------------------------------------------------
