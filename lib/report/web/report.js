@@ -103,7 +103,8 @@
     var colors = ['#3465a4', '#cc5500', '#4e9a06'];
     var options = {
       title: title, width: Math.min(760, 120 + 40 * names.length * count), height: 260,
-      scales: { x: { time: false, range: [-0.6, names.length - 0.4] } },
+      scales: { x: { time: false, range: [-0.6, names.length - 0.4] },
+                y: { range: function (u, min, max) { return [Math.min(0, min), Math.max(0, max) || 1]; } } },
       legend: { show: count > 1, live: false },
       cursor: { show: false },
       axes: [{ splits: function () { return names.map(function (_, i) { return i; }); },
