@@ -34,6 +34,7 @@ function(modal_report_assets target)
   set(generated ${CMAKE_BINARY_DIR}/generated/report_assets.cpp)
   set(files
     "uplot_js=${uplot_dist}/uPlot.iife.min.js" "uplot_css=${uplot_dist}/uPlot.min.css"
+    "uplot_license=${web_build}/node_modules/uplot/LICENSE"
     "report_js=${web_source}/report.js" "report_css=${web_source}/report.css")
   string(REPLACE ";" "|" files_argument "${files}")
   add_custom_command(

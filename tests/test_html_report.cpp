@@ -111,7 +111,9 @@ fixed = "z-"
   const std::string page = modal::analysis_html(report);
   EXPECT_LT(page.size(), 10'000'000u);
   std::cout << "page of a " << n << "-coordinate lattice: " << page.size() << " bytes\n";
-  EXPECT_EQ(page.find("http://"), std::string::npos);  // nothing fetched (uPlot's source has no URL)
+  // Nothing fetched: no external script, style sheet or image.
+  EXPECT_EQ(page.find("src=\"http"), std::string::npos);
+  EXPECT_EQ(page.find("<link"), std::string::npos);
 }
 
 TEST(HtmlReport, CommandLineWritesTheReportWithTheOtherOutputs) {

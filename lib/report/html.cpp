@@ -193,6 +193,9 @@ std::string analysis_html(const Report& report) {
   std::string page;
   page += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
   page += "<meta name=\"generator\" content=\"modal analyze --report\">\n";
+  page += "<!-- This page inlines uPlot (https://github.com/leeoniya/uPlot), under this license:\n";
+  page += asset(report_assets::uplot_license, report_assets::uplot_license_size);
+  page += "-->\n";
   page += "<title>" + html_escape(title) + " — modal analysis</title>\n<style>\n";
   page += asset(report_assets::uplot_css, report_assets::uplot_css_size);
   page += "\n";

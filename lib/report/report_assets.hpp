@@ -13,6 +13,8 @@ extern const unsigned char uplot_js[];
 extern const std::size_t uplot_js_size;
 extern const unsigned char uplot_css[];
 extern const std::size_t uplot_css_size;
+extern const unsigned char uplot_license[];  // MIT: its notice goes with every copy
+extern const std::size_t uplot_license_size;
 extern const unsigned char report_js[];
 extern const std::size_t report_js_size;
 extern const unsigned char report_css[];
