@@ -162,6 +162,12 @@ int main(int argc, char** argv) {
                     "each mode's kinetic and potential energy by body, spring and term, and the effective masses "
                     "of base translation (text, CSV, JSON)");
   analyze->add_option("--json", analyze_out.json, "write the whole result as JSON")->type_name("FILE");
+  analyze
+      ->add_option("--report", analyze_out.report,
+                   "write one self-contained HTML page (no network needed to open it): scene, equilibrium, "
+                   "stability, the mode table, each mode animated over the equilibrium (or its shape as a bar "
+                   "chart), with --energy the energy shares and participation; the name must end in .html")
+      ->type_name("FILE.html");
   analyze->add_flag("--require-stable", require_stable,
                     "exit with status 3 if the equilibrium is unstable (divergence or flutter)");
   analyze->add_flag("--timing", timing, "print the wall time of each stage and the peak memory on stderr");
@@ -342,6 +348,7 @@ int main(int argc, char** argv) {
     auto clock = std::chrono::steady_clock::now();
     if (*analyze) {
       analyze_out.energy = ao.energy;
+      ao.drawing = !analyze_out.report.empty();
       modal::check_outputs(modal::Command::analyze, analyze_out, analyze_scene.file);
       const modal::Model model = load(analyze_scene);
       Seconds seconds{{"parse+build", since(clock)}};

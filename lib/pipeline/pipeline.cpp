@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <new>
 #include <ostream>
@@ -420,8 +421,13 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     energy = a.sparse ? energy_distribution(sys, *a.sparse, result) : energy_distribution(sys, *a.linear, result);
     a.timings.emplace_back("energy", seconds_since(last));
   }
+  std::optional<SceneDrawing> drawing;
+  if (options.drawing) {
+    drawing = scene_drawing(sys, eq.q, result);
+    a.timings.emplace_back("drawing", seconds_since(last));
+  }
   a.report = make_report(sys, model.scene.file, model.scene.parameters);
-  a.report.equilibria.push_back({eq, std::move(result), std::move(energy)});
+  a.report.equilibria.push_back({eq, std::move(result), std::move(energy), std::move(drawing)});
   return std::move(a);  // a is the caller's, captured by reference: not copied
   });
 }
@@ -447,7 +453,7 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
       continue;
     }
     try {
-      survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q)), std::nullopt});
+      survey.report.equilibria.push_back({e, solve_modes(linearize(sys, e.q)), std::nullopt, std::nullopt});
     } catch (const NumericalError& error) {
       survey.unanalyzed.push_back(fmt::format("an equilibrium at {} was found but cannot be analyzed: {}",
                                               format_point(names, e.q), error.what()));
@@ -609,10 +615,19 @@ std::vector<std::string> output_files(Command command, const Outputs& o, bool ex
     }
   }
   if (!o.json.empty()) files.push_back(o.json);
+  if (!o.report.empty()) files.push_back(o.report);
   return files;
 }
 
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate) {
+  if (!outputs.report.empty()) {
+    if (command != Command::analyze)
+      throw InputError("--report: HTML reports are written by analyze so far, not by the other commands");
+    // A page a browser opens by its name: refused before computing, not renamed.
+    const std::string extension = std::filesystem::path(outputs.report).extension().string();
+    if (extension != ".html" && extension != ".htm")
+      throw ReportError(outputs.report + ": --report writes an HTML page; give the file a name ending in .html");
+  }
   check_output_paths(output_files(command, outputs, extrapolate), {scene_file});
 }
 
@@ -638,6 +653,7 @@ void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
     }
   }
   if (!o.json.empty()) files.add(o.json, analysis_json(a.report));
+  if (!o.report.empty()) files.add(o.report, analysis_html(a.report));
   files.commit();
 }
 

@@ -158,6 +158,9 @@ struct AnalysisOptions {
   // The energy distribution and participation of the modes reported
   // (modal/energy.hpp; AnalyzedEquilibrium::energy): O(elements) per mode.
   bool energy = false;
+  // What an HTML report animates (scene_drawing in modal/report.hpp;
+  // AnalyzedEquilibrium::drawing): two evaluations of the points per mode drawn.
+  bool drawing = false;
 };
 
 // One analyzed equilibrium: the report values (names, parameters, the
@@ -260,6 +263,9 @@ struct Outputs {
   // analyze: with csv also PREFIX_energy.csv and PREFIX_participation.csv; the
   // analysis must then have its energy distribution (AnalysisOptions::energy).
   bool energy = false;
+  // analyze: FILE.html (or .htm), one self-contained page (analysis_html); the
+  // analysis should have its drawing (AnalysisOptions::drawing) to animate the modes.
+  std::string report;
 };
 enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
 // The files `command` will write for `outputs` (the sweep's extra files only

@@ -22,6 +22,7 @@
 #include "modal/simulate.hpp"
 #include "modal/sweep.hpp"
 
+#include <array>
 #include <iosfwd>
 #include <optional>
 #include <stdexcept>
@@ -38,12 +39,44 @@ class ReportError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// What an HTML report draws of a scene with geometry (bodies, particles,
+// lattices, networks, imported models, the points of a kinematic map): world
+// points at the equilibrium, segments between them, and each animated mode's
+// displacement of every point, the linearized motion J φ of the shape's real
+// part, scaled so that the largest displacement of the mode is 1.
+struct SceneDrawing {
+  int dimensions = 3;                       // 2: every point and displacement lies in one plane
+  std::array<int, 2> plane{0, 2};           // 2-D: the world axes drawn (0 x, 1 y, 2 z) as horizontal, vertical
+  std::vector<Vec3> points;                 // m, world, at the equilibrium (decimated: see note)
+  std::vector<std::array<int, 2>> segments; // indices into points: body links, springs
+  std::vector<int> modes;                   // the animated modes (1 = the lowest)
+  std::vector<std::vector<Vec3>> displacements;  // per animated mode, per point; largest norm 1
+  std::size_t total_points = 0;             // before decimation
+  std::string note;                         // what decimation left out, in words (empty: nothing)
+};
+
+// Limits of a drawing: a 10⁵-coordinate lattice drawn whole would embed
+// hundreds of megabytes; at these limits a report stays under 10 MB.
+struct DrawingLimits {
+  std::size_t points = 20000;    // every k-th point beyond this (segments between kept points only)
+  std::size_t segments = 40000;  // none drawn beyond this
+  std::size_t modes = 10;        // the lowest modes are animated
+};
+
+// The drawing of `system` at q for the modes of `result` (their shapes are n
+// coordinates of q); none for a system that has no points (abstract
+// coordinates), whose reports show each shape as a bar chart instead.
+std::optional<SceneDrawing> scene_drawing(const System& system, const VectorX& q, const ModalResult& result,
+                                          const DrawingLimits& limits = {});
+
 // One equilibrium and the modal solution of the linear model about it.
 struct AnalyzedEquilibrium {
   Equilibrium equilibrium;
   ModalResult result;
   // Where each mode's energy is (modal/energy.hpp), when asked for (`--energy`).
   std::optional<EnergyDistribution> energy;
+  // What an HTML report animates (`--report`); none for abstract coordinates.
+  std::optional<SceneDrawing> drawing;
 };
 
 // Everything a report shows. `coordinates` and `kinds` are parallel (n each);
@@ -156,6 +189,18 @@ std::string analysis_json(const Report& report);
 // equilibrium, stability, morse_index, zero_modes, modes, solver, notes}]}.
 std::string equilibria_json(const Report& report);
 void write_text_file(const std::string& path, const std::string& text);  // throws ReportError
+
+// --- HTML (docs/design.md, "HTML reports") ----------------------------------------
+// `modal analyze --report`: one self-contained page (CSS, JavaScript and data
+// inline; nothing is fetched when it is opened) for the first equilibrium of
+// the report: scene, parameters, the equilibrium, the stability in words, the
+// mode table (the CSV's numbers: omega2 … residual_bound), each mode animated
+// over the equilibrium (AnalyzedEquilibrium::drawing) or, without a drawing,
+// its shape as a bar chart, and with an energy distribution each mode's
+// kinetic and potential shares and the participation table. The page's
+// element #report-status says, once its script ran, how many plots and
+// animated views it drew and how many script errors it met.
+std::string analysis_html(const Report& report);
 
 // --- human-readable text --------------------------------------------------------
 // Title, the equilibrium (coordinates, angles also in degrees, V, residual),
