@@ -32,14 +32,18 @@ packages=(
   python3-dev pybind11-dev  # the Python module `modal` (python/), built for Debian's /usr/bin/python3
   python3-numpy        # the Python module's arrays (needed to build it: MODAL_BUILD_PYTHON is ON when found)
   python3-pytest       # the Python tests (python/tests, run by ctest)
-  nodejs npm           # the build installs uPlot (pinned in lib/report/web/package-lock.json) with `npm ci`
-                       # and inlines it into the HTML reports (analyze --report)
   chromium             # tests: tests/report_browser.py opens the HTML reports in headless Chromium;
                        # scripts/report_screenshots.sh takes results/report_*.png with it
   help2man             # the man page modal.1, generated from --help at build time (optional: none without it)
   doxygen              # the API reference: cmake --build build --target docs (Doxygen over the public headers)
   dpkg-dev file        # cpack -G DEB: dpkg-shlibdeps finds the package's Depends, file spots the ELF files
 )
+
+# Node.js and npm: the build installs uPlot (pinned in lib/report/web/package-lock.json) with `npm ci` and
+# inlines it into the HTML reports (analyze --report). Debian's nodejs and npm, unless an npm is already
+# there: a Node.js from another repository (NodeSource's nodejs package carries its own npm and conflicts
+# with Debian's npm package) is used as it is.
+if ! command -v npm > /dev/null; then packages+=(nodejs npm); fi
 
 if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
 # Only touch apt when something is missing, so repeated runs are fast and offline-safe.
