@@ -208,3 +208,36 @@ TEST(Amplitude, BadInput) {
 }
 
 }  // namespace
+
+// Progress of long work (issue 17 part 3): the amplitude scan reports each
+// amplitude and each level's search, ending at done = total; a simulation
+// reports its output samples, about 200 times, ending at done = total.
+TEST(Amplitude, ProgressIsReportedUpToTheTotal) {
+  const Pendulum p;
+  const Mode& m = p.modes.modes.at(0);
+  AmplitudeOptions o;
+  o.points = 5;
+  std::vector<std::pair<int, int>> calls;
+  o.progress = [&calls](int done, int total) { calls.emplace_back(done, total); };
+  amplitude_response(p.system, p.equilibrium.q, m.shape.real(), m.omega, o);
+  ASSERT_EQ(calls.size(), 5u + o.levels.size());
+  for (std::size_t i = 0; i < calls.size(); ++i) {
+    EXPECT_EQ(calls[i].first, static_cast<int>(i) + 1);
+    EXPECT_EQ(calls[i].second, static_cast<int>(calls.size()));
+  }
+
+  SimulationOptions so;
+  so.duration = 2;
+  so.interval = 0.001;  // 2001 samples
+  calls.clear();
+  so.progress = [&calls](int done, int total) { calls.emplace_back(done, total); };
+  VectorX q0 = p.equilibrium.q;
+  q0[0] += 0.1;
+  const Trajectory tr = simulate(p.system, q0, VectorX::Zero(q0.size()), so);
+  ASSERT_FALSE(calls.empty());
+  EXPECT_LE(calls.size(), 220u);
+  EXPECT_GE(calls.size(), 150u);
+  for (std::size_t i = 1; i < calls.size(); ++i) EXPECT_GT(calls[i].first, calls[i - 1].first);
+  EXPECT_EQ(calls.back().first, static_cast<int>(tr.size()));
+  EXPECT_EQ(calls.back().second, static_cast<int>(tr.size()));
+}

@@ -398,7 +398,10 @@ int main(int argc, char** argv) {
       if (simulate_velocity_option->count())
         sim.velocity = modal::parse_coordinates(model.system, "--velocity", simulate_velocity);
       if (simulate_interval_option->count()) sim.interval = simulate_interval;
+      modal::ProgressBar bar("simulate");
+      sim.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::Simulation s = modal::simulate(model, sim);
+      bar.finish();
       for (const std::string& note : s.notes) std::cerr << "modal: " << note << '\n';
       modal::write_simulation(std::cout, s, simulate_out);
       modal::print_simulation_summary(std::cerr, s.trajectory, s.options);
@@ -416,7 +419,11 @@ int main(int argc, char** argv) {
       modal::check_outputs(modal::Command::amplitude, amplitude_out, amplitude_scene.file);
       const modal::Model model = load(amplitude_scene);
       if (amplitude_at_option->count()) amp.at = modal::parse_coordinates(model.system, "--at", amplitude_at);
-      modal::write_amplitude(std::cout, modal::amplitude(model, amp), amplitude_out);
+      modal::ProgressBar bar("amplitude");
+      amp.options.progress = [&bar](int done, int total) { bar.update(done, total); };
+      const modal::AmplitudeStudy study = modal::amplitude(model, amp);
+      bar.finish();
+      modal::write_amplitude(std::cout, study, amplitude_out);
     }
     return 0;
   } catch (const std::exception& e) {

@@ -507,6 +507,7 @@ Simulation simulate(const Model& model, const SimulationRequest& request) {
   s.options.duration = request.duration;
   s.options.interval = request.interval.value_or(0.0);
   s.options.tolerance = request.tolerance;
+  s.options.progress = request.progress;
   if (!std::isfinite(request.duration) || request.duration <= 0)
     throw InputError(fmt::format("--duration must be a finite number > 0 (seconds), got {:g}", request.duration));
   if (request.interval && !(std::isfinite(*request.interval) && *request.interval > 0))

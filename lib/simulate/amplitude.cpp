@@ -269,7 +269,12 @@ AmplitudeResponse amplitude_response(const System& system, const VectorX& equili
   }
   if (!std::is_sorted(amplitudes.begin(), amplitudes.end()))
     throw std::invalid_argument("amplitude: the amplitudes must be given in ascending order");
-  for (const double a : amplitudes) r.points.push_back(measure(su, a, options, r.evaluations));
+  const int total = static_cast<int>(amplitudes.size() + options.levels.size());
+  int done = 0;
+  for (const double a : amplitudes) {
+    r.points.push_back(measure(su, a, options, r.evaluations));
+    if (options.progress) options.progress(++done, total);
+  }
 
   for (const double level : options.levels) {
     AmplitudeThreshold t;
@@ -291,6 +296,7 @@ AmplitudeResponse amplitude_response(const System& system, const VectorX& equili
       t = refine_level(su, level, r.points[i - 1], r.points[i], options, unit, r.evaluations);
     }
     r.thresholds.push_back(t);
+    if (options.progress) options.progress(++done, total);
   }
   return r;
 }

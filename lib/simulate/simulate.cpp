@@ -169,7 +169,11 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
 
   double t = 0, max_kinetic = 0, max_work = 0;
   long steps_before_reset = 0, rejected_before_reset = 0;  // counts of the integrator before restarts
+  const int total = static_cast<int>(std::min<std::size_t>(times.size(), std::numeric_limits<int>::max()));
+  const int stride = std::max(1, total / 200);
+  int reached = 0;
   for (const double target : times) {
+    if (options.progress && (++reached % stride == 0 || reached == total)) options.progress(reached, total);
     if (target > t) {
       const int status = gsl_odeiv2_driver_apply(driver.get(), &t, target, y.data());
       if (rhs.error) std::rethrow_exception(rhs.error);

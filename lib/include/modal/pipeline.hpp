@@ -37,6 +37,7 @@
 #include "modal/sweep.hpp"
 
 #include <exception>
+#include <functional>
 #include <iosfwd>
 #include <new>
 #include <optional>
@@ -223,6 +224,7 @@ struct SimulationRequest {
   std::optional<VectorX> velocity;       // initial velocities (default: 0)
   std::optional<double> interval;        // output spacing, s (default: duration / 1000)
   double tolerance = SimulationOptions{}.tolerance;
+  std::function<void(int done, int total)> progress = nullptr;  // SimulationOptions::progress
 };
 struct Simulation {
   Trajectory trajectory;

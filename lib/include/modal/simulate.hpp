@@ -62,6 +62,7 @@
 
 #include "modal/core.hpp"
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -71,6 +72,9 @@ struct SimulationOptions {
   double duration = 0;       // s, end time (the motion starts at t = 0); > 0, finite
   double interval = 0;       // s, spacing of the output samples, > 0; 0: duration / 1000
   double tolerance = 1e-12;  // per-step relative (and scaled absolute) error bound, in (0, 1)
+  // Called as output samples are reached (done of total; about 200 calls in
+  // all, the last with done = total); none when empty. The CLI's progress bar.
+  std::function<void(int done, int total)> progress = nullptr;
 };
 
 // The largest number of output samples simulate() accepts (duration / interval + 1).
@@ -152,6 +156,9 @@ struct AmplitudeOptions {
   double tolerance = 1e-12;  // integrator (SimulationOptions::tolerance)
   std::vector<double> levels{0.01, 0.1};  // departures |ω/ω_lin − 1| whose amplitudes are sought
   double amplitude_tolerance = 1e-6;      // relative, of the amplitudes found for the levels
+  // Called after each amplitude measured and each level's search (done of
+  // total = amplitudes + levels); none when empty. The CLI's progress bar.
+  std::function<void(int done, int total)> progress = nullptr;
 };
 
 struct AmplitudePoint {
