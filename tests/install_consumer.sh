@@ -38,7 +38,8 @@ flags=""
 [ "$sanitize" = ON ] && flags="-fsanitize=address,undefined -fno-sanitize-recover=all"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 
-"$prefix/bin/modal" --version | grep -qx "modal 0.2.0" || fail "installed modal --version is not 'modal 0.2.0'"
+version=$("$prefix/bin/modal" --version)
+[ "$version" = "modal 0.2.0" ] || fail "installed modal --version is not 'modal 0.2.0'"
 
 model=$prefix/share/modal/models/double_pendulum.toml
 # ω² of the two modes against the closed form c ∓ √d (R1: 2 ∓ √2 with unit
@@ -66,7 +67,10 @@ cmake -S "$source/examples/embed" -B "$work/embed" -DCMAKE_PREFIX_PATH="$prefix"
   || { cat "$work/embed-configure.log"; fail "examples/embed does not configure"; }
 cmake --build "$work/embed" > "$work/embed-build.log" 2>&1 \
   || { cat "$work/embed-build.log"; fail "examples/embed does not build"; }
-objdump -p "$work/embed/embed" | grep -q 'NEEDED.*libmodal\.so\.0' || fail "embed does not link libmodal.so.0"
+# Captured first: with pipefail, "objdump | grep -q" fails whenever grep stops
+# reading before objdump has written everything (objdump dies of SIGPIPE).
+needed=$(objdump -p "$work/embed/embed" | awk '$1 == "NEEDED" {print $2}')
+grep -qx 'libmodal\.so\.0' <<< "$needed" || fail "embed does not link libmodal.so.0 (NEEDED: $(echo $needed))"
 check "embed (modal::modal)" "$("$work/embed/embed" "$model")"
 check "embed_static (modal::modal_static)" "$("$work/embed/embed_static" "$model")"
 # Overrides and the JSON writer through the pipeline API; errors carry the CLI's status and message.
@@ -74,7 +78,7 @@ check "embed m2=2" "$("$work/embed/embed" "$model" m2=2 --json "$work/dp.json")"
 grep -q '"stability": "stable"' "$work/dp.json" || fail "embed --json: no stability in $work/dp.json"
 status=0; err=$("$work/embed/embed" "$work/missing.toml" 2>&1) || status=$?
 [ "$status" = 2 ] || fail "embed of a missing scene: exit status $status, expected 2 (bad input)"
-echo "$err" | grep -q "missing.toml" || fail "embed of a missing scene: the message does not name the file: $err"
+grep -q "missing.toml" <<< "$err" || fail "embed of a missing scene: the message does not name the file: $err"
 status=0; err=$("$work/embed/embed" "$model" m9=1 2>&1) || status=$?
 [ "$status" = 2 ] || fail "embed with an unknown parameter: exit status $status, expected 2"
 echo "embed: exit status 2 and '$err'"
