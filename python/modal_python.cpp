@@ -201,7 +201,7 @@ modal::MatrixX or_zero(const modal::MatrixX& m, Eigen::Index n) { return m.size(
 modal::AnalysisOptions analysis_options(int modes, std::optional<modal::VectorX> at, const std::string& solver,
                                         std::optional<double> shift, double tol, const std::string& dense_solver,
                                         const std::string& derivatives, double step, double eq_tol,
-                                        const std::string& large_equilibrium) {
+                                        const std::string& large_equilibrium, bool energy) {
   static const std::pair<const char*, modal::SolverChoice> solvers[] = {{"auto", modal::SolverChoice::automatic},
                                                                         {"dense", modal::SolverChoice::dense},
                                                                         {"sparse", modal::SolverChoice::sparse}};
@@ -232,6 +232,7 @@ modal::AnalysisOptions analysis_options(int modes, std::optional<modal::VectorX>
   o.step_factor = step;
   o.equilibrium_tolerance = eq_tol;
   o.large_equilibrium = parse_choice("large_equilibrium", large_equilibrium, large);
+  o.energy = energy;
   return o;
 }
 
@@ -352,6 +353,34 @@ std::vector<double> axis_values(const modal::SweepAxis& axis) {
 
 }  // namespace
 
+// modes × columns of one per-mode vector of EnergyDistribution (NaN where a
+// mode's vector is empty: the potential shares of a zero mode).
+py::array_t<double> energy_table(const modal::EnergyDistribution& e, std::size_t columns,
+                                 std::vector<double> modal::ModeEnergy::*field) {
+  py::array_t<double> out({static_cast<py::ssize_t>(e.modes.size()), static_cast<py::ssize_t>(columns)});
+  auto r = out.mutable_unchecked<2>();
+  for (std::size_t k = 0; k < e.modes.size(); ++k) {
+    const std::vector<double>& v = e.modes[k].*field;
+    for (std::size_t j = 0; j < columns; ++j)
+      r(static_cast<py::ssize_t>(k), static_cast<py::ssize_t>(j)) = j < v.size() ? v[j] : not_a_number;
+  }
+  return out;
+}
+
+// f(x) for each x of a container, as a list.
+template <class C, class F>
+auto collect(const C& items, F f) {
+  std::vector<decltype(f(*items.begin()))> out;
+  for (const auto& x : items) out.push_back(f(x));
+  return out;
+}
+
+const modal::EnergyDistribution& energy_of(const modal::Analysis& a) {
+  const auto& e = a.report.equilibria.front().energy;
+  if (!e) throw modal::InputError("this analysis was made without energy=True: analyze(..., energy=True)");
+  return *e;
+}
+
 PYBIND11_MODULE(_modal, m) {
   m.doc() = "modal's C++ pipeline (modal/pipeline.hpp); use the package `modal`, which wraps it.";
   m.attr("__version__") = MODAL_VERSION;
@@ -463,7 +492,7 @@ PYBIND11_MODULE(_modal, m) {
   py::class_<modal::AnalysisOptions>(m, "AnalysisOptions", "The options of modal.analyze (made by modal.analyze).");
   m.def("_analysis_options", &analysis_options, py::arg("modes"), py::arg("at"), py::arg("solver"), py::arg("shift"),
         py::arg("tol"), py::arg("dense_solver"), py::arg("derivatives"), py::arg("step"), py::arg("eq_tol"),
-        py::arg("large_equilibrium"));
+        py::arg("large_equilibrium"), py::arg("energy"));
   m.def(
       "_analyze",
       [](std::shared_ptr<const modal::Model> model, const modal::AnalysisOptions& options) {
@@ -492,6 +521,73 @@ PYBIND11_MODULE(_modal, m) {
       },
       py::arg("model"), py::arg("options"), py::arg("repeats"), py::arg("reload") = false,
       py::call_guard<py::gil_scoped_release>());
+
+  py::class_<modal::EnergyDistribution>(
+      m, "EnergyDistribution",
+      "Where each mode's energy is, and how much mass a base translation excites (modal.analyze(..., energy=True); "
+      "docs/design.md, 'Energy distribution and participation'). Tables have one row per mode, in the order of "
+      "Analysis.omega2.")
+      .def_property_readonly(
+          "split",
+          [](const modal::EnergyDistribution& e) {
+            return e.split == modal::EnergyDistribution::Split::element ? "element" : "coordinate";
+          },
+          "'element': shares per body and per potential term; 'coordinate': per coordinate (kinematic maps)")
+      .def_readonly("kinetic_elements", &modal::EnergyDistribution::kinetic_elements,
+                    "the bodies (particles are bodies), or coordinates, that carry kinetic energy: kinetic's columns")
+      .def_readonly("potential_elements", &modal::EnergyDistribution::potential_elements,
+                    "the springs, gravity terms, loads, constraints (or coordinates) that store potential energy: "
+                    "potential's columns")
+      .def_property_readonly(
+          "kinetic",
+          [](const modal::EnergyDistribution& e) { return energy_table(e, e.kinetic_elements.size(), &modal::ModeEnergy::kinetic); },
+          "modes × kinetic_elements: each mode's share of φᵀMφ; rows sum to 1")
+      .def_property_readonly(
+          "potential",
+          [](const modal::EnergyDistribution& e) { return energy_table(e, e.potential_elements.size(), &modal::ModeEnergy::potential); },
+          "modes × potential_elements: each mode's share of φᵀKφ; rows sum to 1 (shares may be negative); NaN "
+          "rows for zero modes, whose φᵀKφ is 0 within the eigenvalue's error")
+      .def_property_readonly(
+          "kinetic_total",
+          [](const modal::EnergyDistribution& e) {
+            return collect(e.modes, [](const modal::ModeEnergy& x) { return x.kinetic_total; });
+          },
+          "φᵀMφ of each mode (the kinetic shares' denominator)")
+      .def_property_readonly(
+          "potential_total",
+          [](const modal::EnergyDistribution& e) {
+            return collect(e.modes, [](const modal::ModeEnergy& x) { return x.potential_total; });
+          },
+          "φᵀKφ of each mode (the potential shares' denominator)")
+      .def_property_readonly(
+          "directions",
+          [](const modal::EnergyDistribution& e) {
+            return collect(e.directions, [](const modal::ParticipationDirection& d) { return d.name; });
+          },
+          "the base-translation axes with moving mass ('x', 'y', 'z'): the participation tables' columns")
+      .def_property_readonly(
+          "movable_mass",
+          [](const modal::EnergyDistribution& e) {
+            return collect(e.directions, [](const modal::ParticipationDirection& d) { return d.movable_mass; });
+          },
+          "the mass that can move along each direction, kg")
+      .def_property_readonly(
+          "participation_factor",
+          [](const modal::EnergyDistribution& e) { return energy_table(e, e.directions.size(), &modal::ModeEnergy::participation_factor); },
+          "modes × directions: Γ = φᵀL/φᵀMφ")
+      .def_property_readonly(
+          "effective_mass",
+          [](const modal::EnergyDistribution& e) { return energy_table(e, e.directions.size(), &modal::ModeEnergy::effective_mass); },
+          "modes × directions: effective modal mass (φᵀL)²/φᵀMφ, kg")
+      .def_property_readonly(
+          "cumulative_fraction",
+          [](const modal::EnergyDistribution& e) { return energy_table(e, e.directions.size(), &modal::ModeEnergy::cumulative_fraction); },
+          "modes × directions: the effective masses of this mode and those below it over movable_mass")
+      .def("__repr__", [](const modal::EnergyDistribution& e) {
+        return "<modal.EnergyDistribution: " + std::to_string(e.modes.size()) + " modes, " +
+               std::to_string(e.kinetic_elements.size()) + " kinetic and " +
+               std::to_string(e.potential_elements.size()) + " potential elements>";
+      });
 
   py::class_<modal::Analysis, std::shared_ptr<modal::Analysis>>(
       m, "Analysis",
@@ -633,6 +729,11 @@ PYBIND11_MODULE(_modal, m) {
       .def_property_readonly(
           "notes", [](const modal::Analysis& a) { return a.result().notes; }, "diagnostics a user should read")
       .def_property_readonly(
+          "energy", [](const modal::Analysis& a) -> const modal::EnergyDistribution& { return energy_of(a); },
+          py::return_value_policy::reference_internal,
+          "the modes' energy distribution and participation (an EnergyDistribution); raises InputError unless "
+          "analyze was called with energy=True")
+      .def_property_readonly(
           "solver", [](const modal::Analysis& a) { return a.result().solver; }, "which eigen-solver ran")
       .def_property_readonly(
           "timings",
@@ -658,13 +759,15 @@ PYBIND11_MODULE(_modal, m) {
           "write",
           [](const modal::Analysis& a, std::optional<std::string> csv, std::optional<std::string> json,
              std::optional<std::string> matrices) {
-            const modal::Outputs o = outputs(csv, json, matrices);
+            modal::Outputs o = outputs(csv, json, matrices);
+            o.energy = !o.csv.empty() && a.report.equilibria.front().energy.has_value();
             modal::check_outputs(modal::Command::analyze, o, a.report.scene_file);
             std::ostringstream discard;
             modal::write_analysis(discard, a, o);
           },
           py::arg("csv") = py::none(), py::arg("json") = py::none(), py::arg("matrices") = py::none(),
-          "Writes files as `modal analyze` does: csv=PREFIX (PREFIX_modes.csv, _shapes.csv, _equilibria.csv), "
+          "Writes files as `modal analyze` does: csv=PREFIX (PREFIX_modes.csv, _shapes.csv, _equilibria.csv; with "
+          "energy=True in analyze also _energy.csv and _participation.csv), "
           "json=FILE, matrices=DIR (M, K, … in Matrix Market). All or none are written; raises ReportError.",
           py::call_guard<py::gil_scoped_release>())
       .def("__repr__", [](const modal::Analysis& a) {

@@ -23,13 +23,14 @@ Units are SI: ω² in rad²/s², ω in rad/s, coordinates in rad or m.
 import os as _os
 
 from . import _modal
-from ._modal import (Analysis, Amplitude, Equilibria, Error, InputError, Model, NotAnEquilibrium, NumericalError,
+from ._modal import (Analysis, Amplitude, EnergyDistribution, Equilibria, Error, InputError, Model, NotAnEquilibrium,
+                     NumericalError,
                      ReportError, SceneError, SingularMassMatrix, Simulation, Sweep, SweepInputError, __version__)
 from ._toml import dumps as _toml_dumps
 
 __all__ = [
     "load", "analyze", "equilibria", "sweep", "simulate", "amplitude",
-    "Model", "Analysis", "Equilibria", "Sweep", "Simulation", "Amplitude",
+    "Model", "Analysis", "EnergyDistribution", "Equilibria", "Sweep", "Simulation", "Amplitude",
     "Error", "SceneError", "InputError", "SweepInputError", "ReportError", "NumericalError",
     "SingularMassMatrix", "NotAnEquilibrium", "__version__",
 ]
@@ -108,7 +109,7 @@ def _vector(values):
 
 
 def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, tol=1e-10, dense_solver="auto",
-            derivatives="exact", step=None, eq_tol=1e-12, large_equilibrium="newton"):
+            derivatives="exact", step=None, eq_tol=1e-12, large_equilibrium="newton", energy=False):
     """Finds the equilibrium nearest the scene's initial configuration (or
     polishes `at`), linearizes there and solves for the modes: `modal analyze`.
 
@@ -121,13 +122,16 @@ def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, 
     'forward', 'complex-step' (K by differences; dense only), step: their step
     factor. eq_tol: the equilibrium's accepted relative residual.
     large_equilibrium: 'newton' or 'lbfgs' (large scenes).
+    energy: also compute each mode's energy distribution and its participation
+    in base translation (Analysis.energy, an EnergyDistribution: `--energy`).
 
     Returns an Analysis (omega2, errors, bounds, shapes, q, M, K, D, G,
     stability, …). Raises SceneError, InputError, NumericalError.
     """
     model = _model(scene, set)
     options = _modal._analysis_options(-1 if modes is None else modes, _vector(at), solver, shift, tol, dense_solver,
-                                       derivatives, 0.0 if step is None else step, eq_tol, large_equilibrium)
+                                       derivatives, 0.0 if step is None else step, eq_tol, large_equilibrium,
+                                       bool(energy))
     return _modal._analyze(model, options)
 
 
