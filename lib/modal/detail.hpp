@@ -44,8 +44,12 @@ VectorX equilibrating_scale(const VectorX& diagonal);
 // equilibrating_scale(inertia) when it has n entries; otherwise (no natural
 // scale: kinematic maps, hand-made models) all ones, no scaling.
 VectorX coordinate_scale(const VectorX& inertia, Eigen::Index n);
-// diag(s) A diag(s), entry by entry (exact for powers of two).
+// diag(s) A diag(s), entry by entry (exact for powers of two), and in place.
 MatrixX scale_symmetric(const MatrixX& A, const VectorX& s);
+void scale_symmetric_in_place(MatrixX& A, const VectorX& s);
+// Whether diag(s) A diag(s) (s: powers of two) is exact: no entry overflows or
+// loses digits to underflow.
+bool scales_exactly(const MatrixX& A, const VectorX& s);
 
 // Cholesky factor M = L Lᵀ of the symmetric mass matrix M (n×n), normally an
 // equilibrated one (SMS above; `scale` = s, empty for none). Throws
@@ -95,8 +99,9 @@ struct Magnitudes {
 // near 1 (0 for a zero or non-finite one).
 Magnitudes magnitudes(double largest_M, double largest_K);
 // Multiplies A by 2^p entry by entry; false (A unchanged) when that would
-// not be exact (overflow, underflow to subnormals).
+// not be exact (overflow, underflow to subnormals). scales_exactly: the test alone.
 bool scale_exactly(MatrixX& A, int p);
+bool scales_exactly(const MatrixX& A, int p);
 void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric);
 
 // A Mode with the eigenvalue fields filled from s = σ + iω (1/s) and its kind:

@@ -153,6 +153,20 @@ VectorX coordinate_scale(const VectorX& inertia, Eigen::Index n) {
 
 MatrixX scale_symmetric(const MatrixX& A, const VectorX& s) { return s.asDiagonal() * A * s.asDiagonal(); }
 
+void scale_symmetric_in_place(MatrixX& A, const VectorX& s) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i) A(i, j) = s(i) * A(i, j) * s(j);
+}
+
+bool scales_exactly(const MatrixX& A, const VectorX& s) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i) {
+      const double v = s(i) * A(i, j) * s(j);
+      if (!std::isfinite(v) || v / s(j) / s(i) != A(i, j)) return false;
+    }
+  return true;
+}
+
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale,
                      const std::vector<int>& absolute) {
   const Eigen::Index n = M.rows();

@@ -37,7 +37,11 @@ bool symmetric_within_rounding(const MatrixX& A) {
   return (A - A.transpose()).norm() <= tol * A.norm();
 }
 
-MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
+// A ← (A + Aᵀ)/2, in place.
+void make_symmetric(MatrixX& A) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = j + 1; i < A.rows(); ++i) A(i, j) = A(j, i) = 0.5 * (A(i, j) + A(j, i));
+}
 
 // The model's coordinate names, or q1 … qn when it has none.
 std::vector<std::string> coordinate_labels(const LinearModel& model, Eigen::Index n) {
@@ -97,10 +101,10 @@ void map_shapes_back(const LinearModel& model, bool real, std::vector<Mode>& mod
   }
 }
 
-// D + G, or the n×n zero matrix when the model has neither. Empty (0×0)
-// matrices stand for zero; any other size than n×n is misuse.
+// D + G, or an empty (0×0) matrix when both are zero. Empty matrices stand
+// for zero; any other size than n×n is misuse.
 MatrixX velocity_matrix(const LinearModel& model, Eigen::Index n) {
-  MatrixX C = MatrixX::Zero(n, n);
+  MatrixX C;
   auto add = [&](const MatrixX& A, const char* what) {
     if (A.size() == 0) return;
     if (A.rows() != n || A.cols() != n)
@@ -108,7 +112,9 @@ MatrixX velocity_matrix(const LinearModel& model, Eigen::Index n) {
                                   std::to_string(A.rows()) + "×" + std::to_string(A.cols()) +
                                   ", expected " + std::to_string(n) + "×" + std::to_string(n));
     require_finite(A, what);
-    C += A;
+    if (A.isZero(0.0)) return;  // linearize's zero D and G of undamped, non-gyroscopic scenes
+    if (C.size() == 0) C = A;
+    else C += A;
   };
   add(model.D, "damping");
   add(model.G, "gyroscopic");
@@ -198,27 +204,26 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   const MatrixX& K_in = absolute ? abs.K : model.K;
   const MatrixX& K_error_in = absolute ? abs.K_magnitude : model.K_error;
   const MatrixX& K_systematic_in = absolute ? model.absolute_systematic_error : model.K_systematic_error;
+  // Working copies, scaled in place (each n×n matrix is copied once: on a
+  // 1000-link chain every extra n×n temporary is 8 MB of fresh pages, and
+  // touching fresh pages cost more than the products of the error estimate).
   VectorX scale = detail::coordinate_scale(absolute ? abs.inertia_scale : model.inertia_scale, n);
-  auto scaled = [&](const MatrixX& A) {
-    return A.rows() == n && A.cols() == n ? detail::scale_symmetric(A, scale) : A;
-  };
-  MatrixX M0 = scaled(M_in), K0 = scaled(K_in);
-  const VectorX inverse = scale.cwiseInverse();
-  if (detail::scale_symmetric(M0, inverse) != M_in || detail::scale_symmetric(K0, inverse) != K_in) {
-    scale = VectorX::Ones(n);
-    M0 = M_in;
-    K0 = K_in;
-  }
-  if (!symmetric_within_rounding(M0))
+  auto square = [n](const MatrixX& A) { return A.rows() == n && A.cols() == n; };
+  if (!detail::scales_exactly(M_in, scale) || !detail::scales_exactly(K_in, scale)) scale = VectorX::Ones(n);
+  MatrixX Ms = M_in, Ks = K_in, K_error = square(K_error_in) ? K_error_in : MatrixX(),
+          K_systematic = square(K_systematic_in) ? K_systematic_in : MatrixX(),
+          G_error = square(model.G_error) ? model.G_error : MatrixX();
+  MatrixX Cs = velocity_matrix(model, n);  // empty when the model has neither D nor G
+  for (MatrixX* A : {&Ms, &Ks, &K_error, &K_systematic, &G_error, &Cs})
+    if (A->size() != 0) detail::scale_symmetric_in_place(*A, scale);
+  if (!symmetric_within_rounding(Ms))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
-  const MatrixX C = scaled(velocity_matrix(model, n));
-
-  const MatrixX M = symmetric_part(M0);
+  make_symmetric(Ms);
 
   ModalResult result;
   std::string asymmetric_note;
-  bool symmetric = model.symmetric() && C.isZero(0.0);
-  if (symmetric && !symmetric_within_rounding(K0)) {
+  bool symmetric = model.symmetric() && Cs.isZero(0.0);
+  if (symmetric && !symmetric_within_rounding(Ks)) {
     symmetric = false;
     asymmetric_note =
         "K is not symmetric although the model declares no circulatory forces; "
@@ -228,26 +233,25 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   // that bring the largest entries of M and K near 1 (detail::Magnitudes),
   // so that ω² = 1e160 does not overflow to an infinite estimate (which made
   // every mode a "zero" mode); exact, and undone on the results.
-  detail::Magnitudes magnitude = detail::magnitudes(M.cwiseAbs().maxCoeff(), K0.cwiseAbs().maxCoeff());
-  MatrixX Ms = M, Ks = K0, Cs = C, K_error = scaled(K_error_in), K_systematic = scaled(K_systematic_in),
-          G_error = scaled(model.G_error);
+  detail::Magnitudes magnitude = detail::magnitudes(Ms.cwiseAbs().maxCoeff(), Ks.cwiseAbs().maxCoeff());
   {
     const int a = 2 * magnitude.a, b = 2 * magnitude.b, ab = magnitude.a + magnitude.b;
-    if (!(detail::scale_exactly(Ms, a) && detail::scale_exactly(Ks, b) && detail::scale_exactly(Cs, ab) &&
-          detail::scale_exactly(K_error, b) && detail::scale_exactly(K_systematic, b) &&
-          detail::scale_exactly(G_error, ab))) {
+    const std::pair<MatrixX*, int> scaled[] = {{&Ms, a}, {&Ks, b}, {&Cs, ab},
+                                               {&K_error, b}, {&K_systematic, b}, {&G_error, ab}};
+    bool exact = true;
+    for (const auto& [A, p] : scaled) exact = exact && detail::scales_exactly(*A, p);
+    if (exact)
+      for (const auto& [A, p] : scaled) detail::scale_exactly(*A, p);
+    else
       magnitude = {};
-      Ms = M;
-      Ks = K0;
-      Cs = C;
-      K_error = scaled(K_error_in);
-      K_systematic = scaled(K_systematic_in);
-      G_error = scaled(model.G_error);
-    }
+  }
+  if (symmetric) {
+    make_symmetric(Ks);
+  } else if (Cs.size() == 0) {
+    Cs.setZero(n, n);  // the first-order solver's C (follower loads alone)
   }
   const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
-  result = symmetric ? detail::solve_symmetric(Ms, symmetric_part(Ks), mass, K_error, K_systematic,
-                                               options.dense_solver)
+  result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver)
                      : detail::solve_first_order(Ms, Ks, Cs, mass, K_systematic, G_error);
   detail::restore_magnitudes(result, magnitude, symmetric);
   detail::add_cluster_notes(result.modes, symmetric, result.notes);
@@ -339,15 +343,22 @@ Magnitudes magnitudes(double largest_M, double largest_K) {
   return {exponent(largest_M), exponent(largest_K)};
 }
 
-bool scale_exactly(MatrixX& A, int p) {
-  if (p == 0 || A.size() == 0) return true;
-  const MatrixX B = A.unaryExpr([p](double v) { return std::ldexp(v, p); });
-  const MatrixX back = B.unaryExpr([p](double v) { return std::ldexp(v, -p); });
-  if (back != A || !B.allFinite()) return false;
-  A = B;
+bool scales_exactly(const MatrixX& A, int p) {
+  if (p == 0) return true;
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i) {
+      const double v = std::ldexp(A(i, j), p);
+      if (!std::isfinite(v) || std::ldexp(v, -p) != A(i, j)) return false;
+    }
   return true;
 }
 
+bool scale_exactly(MatrixX& A, int p) {
+  if (p == 0 || A.size() == 0) return true;
+  if (!scales_exactly(A, p)) return false;
+  A = A.unaryExpr([p](double v) { return std::ldexp(v, p); });
+  return true;
+}
 void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric) {
   const int d = m.a - m.b;  // λ = λ'·4^d, s = s'·2^d
   const double root = std::ldexp(1.0, d), shape = std::ldexp(1.0, m.a);

@@ -48,6 +48,7 @@
 #include "detail.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SparseCore>
 
 #include <algorithm>
 #include <cmath>
@@ -82,16 +83,46 @@ namespace modal::detail {
 namespace {
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-// C = A B (column-major, sizes from A and B).
-MatrixX product(const MatrixX& A, const MatrixX& B) {
+// Whether A is sparse enough (at most one entry in 16 nonzero) that a sparse
+// product beats BLAS: K, |K| and its error bound E in absolute angles of a
+// chain are diagonal, those of nets and lattices banded.
+bool mostly_zero(const MatrixX& A) {
+  Eigen::Index nonzeros = 0;
+  const Eigen::Index limit = A.size() / 16;
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i)
+      if (A(i, j) != 0 && ++nonzeros > limit) return false;
+  return true;
+}
+
+// C ← beta C + A B (column-major, sizes from A and B; beta 0 or 1).
+void multiply(const MatrixX& A, const MatrixX& B, double beta, MatrixX& C) {
   const int m = static_cast<int>(A.rows()), n = static_cast<int>(B.cols()), k = static_cast<int>(A.cols());
-  MatrixX C(m, n);
-  if (m == 0 || n == 0) return C;
-  if (k == 0) return C.setZero();
-  const double one = 1, zero = 0;
-  dgemm_("N", "N", &m, &n, &k, &one, A.data(), &m, B.data(), &k, &zero, C.data(), &m, 1, 1);
+  if (beta == 0) C.resize(m, n);
+  if (m == 0 || n == 0) return;
+  if (k == 0) {
+    if (beta == 0) C.setZero();
+    return;
+  }
+  if (mostly_zero(A)) {
+    const Eigen::SparseMatrix<double> S = A.sparseView();
+    if (beta == 0) C.noalias() = S * B;
+    else C.noalias() += S * B;
+    return;
+  }
+  const double one = 1;
+  dgemm_("N", "N", &m, &n, &k, &one, A.data(), &m, B.data(), &k, &beta, C.data(), &m, 1, 1);
+}
+
+// A B.
+MatrixX product(const MatrixX& A, const MatrixX& B) {
+  MatrixX C;
+  multiply(A, B, 0, C);
   return C;
 }
+
+// C ← C + A B.
+void add_product(const MatrixX& A, const MatrixX& B, MatrixX& C) { multiply(A, B, 1, C); }
 
 // B ← L⁻¹ B for the lower triangle L of `L` (n×n; the upper triangle is not read).
 void solve_lower(const MatrixX& L, MatrixX& B) {
@@ -158,13 +189,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // for the matrices as formed, while the solver's λ carries the error of its
   // transformation (L⁻¹KL⁻ᵀ, or LAPACK's, with an ill-conditioned M: 5e-7
   // relative on a 320-link cantilever in relative angles). Re-sorted.
-  MatrixX KPhi = product(K, Phi), MPhi = product(M, Phi);
-  VectorX phiMphi(n);  // φᵀMφ = ‖Lᵀφ‖² per column
+  // The n×n work matrices below are few and freed as soon as they are used:
+  // fresh pages cost more to touch than the products cost to compute.
+  MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
+  VectorX phiMphi(n);           // φᵀMφ = ‖Lᵀφ‖² per column
   {
+    MatrixX MPhi = product(M, Phi);
     VectorX rq(n);
     for (Eigen::Index j = 0; j < n; ++j) {
       phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
-      rq(j) = Phi.col(j).dot(KPhi.col(j)) / phiMphi(j);
+      rq(j) = Phi.col(j).dot(R.col(j)) / phiMphi(j);
     }
     std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
     std::iota(order.begin(), order.end(), Eigen::Index{0});
@@ -172,28 +206,35 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     if (!std::is_sorted(order.begin(), order.end())) {
       Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(n);
       for (Eigen::Index k = 0; k < n; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
-      Phi = Phi * P;  // column k ← column order[k]
-      KPhi = KPhi * P;
+      Phi = Phi * P;  // column k ← column order[k] (in place)
+      R = R * P;
       MPhi = MPhi * P;
       rq = P.transpose() * rq;
       phiMphi = P.transpose() * phiMphi;
     }
     lambda = rq;
+    R -= MPhi * lambda.asDiagonal();
   }
 
-  // Residuals of all pairs at once, R = KΦ − MΦΛ (n×n), and beside them the
-  // rounding of R itself, |fl(R) − R| ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|)
-  // componentwise (Higham, Accuracy and Stability, §3.5): both carried
-  // through L⁻¹ in one triangular solve.
+  // Beside the residuals R = KΦ − MΦΛ, the rounding of R itself, |fl(R) − R|
+  // ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|) componentwise (Higham, Accuracy and
+  // Stability, §3.5): both carried through L⁻¹ by triangular solves.
   const MatrixX absPhi = Phi.cwiseAbs();
-  MatrixX both(n, 2 * n);
-  both.leftCols(n) = KPhi - MPhi * lambda.asDiagonal();
-  const MatrixX absMPhi = product(M.cwiseAbs(), absPhi);  // also for the data term below
-  both.rightCols(n) = product(K.cwiseAbs(), absPhi) + absMPhi * lambda.cwiseAbs().asDiagonal();
-  const MatrixX R = both.leftCols(n);  // for the relative residual below
-  VectorX absKM_dot(n);                // |φ|ᵀ(|K| + |λ||M|)|φ|, before the solve overwrites it
-  for (Eigen::Index j = 0; j < n; ++j) absKM_dot(j) = absPhi.col(j).dot(both.col(n + j));
-  solve_lower(mass.matrixLLT(), both);  // its lower triangle is L
+  MatrixX absMPhi, rounding;  // |M||Φ| (also for the data term below); |K||Φ| + |M||Φ||Λ|
+  {
+    MatrixX absolute = M.cwiseAbs();
+    absMPhi = product(absolute, absPhi);
+    rounding = absMPhi * lambda.cwiseAbs().asDiagonal();
+    absolute = K.cwiseAbs();  // the same storage
+    add_product(absolute, absPhi, rounding);
+  }
+  VectorX residual_norm(n), absKM_dot(n);  // ‖R_j‖ (for the relative residual below); |φ|ᵀ(|K| + |λ||M|)|φ|
+  for (Eigen::Index j = 0; j < n; ++j) {
+    residual_norm(j) = R.col(j).norm();
+    absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
+  }
+  solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
+  solve_lower(mass.matrixLLT(), rounding);
 
   // Per mode, the linear residual bound δ (rigorous for the matrices as
   // formed) and its typical-size counterpart (see the header comment), then
@@ -205,12 +246,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const double nn = static_cast<double>(n + 2);
   for (Eigen::Index j = 0; j < n; ++j) {
     const double norm = std::sqrt(phiMphi(j));
-    const double residual = both.col(j).norm() / norm, rounding = eps * both.col(n + j).norm() / norm;
-    bound(j) = residual + nn * rounding;
-    typical(j) = residual + std::sqrt(nn) * rounding;
+    const double residual = R.col(j).norm() / norm, rounded = eps * rounding.col(j).norm() / norm;
+    bound(j) = residual + nn * rounded;
+    typical(j) = residual + std::sqrt(nn) * rounded;
     quotient_rounding(j) = eps * absKM_dot(j) / phiMphi(j);
   }
-  both.resize(0, 0);
+  R.resize(0, 0);
+  rounding.resize(0, 0);
   // The nearest other eigenvalue's interval: λ is sorted, so the minimum of
   // |λ_k − λ_j| − δ_k is attained among the neighbours until |λ_k − λ_j|
   // alone exceeds the best gap found plus the largest δ (a scan outwards,
@@ -235,11 +277,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
   // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
   const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
-  const MatrixX E = K_error.rows() == n && K_error.cols() == n
-                        ? (differences ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0)) : K_error)
-                        : MatrixX(4 * eps * K.cwiseAbs());
+  const bool given = K_error.rows() == n && K_error.cols() == n;
+  const MatrixX EabsPhi = given && !differences
+                              ? product(K_error, absPhi)
+                              : product(given ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0))
+                                              : MatrixX(4 * eps * K.cwiseAbs()),
+                                        absPhi);
   const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
-  const MatrixX EabsPhi = product(E, absPhi);
   const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
 
   ModalResult result;
@@ -260,7 +304,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double error = residual_estimate + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
-    const double relative_residual = scale > 0 ? R.col(j).norm() / scale : 0.0;
+    const double relative_residual = scale > 0 ? residual_norm(j) / scale : 0.0;
     if (relative_residual > worst_relative_residual) {
       worst_relative_residual = relative_residual;
       worst = j;
