@@ -13,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -269,6 +270,73 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
     EXPECT_EQ(WEXITSTATUS(raw), 2);
     EXPECT_NE(slurp(dir / "err.txt").find("standard output: writing failed"), std::string::npos);
   }
+}
+
+
+// --modes k on the dense path analyzes only the lowest k modes and those whose
+// kind a cheap estimate leaves in doubt (lib/modal/symmetric.cpp): the k
+// returned, the stability class, the Morse index and the zero modes must be
+// those of the full analysis. Generated: hanging and inverted chains (every
+// mode divergent) of random length, point or rod links, on both dense solvers
+// (Eigen below 150 coordinates, LAPACK above); free lattices (six zero
+// modes) of random size; k random, from 1 to beyond the zero modes.
+TEST_F(Pipeline, LowestModesEqualThoseOfTheFullAnalysis) {
+  std::mt19937_64 rng(20261125);
+  auto pick = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+  int cases = 0, divergent = 0, zero = 0;
+  for (int trial = 0; trial < 16; ++trial) {
+    std::string text;
+    if (trial % 4 == 3) {
+      const int a = pick(3, 5), b = pick(3, 5), c = pick(3, 6);
+      text = "gravity = [0, 0, 0]\n[[lattice]]\nname = \"b\"\nsize = [" + std::to_string(a) + ", " + std::to_string(b) +
+             ", " + std::to_string(c) + "]\nspacing = 0.1\nmass = 0.01\nstiffness = 1000.0\ndiagonals = true\n";
+    } else {
+      const int links = trial % 2 == 0 ? pick(20, 140) : pick(150, 320);
+      const bool inverted = trial % 4 == 2;
+      text = std::string("gravity = [0, 0, ") + (inverted ? "9.81" : "-9.81") + "]\n[[chain]]\nname = \"l\"\nlinks = " +
+             std::to_string(links) + "\nlength = 1.0\nmass = 1.0\nmass_model = \"" + (pick(0, 1) ? "point" : "rod") +
+             "\"\naxis = [0, 1, 0]\ndirection = [0, 0, -1]\n";
+    }
+    const modal::Model model = modal::model_from_text(text, "generated.toml");
+    modal::AnalysisOptions all;
+    all.solver = modal::SolverChoice::dense;
+    const modal::Analysis full = modal::analyze(model, all);
+    modal::AnalysisOptions some = all;
+    some.modes = pick(1, 12);
+    const modal::Analysis low = modal::analyze(model, some);
+    SCOPED_TRACE(text + "modes " + std::to_string(some.modes));
+    const modal::ModalResult &f = full.result(), &l = low.result();
+    EXPECT_EQ(l.stability, f.stability);
+    EXPECT_EQ(l.morse_index, f.morse_index);
+    EXPECT_EQ(l.zero_modes, f.zero_modes);
+    ASSERT_EQ(l.modes.size(), static_cast<std::size_t>(some.modes));
+    double largest = 0;
+    for (const modal::Mode& m : f.modes) largest = std::max(largest, std::abs(m.omega2));
+    for (std::size_t j = 0; j < l.modes.size(); ++j) {
+      const modal::Mode &a = l.modes[j], &b = f.modes[j];
+      EXPECT_EQ(a.kind, b.kind) << "mode " << j + 1;
+      // The same vectors and the same formulas, products over fewer columns:
+      // rounding-level differences only (zero modes: their λ is rounding).
+      EXPECT_LE(std::abs(a.omega2 - b.omega2), 1e-12 * std::abs(b.omega2) + 64 * 2.2e-16 * largest) << "mode " << j + 1;
+      // Zero modes are one eigenspace whose basis (and order, by λ at
+      // rounding level) depends on the last bits of the products: compared
+      // as a kind only.
+      if (b.kind != modal::ModeKind::zero) {
+        EXPECT_LE(std::abs(a.error_estimate - b.error_estimate), 0.01 * b.error_estimate) << "mode " << j + 1;
+      }
+      if (b.kind != modal::ModeKind::zero && j + 1 < f.modes.size() &&
+          std::abs(f.modes[j + 1].omega2 - b.omega2) > 1e-6 * largest) {  // a unique shape
+        ASSERT_EQ(a.shape.size(), b.shape.size());
+        EXPECT_LE((a.shape - b.shape).norm(), 1e-8 * b.shape.norm()) << "mode " << j + 1;
+      }
+    }
+    ++cases;
+    divergent += f.morse_index > 0;
+    zero += f.zero_modes > 0;
+  }
+  EXPECT_EQ(cases, 16);
+  EXPECT_GT(divergent, 0);  // both kinds of doubt occurred
+  EXPECT_GT(zero, 0);
 }
 
 }  // namespace

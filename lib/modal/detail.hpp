@@ -59,6 +59,10 @@ bool scales_exactly(const MatrixX& A, const VectorX& s);
 // `names` has n entries. `absolute` (LinearModel::absolute's parent, or
 // empty): M is in the absolute angles θ of parallel hinges, and the named
 // directions are turned back into the coordinates q = Tθ.
+// An upper bound of the smallest eigenvalue of the SPD matrix factored in
+// `llt` (n×n), by a few steps of inverse iteration (mass.cpp).
+double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n);
+
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
                      const std::vector<int>& absolute = {});
 
@@ -71,8 +75,12 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // lapack_wins(n)).
 // `K_systematic_error` (n×n or empty) is the part of K_error measured from
 // differences (LinearModel::K_systematic_error).
+// `wanted` (≥ 0): only the lowest `wanted` modes are needed; every mode is
+// still returned and classified, but the others carry a normwise estimate
+// (no shape) unless their kind is in doubt (see symmetric.cpp).
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
-                            const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic);
+                            const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
+                            Eigen::Index wanted = -1);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 

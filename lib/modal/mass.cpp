@@ -22,28 +22,6 @@ namespace {
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-// Upper bound on the smallest eigenvalue of the SPD matrix factored in `llt`
-// (n×n): 1/ρ where ρ = xᵀM⁻¹x is the Rayleigh quotient of M⁻¹ after a few
-// steps of inverse iteration. Always ρ ≤ 1/λ_min, hence 1/ρ ≥ λ_min; the gap
-// that matters here (λ_min near rounding level, the others not) makes a few
-// steps enough for 1/ρ to reach λ_min within a small factor.
-double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n) {
-  VectorX x(n);
-  // A start with components along every direction of interest: no simple
-  // pattern (all ones, alternating signs) that a null vector such as
-  // (1, −1)/√2 could be orthogonal to.
-  for (Eigen::Index i = 0; i < n; ++i) x(i) = 1.0 + 0.5 * std::cos(2.399963 * static_cast<double>(i + 1));
-  x.normalize();
-  double rho = 0;
-  for (int it = 0; it < 8; ++it) {
-    VectorX y = llt.solve(x);
-    rho = x.dot(y);
-    const double norm = y.norm();
-    if (!(norm > 0) || !std::isfinite(norm)) return 0;  // M⁻¹ blew up: singular
-    x = y / norm;
-  }
-  return rho > 0 ? 1.0 / rho : 0.0;
-}
 
 // "0.71·upper.rx − 0.71·upper.rz" for a unit vector v (components below a tenth
 // of the largest are left out), or "the coordinate upper.rx" when one
@@ -120,6 +98,29 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 }
 
 }  // namespace
+
+// Upper bound on the smallest eigenvalue of the SPD matrix factored in `llt`
+// (n×n): 1/ρ where ρ = xᵀM⁻¹x is the Rayleigh quotient of M⁻¹ after a few
+// steps of inverse iteration. Always ρ ≤ 1/λ_min, hence 1/ρ ≥ λ_min; the gap
+// that matters here (λ_min near rounding level, the others not) makes a few
+// steps enough for 1/ρ to reach λ_min within a small factor.
+double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n) {
+  VectorX x(n);
+  // A start with components along every direction of interest: no simple
+  // pattern (all ones, alternating signs) that a null vector such as
+  // (1, −1)/√2 could be orthogonal to.
+  for (Eigen::Index i = 0; i < n; ++i) x(i) = 1.0 + 0.5 * std::cos(2.399963 * static_cast<double>(i + 1));
+  x.normalize();
+  double rho = 0;
+  for (int it = 0; it < 8; ++it) {
+    VectorX y = llt.solve(x);
+    rho = x.dot(y);
+    const double norm = y.norm();
+    if (!(norm > 0) || !std::isfinite(norm)) return 0;  // M⁻¹ blew up: singular
+    x = y / norm;
+  }
+  return rho > 0 ? 1.0 / rho : 0.0;
+}
 
 VectorX equilibrating_scale(const VectorX& diagonal) {
   const Eigen::Index n = diagonal.size();

@@ -251,9 +251,16 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
     Cs.setZero(n, n);  // the first-order solver's C (follower loads alone)
   }
   const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
-  result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver)
+  result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
+                                               options.modes)
                      : detail::solve_first_order(Ms, Ks, Cs, mass, K_systematic, G_error);
   detail::restore_magnitudes(result, magnitude, symmetric);
+  // Classify with every mode, then keep the lowest ones asked for (the
+  // symmetric solver analyzes the others only as far as their kind needs:
+  // they have no shapes), and note clusters among those kept.
+  result.stability = classify(result.modes);
+  if (options.modes >= 0 && static_cast<std::size_t>(options.modes) < result.modes.size())
+    result.modes.resize(static_cast<std::size_t>(options.modes));
   detail::add_cluster_notes(result.modes, symmetric, result.notes);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
@@ -261,11 +268,6 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   if (absolute) absolute_to_relative(abs.parent, symmetric, result.modes);
   map_shapes_back(model, symmetric, result.modes);
   copy_constraints(model, result);
-
-  // Classify with every mode, then keep the lowest ones asked for.
-  result.stability = classify(result.modes);
-  if (options.modes >= 0 && static_cast<std::size_t>(options.modes) < result.modes.size())
-    result.modes.resize(static_cast<std::size_t>(options.modes));
   return result;
 }
 

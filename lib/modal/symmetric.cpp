@@ -174,15 +174,47 @@ void lapack_pairs(const MatrixX& M, const MatrixX& K, VectorX& lambda, MatrixX& 
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
-                            const MatrixX& K_systematic_error, DenseSolver solver) {
+                            const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted) {
   const Eigen::Index n = M.rows();
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
-  VectorX lambda;
+  VectorX lambda_all;
   MatrixX Phi;
   if (lapack)
-    lapack_pairs(M, K, lambda, Phi);
+    lapack_pairs(M, K, lambda_all, Phi);
   else
-    eigen_pairs(K, mass, lambda, Phi);
+    eigen_pairs(K, mass, lambda_all, Phi);
+
+  // The modes analyzed below (residuals, rounding, data terms: O(n²) each, so
+  // O(n³) for all): every mode, or, when only the lowest `wanted` are asked
+  // for, those and every lower one whose kind is in doubt under a cheap
+  // normwise estimate of its error, cheap_j = nε(‖K‖_F + |λ_j|‖M‖_F)/λ_min(M)
+  // (the size of a backward-stable solver's error on the pencil, with λ_min
+  // from inverse iteration): doubtful when λ_j ≤ 100·cheap_j, a margin for
+  // λ_min's estimate. The others are oscillatory beyond doubt; they count in
+  // the stability class with the cheap estimate, and are not returned
+  // (solve_modes keeps the wanted ones).
+  // Doubtful modes lie at the bottom of the spectrum (cheap_j grows with
+  // |λ_j|), so the analyzed ones are a prefix; one more than needed, so that
+  // the gaps of the last one (Kato–Temple, below) see an analyzed neighbour.
+  VectorX cheap;
+  Eigen::Index prefix = n;
+  if (wanted >= 0 && wanted < n) {
+    const double lambda_min = smallest_eigenvalue_bound(mass, n);
+    const double normK = K.norm(), normM = M.norm();
+    cheap.resize(n);
+    Eigen::Index needed = wanted;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      cheap(j) = static_cast<double>(n) * eps * (normK + std::abs(lambda_all(j)) * normM) / lambda_min;
+      if (!(lambda_all(j) > 100 * cheap(j))) needed = std::max(needed, j + 1);
+    }
+    prefix = std::min(n, needed + 1);
+  }
+  std::vector<Eigen::Index> analyzed(static_cast<std::size_t>(prefix));
+  std::iota(analyzed.begin(), analyzed.end(), Eigen::Index{0});
+  if (prefix == n) cheap.resize(0);
+  else Phi.conservativeResize(Eigen::NoChange, prefix);
+  const auto m = static_cast<Eigen::Index>(analyzed.size());
+  VectorX lambda = lambda_all(analyzed);
 
   // The Rayleigh quotients λ = φᵀKφ/φᵀMφ of the computed vectors replace the
   // solver's values: they are accurate to the square of the vectors' error
@@ -192,20 +224,20 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // The n×n work matrices below are few and freed as soon as they are used:
   // fresh pages cost more to touch than the products cost to compute.
   MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
-  VectorX phiMphi(n);           // φᵀMφ = ‖Lᵀφ‖² per column
+  VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
   {
     MatrixX MPhi = product(M, Phi);
-    VectorX rq(n);
-    for (Eigen::Index j = 0; j < n; ++j) {
+    VectorX rq(m);
+    for (Eigen::Index j = 0; j < m; ++j) {
       phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
       rq(j) = Phi.col(j).dot(R.col(j)) / phiMphi(j);
     }
-    std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(m));
     std::iota(order.begin(), order.end(), Eigen::Index{0});
     std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return rq(a) < rq(b); });
     if (!std::is_sorted(order.begin(), order.end())) {
-      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(n);
-      for (Eigen::Index k = 0; k < n; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(m);
+      for (Eigen::Index k = 0; k < m; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
       Phi = Phi * P;  // column k ← column order[k] (in place)
       R = R * P;
       MPhi = MPhi * P;
@@ -215,6 +247,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     lambda = rq;
     R -= MPhi * lambda.asDiagonal();
   }
+  lambda_all(analyzed) = lambda;
 
   // Beside the residuals R = KΦ − MΦΛ, the rounding of R itself, |fl(R) − R|
   // ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|) componentwise (Higham, Accuracy and
@@ -228,8 +261,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     absolute = K.cwiseAbs();  // the same storage
     add_product(absolute, absPhi, rounding);
   }
-  VectorX residual_norm(n), absKM_dot(n);  // ‖R_j‖ (for the relative residual below); |φ|ᵀ(|K| + |λ||M|)|φ|
-  for (Eigen::Index j = 0; j < n; ++j) {
+  VectorX residual_norm(m), absKM_dot(m);  // ‖R_j‖ (for the relative residual below); |φ|ᵀ(|K| + |λ||M|)|φ|
+  for (Eigen::Index j = 0; j < m; ++j) {
     residual_norm(j) = R.col(j).norm();
     absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
   }
@@ -242,14 +275,17 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // of the other eigenvalues leave a gap g_j = min_k (|λ_k − λ_j| − δ_k) > δ_j
   // around λ_j, |λ_j − λ_true| ≤ δ_j²/g_j (Kato–Temple; Parlett, thm 11.7.1),
   // plus the rounding of evaluating the quotient, (n + 2)ε|φ|ᵀ(|K| + |λ||M|)|φ|/φᵀMφ.
-  VectorX bound(n), typical(n), quotient_rounding(n);
+  // bound and typical are indexed by all modes: the cheap estimate stands for
+  // the modes not analyzed.
+  VectorX bound = cheap.size() == n ? cheap : VectorX(VectorX::Zero(n)), typical = bound, quotient_rounding(m);
   const double nn = static_cast<double>(n + 2);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = std::sqrt(phiMphi(j));
-    const double residual = R.col(j).norm() / norm, rounded = eps * rounding.col(j).norm() / norm;
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
+    const double norm = std::sqrt(phiMphi(i));
+    const double residual = R.col(i).norm() / norm, rounded = eps * rounding.col(i).norm() / norm;
     bound(j) = residual + nn * rounded;
     typical(j) = residual + std::sqrt(nn) * rounded;
-    quotient_rounding(j) = eps * absKM_dot(j) / phiMphi(j);
+    quotient_rounding(i) = eps * absKM_dot(i) / phiMphi(i);
   }
   R.resize(0, 0);
   rounding.resize(0, 0);
@@ -258,21 +294,22 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // alone exceeds the best gap found plus the largest δ (a scan outwards,
   // O(n) in all for well separated spectra, not O(n²)).
   const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
-  auto with_gap = [&](const VectorX& delta, double rounding_factor, Eigen::Index j) {
+  auto with_gap = [&](const VectorX& delta, double rounding_factor, Eigen::Index i) {
+    const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
     double gap = std::numeric_limits<double>::infinity();
     for (Eigen::Index k = j - 1; k >= 0; --k) {
-      const double d = std::abs(lambda(k) - lambda(j));
+      const double d = std::abs(lambda_all(k) - lambda_all(j));
       if (d - largest_delta > gap) break;
       gap = std::min(gap, d - delta(k));
     }
     for (Eigen::Index k = j + 1; k < n; ++k) {
-      const double d = std::abs(lambda(k) - lambda(j));
+      const double d = std::abs(lambda_all(k) - lambda_all(j));
       if (d - largest_delta > gap) break;
       gap = std::min(gap, d - delta(k));
     }
     const double linear = delta(j);
     const double quadratic = gap > linear ? linear * linear / gap : linear;
-    return std::min(linear, quadratic) + rounding_factor * quotient_rounding(j) + eps * std::abs(lambda(j));
+    return std::min(linear, quadratic) + rounding_factor * quotient_rounding(i) + eps * std::abs(lambda_all(j));
   };
   // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
   // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
@@ -291,26 +328,34 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
                          : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
   double worst_relative_residual = 0;
   Eigen::Index worst = 0;
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const double l = lambda(j);
-    const double x2 = Phi.col(j).squaredNorm();
+  for (Eigen::Index j = 0, i = 0; j < n; ++j) {
+    const double l = lambda_all(j);
+    Mode mode;
+    if (i == m || analyzed[static_cast<std::size_t>(i)] != j) {  // not analyzed: oscillatory beyond doubt
+      mode = make_mode({0.0, std::sqrt(l)}, cheap(j), ModeKind::oscillatory);
+      mode.damping_ratio = 0;
+      mode.omega2 = l;
+      mode.residual_bound = cheap(j);
+      result.modes.push_back(std::move(mode));
+      continue;
+    }
+    const double x2 = Phi.col(i).squaredNorm();
     // Rigorous for the matrices as formed, to first order in ε; and typical.
-    const double residual_bound = with_gap(bound, nn, j);
-    const double residual_estimate = with_gap(typical, std::sqrt(nn), j);
+    const double residual_bound = with_gap(bound, nn, i);
+    const double residual_estimate = with_gap(typical, std::sqrt(nn), i);
     const double rM = 4 * eps;
-    const double difference_bound = differences ? absPhi.col(j).dot(DabsPhi.col(j)) : 0.0;
-    const double data_bound = absPhi.col(j).dot(EabsPhi.col(j)) + rM * std::abs(l) * absPhi.col(j).dot(absMPhi.col(j)) +
+    const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
+    const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
                               difference_bound;
     const double error = residual_estimate + data_bound;
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
-    const double relative_residual = scale > 0 ? residual_norm(j) / scale : 0.0;
+    const double relative_residual = scale > 0 ? residual_norm(i) / scale : 0.0;
     if (relative_residual > worst_relative_residual) {
       worst_relative_residual = relative_residual;
       worst = j;
     }
 
-    Mode mode;
     if (std::abs(l) <= error) {
       mode = make_mode(0.0, error, ModeKind::zero);
     } else if (l < 0) {  // divergent: δq ∝ e^{st} with s = +√(−λ) real
@@ -324,10 +369,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     if (mode.kind == ModeKind::divergent) ++result.morse_index;
     if (mode.kind == ModeKind::zero) ++result.zero_modes;
 
-    VectorX shape = Phi.col(j) / std::sqrt(phiMphi(j));  // M-normalized to rounding
+    VectorX shape = Phi.col(i) / std::sqrt(phiMphi(i));  // M-normalized to rounding
     if (shape(dominant_index(shape.cast<std::complex<double>>())) < 0) shape = -shape;
     mode.shape = shape.cast<std::complex<double>>();
     result.modes.push_back(std::move(mode));
+    ++i;
   }
   if (worst_relative_residual > 1e-10)
     result.notes.push_back("mode " + std::to_string(worst + 1) + " has a relative residual ‖Kφ − λMφ‖/((‖K‖ + |λ|‖M‖)‖φ‖) of " +
