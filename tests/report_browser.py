@@ -70,11 +70,11 @@ class Page(html.parser.HTMLParser):
             self.header[0] += data
 
 
-def render(name, page):
-    """The page's DOM after its scripts ran, parsed."""
+def render(name, page, budget=500):
+    """The page's DOM after its scripts ran (for `budget` ms of virtual time), parsed."""
     dom = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--user-data-dir=" + page + "-profile",
                           "--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=127.0.0.1:9",
-                          "--virtual-time-budget=3000", "--dump-dom", "file://" + os.path.abspath(page)],
+                          f"--virtual-time-budget={budget}", "--dump-dom", "file://" + os.path.abspath(page)],
                          check=True, capture_output=True, text=True, timeout=120).stdout
     p = Page()
     p.feed(dom)
@@ -126,7 +126,7 @@ def run(name, scene, extra, plots, views):
     page = prefix + ".html"
     subprocess.run([modal, "analyze", os.path.join(source, scene), "--csv", prefix, "--report", page] + extra,
                    check=True, stdout=subprocess.DEVNULL)
-    p = render(name, page)
+    p = render(name, page, 3000)  # animated: frames must be drawn
     s = p.status
     check_status(name, p, plots, views)
     with open(prefix + "_modes.csv") as f:

@@ -310,7 +310,7 @@
         });
         (o.levels || []).forEach(function (l) {
           var py = u.valToPos(l.y, 'y', true), g = u.ctx;
-          if (!isFinite(py)) return;
+          if (!isFinite(py) || py < u.bbox.top || py > u.bbox.top + u.bbox.height) return;
           g.save(); g.strokeStyle = '#555'; g.lineWidth = devicePixelRatio; g.setLineDash([3, 3]);
           g.beginPath(); g.moveTo(u.bbox.left, py); g.lineTo(u.bbox.left + u.bbox.width, py); g.stroke();
           if (l.label) {  // at the right end, clear of the axis
@@ -406,7 +406,15 @@
     // The root locus: s = σ + iω of each mode at every point, and its mirror σ − iω.
     var locus = section('Root locus', [p('The eigenvalues s = σ + iω of each mode at every value of ' + P +
       ' in the complex plane, with their conjugates; the right half plane is unstable.')]);
+    // Re s spans at least a tenth of the largest |Im s| either side of the axis (an undamped locus lies on it).
+    var re = [0], im = [0];
+    data.branches.forEach(function (b) {
+      b.growth_rate.forEach(function (v) { if (v !== null) re.push(v); });
+      b.omega.forEach(function (v) { if (v !== null) im.push(Math.abs(v)); });
+    });
+    var reach = 0.1 * Math.max.apply(null, im) || 1, lo = Math.min.apply(null, re), hi = Math.max.apply(null, re);
     xyPlot(plotBox(locus), { title: 'Root locus', xlabel: 'Re s [1/s]', ylabel: 'Im s [rad/s]', height: 380,
+      xrange: [Math.min(lo - 0.05 * (hi - lo), -reach), Math.max(hi + 0.05 * (hi - lo), reach)],
       draw: function (u) {  // the imaginary axis
         var px = u.valToPos(0, 'x', true);
         if (px >= u.bbox.left && px <= u.bbox.left + u.bbox.width) {
