@@ -1,24 +1,40 @@
-// HTML reports (`modal analyze --report`; docs/design.md, "HTML reports"): the
-// drawing's displacements against the closed form of a double pendulum, the
-// decimation of a large lattice and the page's size, and the command line's
-// handling of the report path. The page in a browser: tests/report_browser.py.
+// HTML reports (`--report`; docs/design.md, "HTML reports"): the drawing's
+// displacements against the closed form of a double pendulum, the decimation
+// of a large lattice and the page's size; the data of the sweep page against
+// the spinning hoop's closed form, the simulation page's decimation keeping
+// every series' extremes, the map page's cells; and the command line's
+// handling of the report path. The pages in a browser: tests/report_browser.py.
 #include "program.hpp"
 
 #include "modal/pipeline.hpp"
 #include "modal/report.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <filesystem>
 #include <random>
+#include <sstream>
 #include <string>
 
 namespace {
 
 namespace fs = std::filesystem;
 const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
+
+// The results block of a page (#modal-data), parsed.
+nlohmann::json page_data(const std::string& page) {
+  const std::string open = "id=\"modal-data\">";
+  const std::size_t begin = page.find(open);
+  EXPECT_NE(begin, std::string::npos);
+  const std::size_t start = begin + open.size(), end = page.find("</script>", start);
+  std::string text = page.substr(start, end - start);
+  for (std::size_t i = 0; (i = text.find("<\\/", i)) != std::string::npos;) text.erase(i + 1, 1);
+  return nlohmann::json::parse(text);
+}
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("modal_html_" + name + "_" + std::to_string(getpid()));
@@ -153,6 +169,174 @@ TEST(HtmlReport, BadReportPathIsRefusedBeforeComputing) {
        (dir / "x.html").string()}, dir);
   EXPECT_EQ(twice.status, 2) << twice.err;
   EXPECT_FALSE(fs::exists(dir / "x.html"));
+}
+
+// The bead on a hoop spinning at Omega, written in the turning frame: the
+// bottom has ω² = g/R − Ω² (closed form, docs/design.md R7) and loses
+// stability at Ω = sqrt(g/R). The page's branch, frame rate (|Ω|, here the
+// parameter itself: a Campbell diagram) and critical value against that, for
+// random R and g (seeded). ω² of a 1-coordinate model is one division of
+// exactly formed terms: 1e-12 relative to g/R leaves room for rounding.
+TEST(HtmlReport, SweepPageHasTheSpinningHoopsBranchAndCampbellData) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(0.5, 2.0);
+  for (int trial = 0; trial < 4; ++trial) {
+    const double R = u(rng), g = 9.81 * u(rng);
+    const modal::Model model = modal::load_model(models + "bead_on_hoop_frame.toml",
+                                                 {"R=" + std::to_string(R), "g=" + std::to_string(g)});
+    const double r = model.scene.parameters[1].second, gg = model.scene.parameters[2].second;
+    const double top = 2 * std::sqrt(gg / r);
+    const modal::SweepStudy study = modal::sweep(model, {modal::parse_vary("Omega=0:" + std::to_string(top) + ":17")});
+    const nlohmann::json d = page_data(modal::sweep_html(*study.result, study.scene_file, study.tolerance));
+    EXPECT_EQ(d["kind"], "sweep");
+    EXPECT_TRUE(d["symmetric"].get<bool>());
+    ASSERT_TRUE(d["frame_rate"].is_array()) << "a sweep of the frame's rate draws a Campbell diagram";
+    ASSERT_EQ(d["x"].size(), 17u);
+    for (std::size_t i = 0; i < 17; ++i) {
+      const double omega = d["x"][i].get<double>();
+      EXPECT_EQ(d["frame_rate"][i].get<double>(), std::abs(omega));
+      if (omega * omega < gg / r) {  // the stable bottom; beyond it the branch may leave for the off-axis equilibria
+        EXPECT_NEAR(d["branches"][0]["omega2"][i].get<double>(), gg / r - omega * omega, 1e-12 * gg / r)
+            << "trial " << trial << " Omega " << omega;
+      }
+    }
+    ASSERT_EQ(d["critical"].size(), 1u);
+    const auto& c = d["critical"][0];
+    EXPECT_EQ(c["kind"], "divergence");
+    EXPECT_NEAR(c["value"].get<double>(), std::sqrt(gg / r), c["error"].get<double>() + 1e-9 * std::sqrt(gg / r));
+    // The tables are the CSV writers' rows.
+    EXPECT_EQ(d["table"]["total_rows"].get<std::size_t>(), 17u);
+    EXPECT_EQ(d["critical_table"]["rows"].size(), 1u);
+  }
+}
+
+// A sweep that does not turn the frame has no Campbell diagram; a follower
+// load makes the points first order (Re s and Im s plotted instead of ω²).
+TEST(HtmlReport, FollowerSweepIsFirstOrderWithoutCampbellDiagram) {
+  const modal::Model model = modal::load_model(models + "ziegler.toml");
+  const modal::SweepStudy study = modal::sweep(model, {modal::parse_vary("P=0:4:5")});
+  const nlohmann::json d = page_data(modal::sweep_html(*study.result, study.scene_file, study.tolerance));
+  EXPECT_TRUE(d["frame_rate"].is_null());
+  EXPECT_FALSE(d["symmetric"].get<bool>());
+  EXPECT_TRUE(d["convergence"].is_null());
+}
+
+// Random trajectories (seeded: sizes from 1 to 50000 samples, 1 to 12
+// coordinates): the page's series keep each coordinate's and the energy
+// error's extremes over the whole run (the buckets keep minimum and maximum),
+// start and end at the run's first and last time, draw at most 8
+// coordinates and 4000 times, and the samples table has the trajectory CSV's
+// first and last rows.
+TEST(HtmlReport, SimulationPageKeepsEveryExtremeOfLongRuns) {
+  std::mt19937 rng(41);
+  std::uniform_int_distribution<int> samples(1, 50000), coordinates(1, 12);
+  std::normal_distribution<double> noise;
+  for (int trial = 0; trial < 6; ++trial) {
+    modal::Trajectory tr;
+    const int count = trial == 0 ? 1 : samples(rng), n = coordinates(rng);
+    for (int k = 0; k < count; ++k) {
+      tr.time.push_back(0.01 * k);
+      tr.q.push_back(Eigen::VectorXd::NullaryExpr(n, [&](Eigen::Index) { return noise(rng); }));
+      tr.qd.push_back(Eigen::VectorXd::NullaryExpr(n, [&](Eigen::Index) { return noise(rng); }));
+      tr.energy.push_back(noise(rng));
+      tr.work.push_back(0);
+      tr.energy_error.push_back(1e-12 * noise(rng));
+    }
+    const nlohmann::json d = page_data(modal::simulation_html(tr, {}, "random", "random.toml"));
+    const auto& time = d["time"];
+    ASSERT_LE(time.size(), 4000u);
+    EXPECT_EQ(time.front().get<double>(), tr.time.front());
+    EXPECT_EQ(time.back().get<double>(), tr.time.back());
+    const std::size_t shown = std::min<std::size_t>(8, static_cast<std::size_t>(n));
+    ASSERT_EQ(d["q"].size(), shown);
+    for (std::size_t i = 0; i < shown; ++i) {
+      double lo = INFINITY, hi = -INFINITY;
+      for (const Eigen::VectorXd& q : tr.q) lo = std::min(lo, q[static_cast<Eigen::Index>(i)]), hi = std::max(hi, q[static_cast<Eigen::Index>(i)]);
+      std::vector<double> drawn = d["q"][i].get<std::vector<double>>();
+      ASSERT_EQ(drawn.size(), time.size());
+      EXPECT_EQ(*std::min_element(drawn.begin(), drawn.end()), lo) << "trial " << trial << " coordinate " << i;
+      EXPECT_EQ(*std::max_element(drawn.begin(), drawn.end()), hi) << "trial " << trial << " coordinate " << i;
+    }
+    const std::vector<double> error = d["energy_error"].get<std::vector<double>>();
+    EXPECT_EQ(*std::max_element(error.begin(), error.end()), *std::max_element(tr.energy_error.begin(), tr.energy_error.end()));
+    EXPECT_EQ(*std::min_element(error.begin(), error.end()), *std::min_element(tr.energy_error.begin(), tr.energy_error.end()));
+    std::ostringstream csv;
+    modal::write_trajectory_csv(csv, tr);
+    std::istringstream lines(csv.str());
+    std::vector<std::string> rows;
+    for (std::string line; std::getline(lines, line);) rows.push_back(line);
+    const auto& table = d["table"]["rows"];
+    ASSERT_EQ(table.size(), std::min<std::size_t>(21, static_cast<std::size_t>(count)));
+    auto joined = [](const nlohmann::json& row) {
+      std::string s;
+      for (const auto& f : row) s += (s.empty() ? "" : ",") + f.get<std::string>();
+      return s;
+    };
+    EXPECT_EQ(joined(table.front()), rows[1]);
+    EXPECT_EQ(joined(table.back()), rows.back());
+  }
+}
+
+// A map of random classes and failures (seeded sizes): the page's cells are
+// the points' classes in the map's order (x fastest), −1 where a point failed.
+TEST(HtmlReport, MapPageCellsAreThePointsClasses) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> size(2, 30), cls(-1, 4);
+  const modal::Stability classes[] = {modal::Stability::stable, modal::Stability::asymptotically_stable,
+                                      modal::Stability::marginal, modal::Stability::divergence, modal::Stability::flutter};
+  for (int trial = 0; trial < 5; ++trial) {
+    modal::StabilityMap map;
+    map.x = modal::parse_vary("a=0:1:" + std::to_string(size(rng)));
+    map.y = modal::parse_vary("b=2:-1:" + std::to_string(size(rng)));
+    std::vector<int> expected;
+    for (int j = 0; j < map.y.count; ++j)
+      for (int i = 0; i < map.x.count; ++i) {
+        modal::MapPoint p;
+        p.x = map.x.value(i);
+        p.y = map.y.value(j);
+        const int c = cls(rng);
+        p.ok = c >= 0;
+        if (p.ok) p.stability = classes[c];
+        else p.failure = "no equilibrium";
+        map.points.push_back(p);
+        expected.push_back(c);
+      }
+    const nlohmann::json d = page_data(modal::map_html(map, "m.toml"));
+    EXPECT_EQ(d["cells"].get<std::vector<int>>(), expected);
+    EXPECT_EQ(d["y"]["values"].front().get<double>(), 2.0);
+    EXPECT_EQ(d["table"]["total_rows"].get<int>(), map.x.count * map.y.count);
+  }
+}
+
+// Every command but check writes its page with its other outputs; a bad
+// report path is refused (status 2) before anything is computed or written.
+TEST(HtmlReport, EveryCommandWritesItsReport) {
+  const fs::path dir = fresh_dir("commands");
+  const std::string dp = models + "double_pendulum.toml";
+  const std::vector<std::vector<std::string>> runs = {
+      {"equilibria", dp},
+      {"sweep", models + "ziegler.toml", "--vary", "P=0:4:5"},
+      {"sweep", models + "ziegler.toml", "--vary", "P=0:4:3", "--vary", "k=1:2:2"},
+      {"amplitude", dp, "--amplitudes", "0.1,0.2", "--cycles", "1"},
+      {"simulate", dp, "--duration", "1"}};
+  int k = 0;
+  for (std::vector<std::string> args : runs) {
+    const std::string page = (dir / ("r" + std::to_string(++k) + ".html")).string();
+    const std::string csv = (dir / ("r" + std::to_string(k) + ".csv")).string();
+    args.insert(args.end(), {"--csv", csv, "--report", page});
+    const auto ok = modal::test::run_modal(args, dir);
+    ASSERT_EQ(ok.status, 0) << args[0] << ": " << ok.err;
+    const std::string html = modal::test::slurp(page);
+    EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u) << args[0];
+    EXPECT_EQ(html.find("src=\"http"), std::string::npos) << args[0];
+    EXPECT_TRUE(fs::exists(csv)) << args[0];
+    args.back() = (dir / "missing" / "r.html").string();
+    fs::remove(csv);
+    const auto bad = modal::test::run_modal(args, dir);
+    EXPECT_EQ(bad.status, 2) << args[0] << ": " << bad.err;
+    EXPECT_NE(bad.err.find(args.back()), std::string::npos) << bad.err;
+    EXPECT_FALSE(fs::exists(csv)) << args[0] << ": the CSV was written although the report path is bad";
+  }
 }
 
 }  // namespace

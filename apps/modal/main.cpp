@@ -231,6 +231,11 @@ int main(int argc, char** argv) {
   equilibria->add_option("--csv", equilibria_out.csv, "write the equilibria table as CSV")->type_name("FILE");
   equilibria->add_option("--json", equilibria_out.json, "write all equilibria and their modes as JSON")
       ->type_name("FILE");
+  equilibria
+      ->add_option("--report", equilibria_out.report,
+                   "write one self-contained HTML page: the equilibria with their stability and energy, and each "
+                   "one's frequency table; the name must end in .html")
+      ->type_name("FILE.html");
 
   // --- sweep ---
   SceneArgs sweep_scene;
@@ -260,6 +265,13 @@ int main(int argc, char** argv) {
                   "the parameter is a number of links or elements (integers, at least 3 values): report each mode's "
                   "observed order of convergence and its Richardson-extrapolated frequency with an error estimate; "
                   "with --csv also FILE_convergence.csv and FILE_extrapolation.csv");
+  sweep
+      ->add_option("--report", sweep_out.report,
+                   "write one self-contained HTML page: the branches against the parameter, the root locus, a "
+                   "Campbell diagram when the parameter turns the scene's frame, the critical values; with "
+                   "--extrapolate the convergence plot; two --vary: the coloured stability map; the name must end "
+                   "in .html")
+      ->type_name("FILE.html");
 
   // --- check ---
   SceneArgs check_scene;
@@ -294,6 +306,11 @@ int main(int argc, char** argv) {
       ->type_name("TOL");
   simulate->add_option("--csv", simulate_out.csv, "write the trajectory to FILE instead of standard output")
       ->type_name("FILE");
+  simulate
+      ->add_option("--report", simulate_out.report,
+                   "write one self-contained HTML page: the coordinates and the energy error against time; the "
+                   "name must end in .html")
+      ->type_name("FILE.html");
 
   // --- amplitude ---
   SceneArgs amplitude_scene;
@@ -327,6 +344,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(between(1e-15, 1e-3));
   amplitude->add_option("--csv", amplitude_out.csv, "write the scan as CSV")->type_name("FILE");
+  amplitude
+      ->add_option("--report", amplitude_out.report,
+                   "write one self-contained HTML page: the period ratio and the departure from the linear "
+                   "frequency against amplitude, the 1 % and 10 % amplitudes marked; the name must end in .html")
+      ->type_name("FILE.html");
 
   // --- convert ---
   std::string convert_file, convert_output, convert_format = "auto";

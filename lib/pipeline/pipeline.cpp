@@ -504,6 +504,8 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
 Simulation simulate(const Model& model, const SimulationRequest& request) {
   const System& sys = model.system;
   Simulation s;
+  s.title = sys.title();
+  s.scene_file = model.scene.file;
   s.options.duration = request.duration;
   s.options.interval = request.interval.value_or(0.0);
   s.options.tolerance = request.tolerance;
@@ -622,8 +624,9 @@ std::vector<std::string> output_files(Command command, const Outputs& o, bool ex
 
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate) {
   if (!outputs.report.empty()) {
-    if (command != Command::analyze)
-      throw InputError("--report: HTML reports are written by analyze so far, not by the other commands");
+    if (command == Command::check)
+      throw InputError("--report: check prints a summary; HTML reports are written by analyze, equilibria, sweep, "
+                       "amplitude and simulate");
     // A page a browser opens by its name: refused before computing, not renamed.
     const std::string extension = std::filesystem::path(outputs.report).extension().string();
     if (extension != ".html" && extension != ".htm")
@@ -664,6 +667,7 @@ void write_equilibria(std::ostream& text, const EquilibriumSurvey& survey, const
   OutputFiles files;
   if (!o.csv.empty()) files.add(o.csv, to_text(write_equilibria_csv, survey.report));
   if (!o.json.empty()) files.add(o.json, equilibria_json(survey.report));
+  if (!o.report.empty()) files.add(o.report, equilibria_html(survey.report, survey.unanalyzed));
   files.commit();
 }
 
@@ -683,9 +687,11 @@ void write_sweep(std::ostream& text, const SweepStudy& study, const Outputs& o) 
         files.add(paths[3], extrapolation_csv(study.convergence));
       }
     }
+    if (!o.report.empty()) files.add(o.report, sweep_html(r, study.scene_file, study.tolerance, study.convergence));
   } else if (study.map) {
     print_map(text, *study.map, study.scene_file);
     if (!o.csv.empty()) files.add(o.csv, map_csv(*study.map));
+    if (!o.report.empty()) files.add(o.report, map_html(*study.map, study.scene_file));
   }
   check_written(text, "standard output");
   files.commit();
@@ -696,19 +702,23 @@ void write_amplitude(std::ostream& text, const AmplitudeStudy& study, const Outp
   check_written(text, "standard output");
   OutputFiles files;
   if (!o.csv.empty()) files.add(o.csv, amplitude_csv(study.response));
+  if (!o.report.empty())
+    files.add(o.report, amplitude_html(study.title, study.scene_file, study.mode, study.omega2, study.response,
+                                       study.tolerance));
   files.commit();
 }
 
 void write_simulation(std::ostream& text, const Simulation& s, const Outputs& o) {
+  OutputFiles files;
   if (o.csv.empty()) {
     write_trajectory_csv(text, s.trajectory);
     check_written(text, "standard output");
-    return;
+  } else {
+    std::ostringstream csv;
+    write_trajectory_csv(csv, s.trajectory);
+    files.add(o.csv, csv.str());
   }
-  std::ostringstream csv;
-  write_trajectory_csv(csv, s.trajectory);
-  OutputFiles files;
-  files.add(o.csv, csv.str());
+  if (!o.report.empty()) files.add(o.report, simulation_html(s.trajectory, s.options, s.title, s.scene_file, s.notes));
   files.commit();
 }
 

@@ -3,6 +3,7 @@
 // a fixed skeleton with the inlined assets (uPlot and lib/report/web's script
 // and style, embedded at build time: report_assets.hpp) and the results as
 // two JSON blocks that the script renders.
+#include "html_page.hpp"
 #include "report_assets.hpp"
 
 #include "modal/report.hpp"
@@ -21,7 +22,9 @@
 namespace modal {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using html::Json;
+using html::escape;
+using html::script_safe;
 
 // The equilibrium table and the shape bar charts show this many coordinates;
 // the energy charts this many elements per mode (the rest summed as "others").
@@ -32,31 +35,6 @@ constexpr std::size_t shown_elements = 12;
 std::string coordinate_name(const Report& report, std::size_t i) {
   if (i < report.coordinates.size()) return report.coordinates[i];
   return "q" + std::to_string(i + 1);
-}
-
-// JSON inside <script>: "</" would end the element; "<\/" reads the same.
-std::string script_safe(std::string text) {
-  std::string out;
-  out.reserve(text.size());
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    out += text[i];
-    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') out += '\\';
-  }
-  return out;
-}
-
-std::string html_escape(std::string_view text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
 }
 
 // The largest shares of one mode (by magnitude) and the rest summed.
@@ -130,6 +108,7 @@ Json report_data(const Report& report) {
   const Equilibrium& e = a.equilibrium;
   const ModalResult& r = a.result;
   Json j;
+  j["kind"] = "analyze";
   j["title"] = report.title;
   j["scene"] = report.scene_file;
   Json parameters = Json::array();
@@ -186,17 +165,41 @@ std::string_view asset(const unsigned char* data, std::size_t size) {
 
 }  // namespace
 
-std::string analysis_html(const Report& report) {
-  if (report.equilibria.empty()) throw std::invalid_argument("analysis_html: the report has no equilibrium");
-  const AnalyzedEquilibrium& a = report.equilibria.front();
-  const std::string title = report.title.empty() ? report.scene_file : report.title;
+namespace html {
+
+std::string script_safe(std::string text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    out += text[i];
+    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') out += '\\';
+  }
+  return out;
+}
+
+std::string escape(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string page(const std::string& title, const std::string& what, const std::string& generator, const Json& data,
+                 const std::string& drawing) {
   std::string page;
   page += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
-  page += "<meta name=\"generator\" content=\"modal analyze --report\">\n";
+  page += "<meta name=\"generator\" content=\"" + escape(generator) + "\">\n";
   page += "<!-- This page inlines uPlot (https://github.com/leeoniya/uPlot), under this license:\n";
   page += asset(report_assets::uplot_license, report_assets::uplot_license_size);
   page += "-->\n";
-  page += "<title>" + html_escape(title) + " — modal analysis</title>\n<style>\n";
+  page += "<title>" + escape(title + " — " + what) + "</title>\n<style>\n";
   page += asset(report_assets::uplot_css, report_assets::uplot_css_size);
   page += "\n";
   page += asset(report_assets::report_css, report_assets::report_css_size);
@@ -207,18 +210,64 @@ std::string analysis_html(const Report& report) {
           "(function () { var original = console.error; console.error = function () {"
           " window.modalErrors.push(Array.prototype.join.call(arguments, ' ')); original.apply(console, arguments); };"
           "})();</script>\n</head>\n<body>\n";
-  page += "<main id=\"report\"><h1>" + html_escape(title) + "</h1>\n";
+  page += "<main id=\"report\"><h1>" + escape(title) + "</h1>\n";
   page += "<p id=\"report-status\" data-done=\"0\">The report is drawn by its script; if this line stays, the "
           "page's JavaScript did not run.</p>\n</main>\n";
-  page += "<script type=\"application/json\" id=\"modal-data\">" + script_safe(report_data(report).dump()) +
-          "</script>\n";
-  page += "<script type=\"application/json\" id=\"modal-drawing\">" +
-          (a.drawing ? script_safe(drawing_json(*a.drawing)) : std::string("null")) + "</script>\n<script>\n";
+  page += "<script type=\"application/json\" id=\"modal-data\">" + script_safe(data.dump()) + "</script>\n";
+  page += "<script type=\"application/json\" id=\"modal-drawing\">" + script_safe(drawing) + "</script>\n<script>\n";
   page += asset(report_assets::uplot_js, report_assets::uplot_js_size);
   page += "\n</script>\n<script>\n";
   page += asset(report_assets::report_js, report_assets::report_js_size);
   page += "\n</script>\n</body>\n</html>\n";
   return page;
+}
+
+Json csv_table(std::string_view csv, std::size_t max_rows) {
+  std::vector<std::vector<std::string>> records;
+  std::vector<std::string> record;
+  std::string field;
+  bool quoted = false;
+  for (std::size_t i = 0; i < csv.size(); ++i) {
+    const char c = csv[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < csv.size() && csv[i + 1] == '"') field += '"', ++i;
+      else if (c == '"') quoted = false;
+      else field += c;
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      record.push_back(std::move(field));
+      field.clear();
+    } else if (c == '\n') {
+      record.push_back(std::move(field));
+      field.clear();
+      records.push_back(std::move(record));
+      record.clear();
+    } else if (c != '\r') {
+      field += c;
+    }
+  }
+  if (!field.empty() || !record.empty()) {
+    record.push_back(std::move(field));
+    records.push_back(std::move(record));
+  }
+  Json j;
+  j["columns"] = records.empty() ? Json::array() : Json(records.front());
+  Json rows = Json::array();
+  for (std::size_t r = 1; r < records.size() && r - 1 < max_rows; ++r) rows.push_back(records[r]);
+  j["rows"] = rows;
+  j["total_rows"] = records.empty() ? 0 : records.size() - 1;
+  return j;
+}
+
+}  // namespace html
+
+std::string analysis_html(const Report& report) {
+  if (report.equilibria.empty()) throw std::invalid_argument("analysis_html: the report has no equilibrium");
+  const AnalyzedEquilibrium& a = report.equilibria.front();
+  const std::string title = report.title.empty() ? report.scene_file : report.title;
+  return html::page(title, "modal analysis", "modal analyze --report", report_data(report),
+                    a.drawing ? drawing_json(*a.drawing) : std::string("null"));
 }
 
 }  // namespace modal

@@ -77,6 +77,7 @@ struct Evaluation {
   bool velocity_terms = false;  // damping or gyroscopic terms
   double max_growth_rate = 0;
   double min_omega2 = 0;
+  double frame_rate = 0;  // |Ω| of the scene's frame, rad/s
   double f = nan;      // the requested indicator
   double omega = nan;  // frequency of the pair that the indicator follows, rad/s
 };
@@ -184,6 +185,7 @@ class Evaluator {
       e.failure = std::string("invalid scene: ") + ex.what();
       return e;
     }
+    e.frame_rate = sys->frame_rotation().norm();
     std::string stage = "no equilibrium";
     try {
       const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
@@ -267,6 +269,7 @@ void fill_point(SweepPoint& p, const Evaluation& e, int modes) {
   p.symmetric = e.symmetric;
   p.max_growth_rate = e.max_growth_rate;
   p.min_omega2 = e.min_omega2;
+  p.frame_rate = e.frame_rate;
 }
 
 // The change of class between a (class ea) and b (class eb), neighbours in sweep order.

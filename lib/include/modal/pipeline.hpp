@@ -230,6 +230,7 @@ struct Simulation {
   Trajectory trajectory;
   SimulationOptions options;             // as integrated
   std::vector<std::string> notes;        // e.g. the start was brought onto the constraints
+  std::string title, scene_file;         // of the scene (for the HTML report)
 };
 // Throws InputError for a request out of range.
 Simulation simulate(const Model& model, const SimulationRequest& request);
@@ -265,8 +266,11 @@ struct Outputs {
   // analyze: with csv also PREFIX_energy.csv and PREFIX_participation.csv; the
   // analysis must then have its energy distribution (AnalysisOptions::energy).
   bool energy = false;
-  // analyze: FILE.html (or .htm), one self-contained page (analysis_html); the
-  // analysis should have its drawing (AnalysisOptions::drawing) to animate the modes.
+  // FILE.html (or .htm), one self-contained page (docs/design.md, "HTML
+  // reports"): analyze (analysis_html; the analysis should have its drawing,
+  // AnalysisOptions::drawing, to animate the modes), equilibria
+  // (equilibria_html), sweep (sweep_html, or map_html for two axes), amplitude
+  // (amplitude_html) and simulate (simulation_html); check has none.
   std::string report;
 };
 enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
@@ -281,7 +285,8 @@ void write_analysis(std::ostream& text, const Analysis& analysis, const Outputs&
 void write_equilibria(std::ostream& text, const EquilibriumSurvey& survey, const Outputs& outputs = {});
 void write_sweep(std::ostream& text, const SweepStudy& study, const Outputs& outputs = {});
 void write_amplitude(std::ostream& text, const AmplitudeStudy& study, const Outputs& outputs = {});
-// The trajectory CSV to outputs.csv, or to `text` when none is given.
+// The trajectory CSV to outputs.csv, or to `text` when none is given; the
+// report to outputs.report.
 void write_simulation(std::ostream& text, const Simulation& simulation, const Outputs& outputs = {});
 // `modal check`: the summary of the scene (lists cut at `list_limit` rows; 0: all).
 void write_summary(std::ostream& text, const Model& model, std::size_t list_limit = 100);

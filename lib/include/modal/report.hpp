@@ -201,6 +201,41 @@ void write_text_file(const std::string& path, const std::string& text);  // thro
 // element #report-status says, once its script ran, how many plots and
 // animated views it drew and how many script errors it met.
 std::string analysis_html(const Report& report);
+// The other commands' pages, each as self-contained as analysis_html's, from
+// the values their CSV writers take; every table shows the CSV's own text
+// (the rows of the CSV writer's output), every plot the values behind it
+// (long series decimated, the page says so). #report-status counts plots.
+// `modal sweep --report`: the branches against the parameter (ω², or Re s and
+// Im s when a point is not symmetric), the root locus (s in the complex plane,
+// with its mirror image), a Campbell diagram (ω against |Ω|) when the points
+// differ in their frame rate (SweepPoint::frame_rate: the parameter is a
+// rotation speed), the critical values marked with their error and tabled as
+// sweep_critical_csv, the points as sweep_modes_csv, and with `convergence`
+// (--extrapolate) |ω − ω∞| against the parameter with each mode's observed
+// order, and the extrapolation table (extrapolation_csv).
+std::string sweep_html(const SweepResult& result, const std::string& scene_file, double tolerance,
+                       const std::vector<ModeConvergence>& convergence = {});
+// `modal sweep --report` with two --vary: the grid coloured by stability
+// class, the boundary between classes drawn, and the grid as map_csv.
+std::string map_html(const StabilityMap& map, const std::string& scene_file);
+// `modal amplitude --report`: the period ratio T/T_lin and the departure
+// |ω/ω_lin − 1| against the amplitude with the levels' amplitudes marked, the
+// scan as amplitude_csv and the departure amplitudes with their errors.
+std::string amplitude_html(const std::string& title, const std::string& scene_file, int mode, double omega2,
+                           const AmplitudeResponse& response, double tolerance);
+// `modal simulate --report`: the coordinates against time (the first 8
+// of them) and the energy error (E − E0 − W)/scale, each series
+// reduced to its minimum and maximum in each of at most 2000 time buckets; a
+// table of 21 samples spread over the run as write_trajectory_csv writes them,
+// and the integration's summary.
+std::string simulation_html(const Trajectory& trajectory, const SimulationOptions& options,
+                            const std::string& title, const std::string& scene_file,
+                            const std::vector<std::string>& notes = {});
+// `modal equilibria --report`: the potential of each equilibrium by
+// stability, the table of write_equilibria_csv, each equilibrium's stability
+// in words and its frequency table (write_modes_csv's rows); no animation.
+// `unanalyzed`: equilibria found but not analyzed, in words.
+std::string equilibria_html(const Report& report, const std::vector<std::string>& unanalyzed = {});
 
 // --- human-readable text --------------------------------------------------------
 // Title, the equilibrium (coordinates, angles also in degrees, V, residual),

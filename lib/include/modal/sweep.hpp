@@ -107,6 +107,10 @@ struct SweepPoint {
   bool symmetric = true;     // solved as K φ = λ M φ (no damping, gyroscopic, circulatory terms)
   double max_growth_rate = 0;  // largest σ = Re s of all modes, 1/s (0 for a stable conservative system)
   double min_omega2 = 0;       // smallest ω² − σ² = Re(−s²) of all modes: λ_min for symmetric models
+  // |Ω| of the frame the scene is written in at this point (frame_rotation,
+  // rad/s; 0 for an inertial frame). A sweep whose points differ in it sweeps
+  // a rotation speed: its HTML report draws a Campbell diagram against it.
+  double frame_rate = 0;
   double seconds = 0;          // wall time of the point: parse, build, equilibrium, linearization, all modes
 };
 
