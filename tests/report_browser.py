@@ -2,8 +2,8 @@
 """The HTML reports in a browser (ctest label `browser`; docs/design.md, "HTML reports").
 
 Runs each command with --csv and --report on small scenes: `analyze` on a
-2-D scene (the double pendulum, with --energy) and a 3-D one (the 6x6x6
-lattice); `sweep` of a rotating frame (bead on a spinning hoop: Campbell
+2-D scene (the double pendulum, with --energy), a 3-D one (the 6x6x6
+lattice) and one with complex shapes (Ziegler's column with dampers); `sweep` of a rotating frame (bead on a spinning hoop: Campbell
 diagram), of a follower load (Ziegler's column: first order), with
 --extrapolate (hanging chain) and over two parameters (a stability map);
 `amplitude`, `simulate` (with more samples than the page draws) and
@@ -166,6 +166,10 @@ def study(name, command, scene, extra, plots, tables):
 # 2 modes: 2 animated views, 2 energy charts; lattice: 6 views, no plots.
 run("double_pendulum", "models/double_pendulum.toml", ["--energy"], plots=2, views=2)
 run("lattice", "models/lattice.toml", ["--modes", "6"], plots=0, views=6)
+# Complex shapes (dampers and a follower load): views animated with each point's phase.
+run("ziegler_damped", "models/ziegler_damped.toml", ["--set", "P=1.5"], plots=0, views=2)
+with open(os.path.join(work, "ziegler_damped.html")) as f:
+    check('"displacement_imag"' in f.read(), "ziegler_damped: the drawing has no imaginary parts of the shapes")
 # Sweeps: a rotating frame (ω², root locus, Campbell), a follower load (Re s, Im s, root locus), the
 # convergence in the number of links (ω², root locus, convergence), and a map (one plot).
 study("sweep", "sweep", "models/bead_on_hoop_frame.toml", ["--vary", "Omega=0:6:13"], 3,

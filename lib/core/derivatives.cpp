@@ -1226,6 +1226,35 @@ std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q) {
   return poses;
 }
 
+std::vector<PoseRate> body_pose_rates(const System& s, const VectorX& q, const VectorX& dq) {
+  std::vector<PoseRate> rates;
+  if (s.is_map()) return rates;
+  check_size(s, q, "body_pose_rates");
+  check_size(s, dq, "body_pose_rates");
+  using D1 = Dual<double, 1>;
+  std::vector<D1> x(static_cast<std::size_t>(s.size()));
+  for (int i = 0; i < s.size(); ++i) {
+    x[static_cast<std::size_t>(i)] = D1(q[i]);
+    x[static_cast<std::size_t>(i)].d[0] = dq[i];
+  }
+  TreeState<D1> st;
+  model::forward_kinematics(s, x.data(), st);
+  rates.resize(s.bodies().size());
+  for (std::size_t b = 0; b < rates.size(); ++b) {
+    Mat3 R, Rdot;
+    for (int r = 0; r < 3; ++r) {
+      rates[b].velocity[r] = st.position[b][r].d[0];
+      for (int c = 0; c < 3; ++c) {
+        R(r, c) = st.rotation[b](r, c).v;
+        Rdot(r, c) = st.rotation[b](r, c).d[0];
+      }
+    }
+    const Mat3 W = Rdot * R.transpose();  // [ω]× (skew up to rounding)
+    rates[b].angular = 0.5 * Vec3(W(2, 1) - W(1, 2), W(0, 2) - W(2, 0), W(1, 0) - W(0, 1));
+  }
+  return rates;
+}
+
 
 
 // --- derivatives by differences (DerivativeMethod) ------------------------------

@@ -8,6 +8,8 @@
 #include "core/map.hpp"
 
 #include <algorithm>
+#include <string>
+#include <stdexcept>
 #include <cmath>
 
 namespace modal {
@@ -296,6 +298,30 @@ std::vector<Vec3> map_point_positions(const System& s, const VectorX& q) {
     out.push_back(at[i].x);
     if (s.map().points[i].inertia.isZero(0.0)) continue;
     for (int a = 0; a < 3; ++a) out.push_back(at[i].x + s.length_scale() * at[i].R.col(a));
+  }
+  return out;
+}
+
+std::vector<Vec3> map_point_rates(const System& s, const VectorX& q, const VectorX& dq) {
+  std::vector<Vec3> out;
+  if (!s.is_map()) return out;
+  if (q.size() != s.size() || dq.size() != s.size())
+    throw std::invalid_argument("map_point_rates: q and dq must have " + std::to_string(s.size()) + " entries");
+  using D1 = Dual<double, 1>;
+  std::vector<D1> z(static_cast<std::size_t>(q.size()));
+  for (Eigen::Index k = 0; k < q.size(); ++k) {
+    z[static_cast<std::size_t>(k)] = D1(q[k]);
+    z[static_cast<std::size_t>(k)].d[0] = dq[k];
+  }
+  const std::vector<D1> vars = kmap::variables<D1>(s, z.data(), D1(0.0));
+  std::vector<kmap::PointPose<D1>> at;
+  kmap::poses(s.map(), vars, at);
+  for (std::size_t i = 0; i < at.size(); ++i) {
+    const Vec3 velocity(at[i].x[0].d[0], at[i].x[1].d[0], at[i].x[2].d[0]);
+    out.push_back(velocity);
+    if (s.map().points[i].inertia.isZero(0.0)) continue;
+    for (int a = 0; a < 3; ++a)  // the tips x + L R e_a
+      out.push_back(velocity + s.length_scale() * Vec3(at[i].R(0, a).d[0], at[i].R(1, a).d[0], at[i].R(2, a).d[0]));
   }
   return out;
 }

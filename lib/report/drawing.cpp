@@ -3,6 +3,8 @@
 // points (modal/report.hpp, SceneDrawing; docs/design.md, "HTML reports").
 #include "modal/report.hpp"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -25,6 +27,27 @@ class Points {
   explicit Points(const System& s) : s_(s), w_(s) { layout(); }
 
   const PointLayout& layout_of() const { return layout_; }
+
+  // Every point's first-order motion along dq at q (as `at` lists the points),
+  // exact: a body point x = p + R r moves by ṗ + ω × R r.
+  std::vector<Vec3> rates(const VectorX& q, const VectorX& dq) {
+    if (s_.is_map()) return map_point_rates(s_, q, dq);
+    const std::vector<Pose> poses = body_poses(s_, w_, q);
+    const std::vector<PoseRate> rate = body_pose_rates(s_, q, dq);
+    auto moved = [&](int body, const Vec3& local) {
+      if (body < 0) return Vec3(Vec3::Zero());
+      const auto b = static_cast<std::size_t>(body);
+      return Vec3(rate[b].velocity + rate[b].angular.cross(poses[b].rotation * local));
+    };
+    std::vector<Vec3> u;
+    u.reserve(layout_.count);
+    for (std::size_t b = 0; b < poses.size(); ++b) {
+      u.push_back(rate[b].velocity);
+      if (has_com_[b]) u.push_back(moved(static_cast<int>(b), s_.bodies()[b].com));
+    }
+    for (const Attachment* a : extra_ends_) u.push_back(moved(a->body, a->point));
+    return u;
+  }
 
   std::vector<Vec3> at(const VectorX& q) {
     if (s_.is_map()) return map_point_positions(s_, q);
@@ -113,28 +136,36 @@ std::optional<SceneDrawing> scene_drawing(const System& system, const VectorX& q
     d.segments.clear();
   }
 
-  // Linearized displacement J φ by central differences of the positions
-  // along the real part of the shape (exact to O(h²) for the drawing).
+  // Linearized displacement J φ of every drawn point, exact (Points::rates):
+  // J Re φ and, for a complex shape (first-order problems), J Im φ, so that
+  // the page draws the motion Re(J φ e^{iωt}) = J Re φ cos ωt − J Im φ sin ωt.
+  // Both are scaled by the largest displacement amplitude over a period.
   std::size_t animated = 0;
   for (std::size_t m = 0; m < result.modes.size() && animated < limits.modes; ++m) {
     const Mode& mode = result.modes[m];
     if (mode.shape.size() != q.size()) continue;
-    const VectorX phi = mode.shape.real();
-    const double largest = phi.cwiseAbs().maxCoeff();
-    if (!(largest > 0) || !std::isfinite(largest)) continue;
-    const double h = 1e-6 / largest;
-    const std::vector<Vec3> plus = points.at(q + h * phi), minus = points.at(q - h * phi);
-    std::vector<Vec3> u;
+    const VectorX re = mode.shape.real(), im = mode.shape.imag();
+    const bool complex = im.cwiseAbs().maxCoeff() > 1e-12 * mode.shape.cwiseAbs().maxCoeff();
+    const std::vector<Vec3> all_re = points.rates(q, re);
+    const std::vector<Vec3> all_im = complex ? points.rates(q, im) : std::vector<Vec3>();
+    std::vector<Vec3> u, v;
     u.reserve(d.points.size());
     double norm = 0;
     for (std::size_t i = 0; i < x0.size(); i += stride) {
-      u.push_back((plus[i] - minus[i]) / (2 * h));
-      norm = std::max(norm, u.back().norm());
+      u.push_back(all_re[i]);
+      if (complex) v.push_back(all_im[i]);
+      // max over t of |a cos t − b sin t| = the larger semi-axis of the ellipse a, b.
+      const Vec3& a = u.back();
+      const Vec3 b = complex ? v.back() : Vec3(Vec3::Zero());
+      const double aa = a.squaredNorm(), bb = b.squaredNorm(), ab = a.dot(b);
+      norm = std::max(norm, std::sqrt(0.5 * (aa + bb) + std::sqrt(0.25 * (aa - bb) * (aa - bb) + ab * ab)));
     }
-    if (norm > 0)
-      for (Vec3& v : u) v /= norm;
+    if (!(norm > 0) || !std::isfinite(norm)) continue;
+    for (Vec3& x : u) x /= norm;
+    for (Vec3& x : v) x /= norm;
     d.modes.push_back(static_cast<int>(m + 1));
     d.displacements.push_back(std::move(u));
+    d.displacements_imag.push_back(std::move(v));
     ++animated;
   }
   if (animated < result.modes.size())

@@ -97,7 +97,13 @@ std::string drawing_json(const SceneDrawing& d) {
   for (std::size_t m = 0; m < d.modes.size(); ++m) {
     s += fmt::format("{}{{\"mode\":{},\"displacement\":[", m ? "," : "", d.modes[m]);
     vectors(d.displacements[m], "{:.3g}");
-    s += "]}";
+    s += "]";
+    if (m < d.displacements_imag.size() && !d.displacements_imag[m].empty()) {
+      s += ",\"displacement_imag\":[";
+      vectors(d.displacements_imag[m], "{:.3g}");
+      s += "]";
+    }
+    s += "}";
   }
   s += "]}";
   return s;
@@ -140,16 +146,24 @@ Json report_data(const Report& report) {
                      mode_stability(m.kind), csv_number(m.error_estimate), csv_number(m.residual_bound)});
   }
   j["modes"] = modes;
-  // Without a drawing each shape is a bar chart of its coordinates' real parts.
+  // Without a drawing each shape is a bar chart of its coordinates: the real
+  // parts, and beside them the imaginary parts of a complex shape
+  // (first-order problems: the phase of each coordinate's motion).
   if (!a.drawing) {
-    Json shapes = Json::array();
+    Json shapes = Json::array(), shapes_imag = Json::array();
     for (const Mode& m : r.modes) {
-      Json values = Json::array();
-      for (Eigen::Index i = 0; i < m.shape.size() && static_cast<std::size_t>(i) < shown_shape_components; ++i)
+      Json values = Json::array(), imag = Json::array();
+      bool complex = false;
+      for (Eigen::Index i = 0; i < m.shape.size() && static_cast<std::size_t>(i) < shown_shape_components; ++i) {
         values.push_back(std::isfinite(m.shape[i].real()) ? m.shape[i].real() : 0.0);
+        imag.push_back(std::isfinite(m.shape[i].imag()) ? m.shape[i].imag() : 0.0);
+        complex = complex || (std::isfinite(m.shape[i].imag()) && m.shape[i].imag() != 0.0);
+      }
       shapes.push_back(values);
+      shapes_imag.push_back(complex ? imag : Json());
     }
     j["shapes"] = shapes;
+    j["shapes_imag"] = shapes_imag;
     Json names = Json::array();
     for (std::size_t i = 0; i < std::min<std::size_t>(shown_shape_components, static_cast<std::size_t>(e.q.size())); ++i)
       names.push_back(coordinate_name(report, i));

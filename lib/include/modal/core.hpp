@@ -552,6 +552,9 @@ System with_steady_momenta(const System& s, const VectorX& q);
 // the tips of their body axes (one length scale along each) for points with
 // rotational inertia. Empty for body systems (see body_poses).
 std::vector<Vec3> map_point_positions(const System& s, const VectorX& q);
+// d/dτ map_point_positions(q + τ dq) at τ = 0, point by point, exact (AD of
+// the map's expressions). Empty for body systems.
+std::vector<Vec3> map_point_rates(const System& s, const VectorX& q, const VectorX& dq);
 
 // --- holonomic constraints (System::constraints(); m equations) -------------------
 // c(q), m entries, m (see Constraint).
@@ -643,6 +646,15 @@ struct Pose {
   Vec3 position = Vec3::Zero();
 };
 std::vector<Pose> body_poses(const System& s, Workspace& w, const VectorX& q);
+// The first-order motion of every body along dq at q, d/dτ body_poses(q + τ dq)
+// at τ = 0: the velocity of its frame origin and its angular velocity (world
+// components; m and rad per unit of dq). Exact (forward-mode AD of the
+// kinematics). Empty for kinematic maps (see map_point_rates).
+struct PoseRate {
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular = Vec3::Zero();
+};
+std::vector<PoseRate> body_pose_rates(const System& s, const VectorX& q, const VectorX& dq);
 
 // Coordinates brought to their canonical chart: periodic hinge angles to
 // (−π, π], periodic rotation vectors to length ≤ π (the same rotation); joints

@@ -50,7 +50,11 @@ struct SceneDrawing {
   std::vector<Vec3> points;                 // m, world, at the equilibrium (decimated: see note)
   std::vector<std::array<int, 2>> segments; // indices into points: body links, springs
   std::vector<int> modes;                   // the animated modes (1 = the lowest)
-  std::vector<std::vector<Vec3>> displacements;  // per animated mode, per point; largest norm 1
+  // Per animated mode, per point: J Re φ and J Im φ (empty for a real shape),
+  // exact; the motion over a period, J Re φ cos ωt − J Im φ sin ωt, has the
+  // largest norm 1.
+  std::vector<std::vector<Vec3>> displacements;
+  std::vector<std::vector<Vec3>> displacements_imag;
   std::size_t total_points = 0;             // before decimation
   std::string note;                         // what decimation left out, in words (empty: nothing)
 };

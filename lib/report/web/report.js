@@ -126,7 +126,7 @@
     function modeView(container, entry) {
       var canvas = el('canvas', { width: '420', height: '320', 'class': 'view', 'data-mode': String(entry.mode) });
       container.appendChild(canvas);
-      var view = { canvas: canvas, u: entry.displacement, yaw: 0.6, pitch: 0.4 };
+      var view = { canvas: canvas, u: entry.displacement, v: entry.displacement_imag || null, yaw: 0.6, pitch: 0.4 };
       if (drawing.dimensions === 3) {
         var dragging = null;
         canvas.addEventListener('pointerdown', function (e) { dragging = [e.clientX, e.clientY]; canvas.setPointerCapture(e.pointerId); });
@@ -169,12 +169,17 @@
     }
     function draw(view) {
       var g = view.canvas.getContext('2d'), project = projector(view);
-      var k = state.amplitude * size * Math.sin(state.time);
+      // Re(J φ e^{it}): J Re φ cos t − J Im φ sin t (complex shapes of first-order problems).
+      var kc = state.amplitude * size * Math.cos(state.time), ks = view.v ? -state.amplitude * size * Math.sin(state.time) : 0;
       g.clearRect(0, 0, view.canvas.width, view.canvas.height);
-      function pass(scale, color, radius) {
+      function at(i, a, moving) {
+        var x = P[3 * i + a];
+        if (moving) { x += kc * view.u[3 * i + a]; if (view.v) x += ks * view.v[3 * i + a]; }
+        return x;
+      }
+      function pass(moving, color, radius) {
         var q = new Array(n);
-        for (var i = 0; i < n; i++)
-          q[i] = project([P[3 * i] + scale * view.u[3 * i], P[3 * i + 1] + scale * view.u[3 * i + 1], P[3 * i + 2] + scale * view.u[3 * i + 2]]);
+        for (var i = 0; i < n; i++) q[i] = project([at(i, 0, moving), at(i, 1, moving), at(i, 2, moving)]);
         g.strokeStyle = color; g.fillStyle = color; g.lineWidth = 1.5;
         g.beginPath();
         var S = drawing.segments;
@@ -182,8 +187,8 @@
         g.stroke();
         if (n <= 5000) for (var m = 0; m < n; m++) g.fillRect(q[m][0] - radius, q[m][1] - radius, 2 * radius, 2 * radius);
       }
-      pass(0, '#bbbbbb', 2);
-      pass(k, '#204a87', 3);
+      pass(false, '#bbbbbb', 2);
+      pass(true, '#204a87', 3);
       frames++;
     }
     drawAll = function () { views.forEach(draw); };
@@ -199,8 +204,12 @@
       else if (data.shapes && data.shapes[index]) {
         var target = el('div', { 'class': 'plot' });
         box.appendChild(target);
-        bars(target, data.shape_coordinates.slice(0, data.shapes[index].length), [{ label: 'shape', values: data.shapes[index] }],
-             'Shape (real part' + (data.coordinate_count > data.shapes[index].length ? ', first ' + data.shapes[index].length + ' coordinates' : '') + ')');
+        var imag = data.shapes_imag ? data.shapes_imag[index] : null;
+        var series = [{ label: 'real part', values: data.shapes[index] }];
+        if (imag) series.push({ label: 'imaginary part', values: imag });
+        bars(target, data.shape_coordinates.slice(0, data.shapes[index].length), series,
+             'Shape' + (imag ? ' (complex: the motion is Re(φ e^{iωt}))' : '') +
+             (data.coordinate_count > data.shapes[index].length ? ', first ' + data.shapes[index].length + ' coordinates' : ''));
       }
       var e = energy ? energy.modes[index] : null;
       if (e) {
