@@ -22,7 +22,10 @@
 // more than 15. A factorization costs O(n^1.5) flops for a 2-D net of n
 // coordinates with nested-dissection ordering (tens of solves' worth), so
 // reusing it is what keeps the equilibrium of a 10⁶-coordinate net within
-// seconds per step. The symbolic analysis is done once.
+// seconds per step. The symbolic analysis is done once (and kept after a
+// failed factorization). Where a row of ∇∇V vanishes (a coordinate with no
+// stiffness, as a slack net's out-of-plane coordinates at its flat start) no
+// Newton step is attempted: the damped method below starts at once.
 #include "equilibrium/problem.hpp"
 
 #include <nlopt.hpp>
@@ -188,6 +191,18 @@ class NewtonSteps {
 
 bool is_large_system(const System& s) {
   return s.size() > large_system_coordinates && !s.is_map() && !s.has_constraints() && !s.has_follower_loads();
+}
+
+bool prefers_sparse_equilibrium(const System& s, const VectorX& start) {
+  if (is_large_system(s)) return true;
+  if (s.size() < sparse_equilibrium_coordinates || s.is_map() || s.has_constraints() || s.has_follower_loads()) return false;
+  Workspace w(s);
+  try {
+    const SparseMatrix& H = sparse_potential_hessian(s, w, start);
+    return static_cast<double>(H.nonZeros()) <= 0.05 * static_cast<double>(s.size()) * static_cast<double>(s.size());
+  } catch (const NumericalError&) {
+    return false;
+  }
 }
 
 Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
