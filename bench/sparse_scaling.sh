@@ -9,7 +9,12 @@
 #
 #   bench/sparse_scaling.sh [build-dir] [max-exponent]   (default: build 6)
 #
-# Environment: SCENES (default "net lattice"), LATTICE_MAX_EXP (default: the
+# Environment: SCENES (default "net slack lattice"; slack: the same net at its
+# rest length, prestrain 0, whose flat start has no transverse stiffness),
+# SLACK_ONLY=1 (only the slack rows, into results/sparse_scaling_slack.csv and
+# its eigenvalues, and the target's measurement on the slack 10⁶ net into
+# results/sparse_target_slack.csv; the other results are left as they are:
+# about 10 minutes instead of 25), LATTICE_MAX_EXP (default: the
 # max exponent), SCIPY_MAX_N (default 200000): above it scipy is not run
 # (SuperLU's factorization of a 10⁶-coordinate matrix takes longer than the
 # whole benchmark) and its columns are left empty.
@@ -30,13 +35,22 @@ modal="$build/modal"
 py=/usr/bin/python3
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-csv=results/sparse_scaling.csv
-eigen_csv=results/sparse_scaling_eigenvalues.csv  # every eigenvalue of both tools, to check the agreement
+slack_only=${SLACK_ONLY:-0}
+suffix=
+[ "$slack_only" = 1 ] && suffix=_slack
+csv=results/sparse_scaling$suffix.csv
+eigen_csv=results/sparse_scaling${suffix}_eigenvalues.csv  # every eigenvalue of both tools, to check the agreement
 target_only=${TARGET_ONLY:-0}
 [ "$target_only" = 1 ] || echo "scene,n,index,modal_omega2,scipy_omega2,modal_error_estimate" > "$eigen_csv"
-[ "$target_only" = 1 ] || echo "scene,n,parse_build_s,equilibrium_s,assembly_s,export_s,factorization_s,eigen_solution_s,total_s,peak_MiB,scipy_eigsh_s,scipy_read_s,ratio_eigsh_over_modal,max_rel_diff,lambda1" > "$csv"
+[ "$target_only" = 1 ] || echo "scene,n,parse_build_s,equilibrium_s,assembly_s,export_s,factorization_s,eigen_solution_s,total_s,peak_MiB,scipy_eigsh_s,scipy_read_s,ratio_eigsh_over_modal,max_rel_diff,lambda1,ratio_eigsh_over_modal_total,load_1min" > "$csv"
 
 net_scene() {  # N×N net, boundary fixed: 3 (N − 2)² coordinates
+  PRESTRAIN=0.02 prestrained_net "$@"
+}
+slack_scene() {  # the same net with its springs at their rest length
+  PRESTRAIN=0 prestrained_net "$@"
+}
+prestrained_net() {
   cat > "$1" <<EOF
 gravity = [0, 0, -9.81]
 [[lattice]]
@@ -45,7 +59,7 @@ size = [$2, $2, 1]
 spacing = 0.1
 mass = 0.002
 stiffness = 1000
-prestrain = 0.02
+prestrain = $PRESTRAIN
 fixed = "boundary"
 EOF
 }
@@ -67,6 +81,8 @@ run_case() {  # kind size
   local kind=$1 size=$2 scene="$work/$1_$2.toml" out="$work/$1_$2"
   "${kind}_scene" "$scene" "$size"
   rm -rf "$out.mtx"
+  local load
+  load=$(cut -d' ' -f1 /proc/loadavg)
   /usr/bin/time -v "$modal" analyze "$scene" --solver sparse --modes 10 --tol 1e-10 --timing \
     --export-matrices "$out.mtx" --csv "$out" > "$out.txt" 2> "$out.err"
   local n
@@ -80,9 +96,9 @@ run_case() {  # kind size
     : > "$out.scipy"
   fi
   EIGEN_CSV="$eigen_csv" "$py" - "$out" "$kind" "$n" "$(ms parse+build)" "$(ms equilibrium)" "$(ms assembly)" "$(ms export)" \
-    "$(ms factorization)" "$(ms eigen-solution)" "$(ms total)" "$peak" >> "$csv" <<'EOF'
+    "$(ms factorization)" "$(ms eigen-solution)" "$(ms total)" "$peak" "$load" >> "$csv" <<'EOF'
 import csv, os, sys
-out, kind, n, pb, eq, asm, exp, fac, eig, total, peak = sys.argv[1:]
+out, kind, n, pb, eq, asm, exp, fac, eig, total, peak, load = sys.argv[1:]
 rows = list(csv.DictReader(open(out + "_modes.csv")))
 modal = [float(r["omega2"]) for r in rows]
 scipy = {}
@@ -101,20 +117,23 @@ with open(os.environ["EIGEN_CSV"], "a") as f:
 if lams:
     diff = max(abs(a - b) / abs(b) for a, b in zip(sorted(modal), lams))
     print(f"{kind},{n},{pb},{eq},{asm},{exp},{fac},{eig},{total},{peak},{scipy['eigsh_s']:.3f},{scipy['read_s']:.3f},"
-          f"{scipy['eigsh_s'] / modal_eigen:.2f},{diff:.2e},{sorted(modal)[0]:.10g}")
+          f"{scipy['eigsh_s'] / modal_eigen:.2f},{diff:.2e},{sorted(modal)[0]:.10g},"
+          f"{scipy['eigsh_s'] / float(total):.2f},{load}")
 else:  # scipy not run at this size
-    print(f"{kind},{n},{pb},{eq},{asm},{exp},{fac},{eig},{total},{peak},,,,,{sorted(modal)[0]:.10g}")
+    print(f"{kind},{n},{pb},{eq},{asm},{exp},{fac},{eig},{total},{peak},,,,,{sorted(modal)[0]:.10g},,{load}")
 EOF
   echo "done: $kind $size (n = $n)" >&2
 }
 
 net_sizes=(20 60 185 580)        # ~1e3, 1e4, 1e5, 1e6 coordinates
 lattice_sizes=(7 15 32 70)
-scenes=${SCENES:-net lattice}
+scenes=${SCENES:-net slack lattice}
+[ "$slack_only" = 1 ] && scenes=slack
 lattice_max_exp=${LATTICE_MAX_EXP:-$max_exp}
 for i in $(seq 0 $((max_exp - 3))); do
   [ "$target_only" = 1 ] && break
   case " $scenes " in *" net "*) run_case net "${net_sizes[$i]}" ;; esac
+  case " $scenes " in *" slack "*) run_case slack "${net_sizes[$i]}" ;; esac
   if [ $((i + 3)) -le "$lattice_max_exp" ]; then
     case " $scenes " in *" lattice "*) run_case lattice "${lattice_sizes[$i]}" ;; esac
   fi
@@ -123,23 +142,27 @@ done
 # The target's measurement: the plain process a user runs on the largest net
 # (no export, no CSV files), TARGET_RUNS times (default 3), wall time and peak
 # RSS each, into results/sparse_target.csv.
-target=results/sparse_target.csv
-echo "scene,n,run,wall_s,peak_MiB,equilibrium_s,factorization_s,eigen_solution_s" > "$target"
-if [ "$max_exp" -ge 6 ] && case " $scenes " in *" net "*) true ;; *) false ;; esac; then
+target=results/sparse_target$suffix.csv
+target_kind=net
+[ "$slack_only" = 1 ] && target_kind=slack
+echo "scene,n,run,wall_s,peak_MiB,equilibrium_s,factorization_s,eigen_solution_s,load_before" > "$target"
+if [ "$max_exp" -ge 6 ] && case " $scenes " in *" $target_kind "*) true ;; *) false ;; esac; then
   scene="$work/net_target.toml"
-  net_scene "$scene" "${net_sizes[3]}"
+  "${target_kind}_scene" "$scene" "${net_sizes[3]}"
   for run in $(seq 1 "${TARGET_RUNS:-3}"); do
+    load=$(cut -d' ' -f1 /proc/loadavg)
     /usr/bin/time -f "wall %e\npeak %M" "$modal" analyze "$scene" --modes 10 --timing > "$work/target.txt" 2> "$work/target.err"
-    awk -v run="$run" '
+    awk -v run="$run" -v kind="$target_kind" -v load="$load" '
       $1 == "wall" {wall = $2} $1 == "peak" {peak = $2 / 1024}
       $1 == "timing:" && $2 == "equilibrium" {eq = $3 / 1000}
       $1 == "timing:" && $2 == "factorization" {fac = $3 / 1000}
       $1 == "timing:" && $2 == "eigen-solution" {eig = $3 / 1000}
-      END {printf "net,1002252,%d,%.2f,%.1f,%.2f,%.2f,%.2f\n", run, wall, peak, eq, fac, eig}' "$work/target.err" >> "$target"
+      END {printf "%s,1002252,%d,%.2f,%.1f,%.2f,%.2f,%.2f,%s\n", kind, run, wall, peak, eq, fac, eig, load}' "$work/target.err" >> "$target"
     echo "done: target run $run" >&2
   done
 fi
 [ "$target_only" = 1 ] && { echo "wrote $target" >&2; exit 0; }
+[ "$slack_only" = 1 ] && { echo "wrote $csv and $target" >&2; exit 0; }
 
 "$py" - "$csv" <<'EOF'
 import csv, sys
@@ -147,8 +170,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 rows = list(csv.DictReader(open(sys.argv[1])))
-fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-for ax, kind in zip(axes, ["net", "lattice"]):
+fig, axes = plt.subplots(1, 3, figsize=(16, 4.2))
+for ax, kind in zip(axes, ["net", "slack", "lattice"]):
     rs = [r for r in rows if r["scene"] == kind]
     n = [int(r["n"]) for r in rs]
     for key, label in [("parse_build_s", "parse+build"), ("equilibrium_s", "equilibrium"), ("assembly_s", "assembly"),

@@ -302,7 +302,7 @@ VectorX equilibrium_residual(const System& s, Workspace& w, const VectorX& q) {
 std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q, const EquilibriumOptions& options) {
   if (q.size() != s.size()) throw std::invalid_argument("polish_equilibrium: q has the wrong size");
   if (s.has_constraints()) return polish_constrained(s, q, options);
-  if (is_large_system(s)) {
+  if (prefers_sparse_equilibrium(s, q)) {
     try {
       return find_large_equilibrium(s, q, options);
     } catch (const NumericalError&) {
@@ -335,7 +335,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
   require_finite_energy(s, start);
   if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
-  if (is_large_system(s)) return find_large_equilibrium(s, start, options);
+  if (prefers_sparse_equilibrium(s, start)) return find_large_equilibrium(s, start, options);
   Problem p(s);
   const VectorX local = levenberg_marquardt(p, start, options);
   Polished pol = polish(p, local, options);

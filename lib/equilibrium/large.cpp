@@ -22,7 +22,10 @@
 // more than 15. A factorization costs O(n^1.5) flops for a 2-D net of n
 // coordinates with nested-dissection ordering (tens of solves' worth), so
 // reusing it is what keeps the equilibrium of a 10⁶-coordinate net within
-// seconds per step. The symbolic analysis is done once.
+// seconds per step. The symbolic analysis is done once (and kept after a
+// failed factorization). Where a row of ∇∇V vanishes (a coordinate with no
+// stiffness, as a slack net's out-of-plane coordinates at its flat start) no
+// Newton step is attempted: the damped method below starts at once.
 #include "equilibrium/problem.hpp"
 
 #include <nlopt.hpp>
@@ -106,8 +109,10 @@ class NewtonSteps {
   // The pivot order of the last symbolic analysis of ∇∇V (empty: none).
   std::vector<int> ordering() const { return llt_.ordering(); }
 
-  // Empty when no step can be computed (both factorizations fail).
+  // Empty when no step can be computed (both factorizations fail, or a
+  // coordinate has no stiffness at all).
   VectorX step(const SparseMatrix& H, const VectorX& r, double forcing) {
+    if (has_vanishing_row(H)) return {};
     if (have_factor_ && !refactor_) {
       if (VectorX d = preconditioned_cg(H, r, forcing); d.size() > 0) return d;
     }
@@ -117,7 +122,6 @@ class NewtonSteps {
  private:
   VectorX exact(const SparseMatrix& H, const VectorX& r) {
     if (VectorX d = solve_positive(H, r); d.size() > 0) return d;
-    outer_.clear();  // a failed supernodal factor is analyzed afresh
     Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(H);
     if (ldlt.info() == Eigen::Success) {
       VectorX d = -ldlt.solve(r);
@@ -156,6 +160,21 @@ class NewtonSteps {
     return {};
   }
 
+  // True when some row of H vanishes to rounding against the largest
+  // diagonal entry: H is singular along that coordinate (a slack net's
+  // out-of-plane coordinates at the flat start), so no factorization can give
+  // a Newton step, and trying both (a failing LLᵀ, then a simplicial LDLᵀ: 15 s
+  // at 10⁶ coordinates) only delays the damped method.
+  static bool has_vanishing_row(const SparseMatrix& H) {
+    const double scale = H.diagonal().cwiseAbs().maxCoeff();
+    if (!(scale > 0)) return true;
+    VectorX row = VectorX::Zero(H.rows());
+    for (Eigen::Index j = 0; j < H.outerSize(); ++j) {
+      for (SparseMatrix::InnerIterator it(H, j); it; ++it) row(it.row()) = std::max(row(it.row()), std::abs(it.value()));
+    }
+    return row.minCoeff() <= 64 * std::numeric_limits<double>::epsilon() * scale;
+  }
+
   bool same_pattern(const SparseMatrix& H) const {
     return !outer_.empty() && H.isCompressed() && outer_.size() == static_cast<std::size_t>(H.outerSize() + 1) &&
            inner_.size() == static_cast<std::size_t>(H.nonZeros()) &&
@@ -172,6 +191,18 @@ class NewtonSteps {
 
 bool is_large_system(const System& s) {
   return s.size() > large_system_coordinates && !s.is_map() && !s.has_constraints() && !s.has_follower_loads();
+}
+
+bool prefers_sparse_equilibrium(const System& s, const VectorX& start) {
+  if (is_large_system(s)) return true;
+  if (s.size() < sparse_equilibrium_coordinates || s.is_map() || s.has_constraints() || s.has_follower_loads()) return false;
+  Workspace w(s);
+  try {
+    const SparseMatrix& H = sparse_potential_hessian(s, w, start);
+    return static_cast<double>(H.nonZeros()) <= 0.05 * static_cast<double>(s.size()) * static_cast<double>(s.size());
+  } catch (const NumericalError&) {
+    return false;
+  }
 }
 
 Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {

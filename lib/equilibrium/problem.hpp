@@ -84,6 +84,12 @@ std::optional<Equilibrium> polish_constrained(const System& s, const VectorX& q,
 // Large scenes (large.cpp): more than large_system_coordinates coordinates, a
 // conservative tree; Newton with the sparse Hessian (L-BFGS when it stalls).
 bool is_large_system(const System& s);
+// The sparse solver also serves smaller conservative trees whose ∇∇V at the
+// start is sparse (at most 5 % nonzero) from this many coordinates on: the
+// dense local search's O(n³) steps (eigen-decompositions where ∇∇V is
+// singular) took 24 s on a slack 20×20 net of 972 coordinates.
+inline constexpr int sparse_equilibrium_coordinates = 500;
+bool prefers_sparse_equilibrium(const System& s, const VectorX& start);
 Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options);
 
 // Keeps the candidate with the smaller residual among those closer than
