@@ -100,7 +100,12 @@ void phase(Work&& work) {
   if (Failure f = agree(mine); f.status != 0) throw Agreed{f};
 }
 
-double sum_over_ranks(double v) {
+// Σ over the ranks of a local evaluation, agreed on first: a rank whose
+// evaluation throws must not leave the others waiting in the sum.
+template <class Evaluate>
+double sum_over_ranks(Evaluate&& evaluate) {
+  double v = 0;
+  phase([&] { v = evaluate(); });
   MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   return v;
 }
@@ -403,6 +408,8 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
     phase([&] {
       part = partition(sys, rank, size);
       ws.emplace(*part.system);
+    });
+    phase([&] {  // collective from here on: nothing rank-local throws before the PETSc calls
       assembly.part = &part;
       assembly.ws = &*ws;
       MODAL_PETSC(VecCreateMPI(PETSC_COMM_WORLD, part.end_coordinate - part.first_coordinate, n, &x));
@@ -426,7 +433,8 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
     Equilibrium eq;
     double scale = 0;
     phase([&] {
-      scale = sum_over_ranks(force_scale(*part.system, *ws, assembly.local_configuration(x)));
+      const VectorX q0 = assembly.local_configuration(x);
+      scale = sum_over_ranks([&] { return force_scale(*part.system, *ws, q0); });
       const double tolerance = options.equilibrium_tolerance;
       const double target = tolerance * scale;
       Vec start = nullptr;
@@ -457,7 +465,16 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
         if (std::isfinite(norm) && norm <= target) break;
       }
       MODAL_PETSC(VecDestroy(&start));
+      eq.iterations = static_cast<int>(iterations);
+      eq.method = fmt::format("Newton with a {} (PETSc SNES, MUMPS LU) over {} rank{}", method, size,
+                              size == 1 ? "" : "s");
+      eq.residual_norm = norm;
+      // The cause first: an evaluation that failed on some rank (the others
+      // only saw a NaN residual).
       if (!assembly.failure.empty()) throw NumericalError(assembly.failure);
+    });
+    phase([&] {
+      const double tolerance = options.equilibrium_tolerance, target = tolerance * scale, norm = eq.residual_norm;
       const double relative = scale > 0 ? norm / scale : norm;
       if (!(norm <= target))
         throw NumericalError(fmt::format("--backend petsc: Newton's method (PETSc SNES, line search and then trust "
@@ -465,11 +482,8 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
                                          "relative residual {:.2e}, accepted {:.0e}",
                                          relative, tolerance));
       eq.residual = relative;
-      eq.residual_norm = norm;
-      eq.iterations = static_cast<int>(iterations);
-      eq.method = fmt::format("Newton with a {} (PETSc SNES, MUMPS LU) over {} rank{}", method, size,
-                              size == 1 ? "" : "s");
-      eq.potential = sum_over_ranks(potential(*part.system, *ws, assembly.local_configuration(x)));
+      const VectorX q = assembly.local_configuration(x);
+      eq.potential = sum_over_ranks([&] { return potential(*part.system, *ws, q); });
     });
     timings.mark("equilibrium");
 
@@ -479,7 +493,10 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       MODAL_PETSC(form_hessian(nullptr, x, K, K, &assembly));
       if (!assembly.failure.empty()) throw NumericalError(assembly.failure);
       M = create_matrix(part, n);
-      assembly.add_matrix(M, sparse_mass_matrix(*part.system, *ws, assembly.local_configuration(x)));
+      const VectorX q = assembly.local_configuration(x);
+      SparseMatrix local_mass;
+      phase([&] { local_mass = sparse_mass_matrix(*part.system, *ws, q); });
+      assembly.add_matrix(M, local_mass);
       MODAL_PETSC(MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY));
       MODAL_PETSC(MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY));
       for (Mat A : {K, M}) MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
