@@ -27,6 +27,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -346,6 +348,14 @@ PetscInt inertia_near(Mat K, Mat M, double& sigma, double s) {
   throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
 }
 
+// The peak resident memory of this process, bytes (Linux VmHWM; 0 elsewhere).
+double peak_memory() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::strtod(line.c_str() + 6, nullptr);
+  return 0;
+}
+
 struct Timings {
   std::vector<std::pair<std::string, double>> seconds;
   Clock::time_point last = Clock::now();
@@ -470,7 +480,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       // ∇V is a gradient: the critical-point line search (the step along the
       // Newton direction d where ∇V·d vanishes, by secants) shortens the first
       // steps from a flat or slack start without the many short steps of
-      // backtracking on ‖∇V‖ (a 10 800-coordinate sagging net: 5 Newton steps
+      // backtracking on ‖∇V‖ (a 10 092-coordinate sagging net: 5 Newton steps
       // against 23). It may stop short of the rounding level, so a polish with
       // backtracking follows, which takes full steps there and stops when a
       // step no longer decreases ‖∇V‖ (as the serial polish), at most 3. If the first
@@ -699,6 +709,11 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
           err << fmt::format("timing: {:<16} {:>12.3f} ms max {:>12.3f} ms min over {} rank{}\n", name, 1e3 * high,
                              1e3 * low, size, size == 1 ? "" : "s");
       }
+      double high = peak_memory(), low = high;
+      MPI_Allreduce(MPI_IN_PLACE, &high, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      MPI_Allreduce(MPI_IN_PLACE, &low, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+      if (rank == 0)
+        err << fmt::format("timing: peak memory per rank {:.1f} MiB max {:.1f} MiB min\n", high / 1048576, low / 1048576);
     }
     if (request.require_stable && flag) {
       if (rank == 0) err << "modal: the equilibrium is unstable\n";
