@@ -25,8 +25,12 @@ if(TARGET modal_app)
   set_target_properties(modal_app PROPERTIES EXPORT_NAME cli)
   install(TARGETS modal_app EXPORT modalTargets RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 endif()
+if(TARGET modal_mpi_app)  # beside modal, which executes it for analyze --backend petsc
+  install(TARGETS modal_mpi_app RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endif()
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/modal DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-  FILES_MATCHING PATTERN "*.hpp")
+  FILES_MATCHING PATTERN "*.hpp"
+  PATTERN "distributed.hpp" EXCLUDE)  # modal-mpi's stage, not part of libmodal
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/models/ DESTINATION ${MODAL_MODELS_DIR})
 
 # --- CMake package -----------------------------------------------------------------------

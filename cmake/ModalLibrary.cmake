@@ -63,6 +63,10 @@ modal_dependency(MUMPS::MUMPS PRIVATE FIND MUMPS LIBS -ldmumps_seq -lmumps_commo
 # --- stages -----------------------------------------------------------------------
 function(modal_register_stage name)
   set_property(GLOBAL APPEND PROPERTY MODAL_STAGES ${name})
+  modal_register_stage_dependencies(${name} ${ARGN})
+endfunction()
+
+function(modal_register_stage_dependencies name)
   foreach(dep IN LISTS ARGN)
     if(dep MATCHES "^modal_")
       continue()
@@ -74,6 +78,14 @@ function(modal_register_stage name)
     endif()
     set_property(GLOBAL APPEND PROPERTY MODAL_DEPENDENCIES ${dep})
   endforeach()
+endfunction()
+
+# Objects of libmodal outside the stages (an OBJECT library, such as the
+# sequential variant of the MUMPS wrapper, lib/modal/mumps.hpp) and the
+# third-party targets they need.
+function(modal_register_objects target)
+  set_property(GLOBAL APPEND PROPERTY MODAL_EXTRA_OBJECTS ${target})
+  modal_register_stage_dependencies(${target} ${ARGN})
 endfunction()
 
 # The third-party dependencies of the stages declared so far, of one kind.
@@ -98,6 +110,10 @@ function(modal_libraries)
     if(type STREQUAL "STATIC_LIBRARY")  # a stage without sources yet is an INTERFACE library
       list(APPEND objects $<TARGET_OBJECTS:modal_${stage}>)
     endif()
+  endforeach()
+  get_property(extra GLOBAL PROPERTY MODAL_EXTRA_OBJECTS)
+  foreach(target IN LISTS extra)
+    list(APPEND objects $<TARGET_OBJECTS:${target}>)
   endforeach()
   modal_dependencies(public PUBLIC)
   modal_dependencies(private PRIVATE)

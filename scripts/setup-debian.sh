@@ -14,6 +14,8 @@ packages=(
   libopenblas0-pthread # optimized BLAS/LAPACK for the dense kernels of CHOLMOD and MUMPS (the reference BLAS
                        # spends half of a 10⁶-coordinate analysis in dgemm); the pthread build, not the OpenMP one,
                        # which starts no threads on load but made a 10⁵-coordinate net's equilibrium 1.8× slower
+  libpetsc-real-dev libslepc-real-dev openmpi-bin libopenmpi-dev  # the distributed backend, modal-mpi
+                       # (analyze --backend petsc; MODAL_WITH_PETSC, ON when these are found)
   libjemalloc-dev      # the program's allocator: freed memory kept for reuse on huge pages (large scenes)
   libnlopt-cxx-dev     # NLopt with its C++ API (equilibrium searches)
   libgsl-dev           # GSL: ODE integration (energy conservation, simulation)

@@ -5,6 +5,9 @@
 // everything. Exit statuses: 0 success, 1 usage, 2 bad scene or input,
 // 3 unstable under --require-stable, 4 numerical failure.
 #include "modal/pipeline.hpp"
+#if defined(MODAL_DISTRIBUTED)
+#include "modal/distributed.hpp"
+#endif
 
 #include <CLI/CLI.hpp>
 
@@ -16,6 +19,10 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <cerrno>
+#include <climits>
+#include <cstring>
 
 #include <unistd.h>
 
@@ -127,9 +134,35 @@ double since(std::chrono::steady_clock::time_point& last) {
   return s;
 }
 
+#if !defined(MODAL_DISTRIBUTED)
+// `analyze --backend petsc` in the program `modal`: replaced (execv, same
+// process, same arguments and environment, so an mpirun rank stays one) by the
+// program modal-mpi beside it, which carries MPI, PETSc and SLEPc; `modal`
+// itself loads none of them. Returns only when that fails: the exit status.
+int run_distributed_program(char** argv) {
+#if defined(MODAL_MPI_PROGRAM)
+  char self[PATH_MAX];
+  const ssize_t length = readlink("/proc/self/exe", self, sizeof self - 1);
+  std::string path = length > 0 ? std::string(self, static_cast<std::size_t>(length)) : std::string(argv[0]);
+  path = path.substr(0, path.find_last_of('/') + 1) + MODAL_MPI_PROGRAM;
+  execv(path.c_str(), argv);
+  std::cerr << "modal: --backend petsc: cannot run " << path << " (" << std::strerror(errno)
+            << "); it is installed beside modal when modal is built with MODAL_WITH_PETSC\n";
+#else
+  (void)argv;
+  std::cerr << "modal: --backend petsc: this modal was built without the distributed backend (configure with "
+               "-DMODAL_WITH_PETSC=ON, which needs PETSc, SLEPc and MPI: scripts/setup-debian.sh installs them)\n";
+#endif
+  return static_cast<int>(modal::ExitStatus::bad_input);
+}
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
+#if defined(MODAL_DISTRIBUTED)
+  const modal::DistributedSession session;  // MPI, PETSc and SLEPc for the whole process
+#endif
   modal::remove_output_temporaries_on_signals();  // an interrupt leaves the previous outputs as they were
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
@@ -146,6 +179,7 @@ int main(int argc, char** argv) {
   modal::AnalysisOptions ao;
   modal::Outputs analyze_out;
   std::string at, solver = "auto", dense_solver = "auto", derivatives = "exact", large_equilibrium = "newton";
+  std::string backend = "serial";
   double shift = 0;
   bool require_stable = false, timing = false;
   CLI::App* analyze = app.add_subcommand(
@@ -178,6 +212,12 @@ int main(int argc, char** argv) {
                        std::to_string(modal::large_system_coordinates) +
                        " coordinates when the scene has no dampers, follower loads, constraints, rotating frame or map")
       ->check(CLI::IsMember({"auto", "dense", "sparse"}))
+      ->capture_default_str();
+  analyze
+      ->add_option("--backend", backend,
+                   "serial (this process), or petsc: the distributed backend for scenes of particles and springs, "
+                   "over the ranks of mpirun (mpirun -np N modal analyze SCENE --backend petsc)")
+      ->check(CLI::IsMember({"serial", "petsc"}))
       ->capture_default_str();
   CLI::Option* shift_option = analyze->add_option(
       "--shift", shift, "sparse solver: find the modes with ω² nearest this shift (rad²/s²; default: the lowest)");
@@ -368,6 +408,24 @@ int main(int argc, char** argv) {
 
   try {
     auto clock = std::chrono::steady_clock::now();
+    if (*analyze && backend == "petsc") {
+#if defined(MODAL_DISTRIBUTED)
+      modal::DistributedRequest request;
+      request.scene_file = analyze_scene.file;
+      request.sets = analyze_scene.sets;
+      request.limits.allow_outside_data = analyze_scene.allow_outside_data;
+      if (!analyze_scene.max_memory.empty()) request.limits.memory = modal::parse_memory_size(analyze_scene.max_memory);
+      request.format = *modal::parse_scene_format(analyze_scene.format);
+      if (shift_option->count()) ao.shift = shift;
+      request.options = ao;
+      request.outputs = analyze_out;
+      request.timing = timing;
+      request.require_stable = require_stable;
+      return modal::analyze_distributed(request, std::cout, std::cerr);
+#else
+      return run_distributed_program(argv);
+#endif
+    }
     if (*analyze) {
       analyze_out.energy = ao.energy;
       ao.drawing = !analyze_out.report.empty();

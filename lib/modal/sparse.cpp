@@ -88,9 +88,9 @@
 // (each O(nnz(L))) and a second Lanczos run. A user shift adds the factorization
 // at σ₀ for the Morse index.
 #include "detail.hpp"
+#include "mumps.hpp"
 
 #include <Eigen/CholmodSupport>
-#include <dmumps_c.h>
 #include <Spectra/SymGEigsShiftSolver.h>
 
 #include <algorithm>
@@ -98,7 +98,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -360,120 +359,8 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const V
 
 // ------------------------------------------------------- K − σM, factored
 
-// A sparse symmetric indefinite LDLᵀ factorization with pivoting (MUMPS,
-// sequential, multifrontal with BLAS-3 fronts, METIS or AMD ordering chosen by
-// MUMPS): the inertia of an indefinite K − σM (its negative pivots, INFOG(12))
-// at the cost of a supernodal Cholesky, where CHOLMOD's LDLᵀ is simplicial
-// (scalar, several times slower on 2-D and 3-D meshes) and does not pivot.
-// Null pivots are detected (ICNTL(24)) and reported as a failure, like a zero
-// pivot. One symbolic analysis serves every σ (the pattern of A is fixed).
-// Sequential MUMPS keeps state in Fortran module variables (its memory and
-// load bookkeeping), so two factorizations running at once in one process
-// corrupt each other (seen: analyses of two models from two threads crashing
-// in dmumps_load_mem_update). Every call goes through this lock: modal's
-// functions stay safe to call from several threads, and MUMPS jobs, which are
-// short next to the rest of a sparse analysis, take turns.
-void run_mumps(DMUMPS_STRUC_C& id) {
-  static std::mutex mumps;
-  const std::lock_guard<std::mutex> lock(mumps);
-  dmumps_c(&id);
-}
-
-class MumpsLdlt {
- public:
-  // A: full symmetric storage, compressed; its lower triangle is used.
-  // `order`: a fill-reducing pivot order (order[k] = the k-th variable), e.g.
-  // CHOLMOD's for the same pattern, which spares MUMPS its own ordering;
-  // empty: MUMPS chooses.
-  MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order) : n_(A.rows()) {
-    for (Index j = 0; j < A.outerSize(); ++j)
-      for (Index p = A.outerIndexPtr()[j]; p < A.outerIndexPtr()[j + 1]; ++p)
-        if (A.innerIndexPtr()[p] >= j) {
-          positions_.push_back(p);
-          irn_.push_back(static_cast<MUMPS_INT>(A.innerIndexPtr()[p] + 1));
-          jcn_.push_back(static_cast<MUMPS_INT>(j + 1));
-        }
-    values_.resize(positions_.size());
-    id_.comm_fortran = -987654;  // USE_COMM_WORLD of the sequential MPI stand-in
-    id_.par = 1;
-    id_.sym = 2;  // symmetric, not necessarily definite: LDLᵀ with 1×1 and 2×2 pivots
-    id_.job = -1;
-    run_mumps(id_);
-    initialized_ = id_.infog[0] >= 0;
-    if (!initialized_) throw NumericalError("solve_sparse_modes: MUMPS could not be initialized");
-    for (int i : {0, 1, 2}) id_.icntl[i] = -1;  // no output
-    id_.icntl[3] = 0;
-    if (order.size() == static_cast<std::size_t>(n_)) {
-      perm_in_.resize(order.size());
-      for (std::size_t k = 0; k < order.size(); ++k) perm_in_[static_cast<std::size_t>(order[k])] = static_cast<MUMPS_INT>(k + 1);
-      id_.icntl[6] = 1;  // ICNTL(7): the given order (PERM_IN)
-      id_.perm_in = perm_in_.data();
-    } else {
-      id_.icntl[6] = 7;  // ICNTL(7): ordering chosen by MUMPS
-    }
-    id_.icntl[23] = 1;   // ICNTL(24): detect null pivots
-    id_.cntl[2] = 0.0;   // CNTL(3): default null-pivot threshold
-    id_.n = static_cast<MUMPS_INT>(n_);
-    id_.nnz = static_cast<MUMPS_INT8>(positions_.size());
-    id_.irn = irn_.data();
-    id_.jcn = jcn_.data();
-    id_.a = values_.data();
-  }
-  MumpsLdlt(const MumpsLdlt&) = delete;
-  MumpsLdlt& operator=(const MumpsLdlt&) = delete;
-  ~MumpsLdlt() {
-    if (initialized_) {
-      id_.job = -2;
-      run_mumps(id_);
-    }
-  }
-
-  // Factors A (same pattern as at construction); the number of negative
-  // pivots, or nothing when the factorization failed or met a null pivot.
-  std::optional<Index> factor(const SparseMatrix& A) {
-    for (std::size_t i = 0; i < positions_.size(); ++i) values_[i] = A.valuePtr()[positions_[i]];
-    if (!analyzed_) {
-      id_.job = 1;
-      run_mumps(id_);
-      if (id_.infog[0] < 0) return std::nullopt;
-      analyzed_ = true;
-    }
-    factored_ = false;
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      id_.job = 2;
-      run_mumps(id_);
-      // INFOG(1) = −8, −9: the estimated workspace was too small; grow it.
-      if (id_.infog[0] == -8 || id_.infog[0] == -9) {
-        id_.icntl[13] = std::max<MUMPS_INT>(40, 2 * id_.icntl[13]);
-        continue;
-      }
-      break;
-    }
-    if (id_.infog[0] < 0 || id_.infog[27] > 0) return std::nullopt;  // INFOG(28): null pivots
-    factored_ = true;
-    return static_cast<Index>(id_.infog[11]);  // INFOG(12): negative pivots
-  }
-
-  // y = A⁻¹x; false when MUMPS fails.
-  bool solve(const double* in, double* out) {
-    if (!factored_) return false;
-    std::copy_n(in, n_, out);
-    id_.rhs = out;
-    id_.nrhs = 1;
-    id_.lrhs = static_cast<MUMPS_INT>(n_);
-    id_.job = 3;
-    run_mumps(id_);
-    return id_.infog[0] >= 0;
-  }
-
- private:
-  Index n_;
-  std::vector<Index> positions_;  // of the lower-triangle entries in A's value array
-  std::vector<MUMPS_INT> irn_, jcn_, perm_in_;
-  std::vector<double> values_;
-  DMUMPS_STRUC_C id_{};
-  bool initialized_ = false, analyzed_ = false, factored_ = false;
-};
+// The MUMPS LDLᵀ with pivoting: detail::MumpsLdlt (mumps.hpp).
+using detail::MumpsLdlt;
 
 // The factorization of K − σM for one σ at a time (K, M on one pattern):
 // CHOLMOD's automatic choice (supernodal LLᵀ, or simplicial LDLᵀ for very
@@ -749,23 +636,9 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const double scale = (norms.K1 + std::abs(lambda) * norms.M1) * std::sqrt(x2);
   relative_residual = scale > 0 ? r.norm() / scale : 0.0;
 
-  Mode mode;
   const VectorX a = phi.cwiseAbs();
   const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
-  const double estimate = error + rounding + eps * std::abs(lambda) + systematic_part;
-  if (std::abs(lambda) <= std::max(error + systematic_part, rounding)) {
-    mode = detail::make_mode(0.0, estimate, ModeKind::zero);
-  } else if (lambda < 0) {  // divergent: s = +√(−λ) real
-    mode = detail::make_mode(std::sqrt(-lambda), estimate, ModeKind::divergent);
-  } else {
-    mode = detail::make_mode({0.0, std::sqrt(lambda)}, estimate, ModeKind::oscillatory);
-    mode.damping_ratio = 0;
-  }
-  mode.omega2 = lambda;
-  mode.residual_bound = error + rounding + eps * std::abs(lambda);
-  if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
-  mode.shape = phi.cast<std::complex<double>>();
-  return mode;
+  return sparse_mode(std::move(phi), lambda, error, rounding, systematic_part);
 }
 
 std::string plural(Index count, const char* one, const char* many) {
@@ -819,6 +692,24 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
                                 const SparseMatrix& systematic, const VectorX& coordinate_scale, const Units& units);
 
 }  // namespace
+
+Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic) {
+  Mode mode;
+  const double estimate = error + rounding + eps * std::abs(lambda) + systematic;
+  if (std::abs(lambda) <= std::max(error + systematic, rounding)) {
+    mode = detail::make_mode(0.0, estimate, ModeKind::zero);
+  } else if (lambda < 0) {  // divergent: s = +√(−λ) real
+    mode = detail::make_mode(std::sqrt(-lambda), estimate, ModeKind::divergent);
+  } else {
+    mode = detail::make_mode({0.0, std::sqrt(lambda)}, estimate, ModeKind::oscillatory);
+    mode.damping_ratio = 0;
+  }
+  mode.omega2 = lambda;
+  mode.residual_bound = error + rounding + eps * std::abs(lambda);
+  if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
+  mode.shape = phi.cast<std::complex<double>>();
+  return mode;
+}
 
 ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_in, const SparseModalOptions& options) {
   // ---- validation

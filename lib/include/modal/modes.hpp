@@ -145,6 +145,15 @@ struct SparseModalOptions {
 // convergence, a factorization failure), std::invalid_argument (sizes, k).
 ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, const SparseModalOptions& options = {});
 
+// One mode of the symmetric pencil as solve_sparse_modes reports it (also the
+// distributed backend's): phi M-normalized, lambda = phiᵀK phi its Rayleigh
+// quotient, error = ‖K phi − lambda M phi‖ in the M⁻¹-norm, rounding = the
+// rounding level of evaluating phiᵀK phi, 4ε(‖K‖₁ + |lambda|‖M‖₁)‖phi‖₂²,
+// systematic = |phi|ᵀ E |phi| for a known error E of K (else 0). A zero mode
+// when |lambda| is within error + systematic or within rounding, divergent
+// when negative beyond both; the shape's largest component made positive.
+Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic = 0);
+
 // Stability class (docs/design.md, "Mode kinds and stability classes") of a
 // complete set of modes, from their kinds: divergence if any mode is
 // divergent, else flutter if any flutters, else marginal if any is a zero

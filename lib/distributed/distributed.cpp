@@ -1,0 +1,736 @@
+// lib/distributed/distributed.cpp — analyze_distributed(): the sparse path
+// (equilibrium, K and M, the lowest modes) over MPI ranks with PETSc and SLEPc
+// (docs/design.md, "Distributed backend").
+//
+// Partition. The particles (bodies) are split into contiguous index ranges,
+// rank r owning ⌊N/p⌋ or ⌊N/p⌋ + 1 of them (PETSc's rule); their coordinates
+// are then the contiguous range PETSc's vectors and matrices own. Each rank
+// builds a local System: its own particles as they are (mass, joint springs,
+// loads), the springs whose first end particle it owns (the second end if the
+// first is the world), and the other end particles of those springs as ghosts
+// (no mass, no joint spring, no loads: they only carry the configuration).
+// ∇V, ∇∇V and M of the whole scene are the sums over the ranks of the local
+// ones, which the core functions compute with the same element derivatives as
+// the serial path; they are added into PETSc's MPI vectors and MPIAIJ
+// matrices at the global coordinate indices (ADD_VALUES).
+//
+// Errors. Every phase is run on every rank inside agree(): an exception on any
+// rank becomes, through MPI_Allreduce and a broadcast from the lowest failing
+// rank, the same message and exit status on all ranks before the next
+// collective call, so no rank waits for a peer that has given up.
+#include "modal/distributed.hpp"
+
+#include <fmt/format.h>
+#include <mpi.h>
+#include <petscsnes.h>
+#include <slepceps.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <ostream>
+#include <stdexcept>
+
+namespace modal {
+namespace {
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+using Clock = std::chrono::steady_clock;
+
+// A PETSc call that failed: its name and error code (PETSc prints nothing).
+void check(PetscErrorCode code, const char* what) {
+  if (code != 0) throw NumericalError(fmt::format("--backend petsc: {} failed (PETSc error {})", what, static_cast<int>(code)));
+}
+#define MODAL_PETSC(call) check((call), #call)
+
+// ---------------------------------------------------------------- agreement
+
+struct Failure {
+  int status = 0;
+  std::string message;
+};
+// Thrown on every rank once the ranks agree that one of them failed.
+struct Agreed {
+  Failure failure;
+};
+
+int world_rank() {
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+int world_size() {
+  int s = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &s);
+  return s;
+}
+
+// Collective: the outcome of the lowest failing rank, on every rank.
+Failure agree(const Failure& mine) {
+  const int size = world_size();
+  int first = mine.status != 0 ? world_rank() : size;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  if (first == size) return {};
+  Failure f = mine;
+  int length = static_cast<int>(f.message.size());
+  MPI_Bcast(&f.status, 1, MPI_INT, first, MPI_COMM_WORLD);
+  MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
+  f.message.resize(static_cast<std::size_t>(length));
+  MPI_Bcast(f.message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
+  return f;
+}
+
+// Runs `work` on this rank, then agrees with the others; throws Agreed on
+// every rank when any failed.
+template <class Work>
+void phase(Work&& work) {
+  Failure mine;
+  try {
+    work();
+  } catch (const Agreed&) {
+    throw;
+  } catch (const std::exception& e) {
+    mine = {static_cast<int>(exit_status(e)), error_message(e)};
+  } catch (...) {
+    mine = {static_cast<int>(ExitStatus::numerical), "modal: failure: unknown error"};
+  }
+  if (Failure f = agree(mine); f.status != 0) throw Agreed{f};
+}
+
+// Σ over the ranks of a local evaluation, agreed on first: a rank whose
+// evaluation throws must not leave the others waiting in the sum.
+template <class Evaluate>
+double sum_over_ranks(Evaluate&& evaluate) {
+  double v = 0;
+  phase([&] { v = evaluate(); });
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  return v;
+}
+
+// ---------------------------------------------------------------- the scene
+
+std::optional<std::string> distributed_unsupported(const System& s) {
+  if (const auto why = sparse_unsupported(s)) return why;
+  for (const Body& b : s.bodies())
+    if ((b.joint != JointType::particle && b.joint != JointType::fixed) || b.parent != -1)
+      return "body '" + b.name + "' is not a free particle (the backend partitions particles and springs)";
+  return std::nullopt;
+}
+
+// The part of the scene one rank assembles.
+struct Part {
+  int first_body = 0, end_body = 0;         // owned particles [first, end)
+  PetscInt first_coordinate = 0, end_coordinate = 0;
+  std::optional<System> system;             // owned particles, then ghosts
+  std::vector<PetscInt> global;             // local coordinate → global coordinate
+  PetscInt max_row = 0;                     // entries in the fullest row of K (global bound)
+};
+
+Part partition(const System& s, int rank, int size) {
+  Part p;
+  const int n_bodies = static_cast<int>(s.bodies().size());
+  const int base = n_bodies / size, extra = n_bodies % size;
+  p.first_body = rank * base + std::min(rank, extra);
+  p.end_body = p.first_body + base + (rank < extra ? 1 : 0);
+  const auto first_coordinate = [&](int body) { return body < n_bodies ? s.first_coordinate(body) : s.size(); };
+  p.first_coordinate = first_coordinate(p.first_body);
+  p.end_coordinate = first_coordinate(p.end_body);
+  const auto owned = [&](int body) { return body >= p.first_body && body < p.end_body; };
+
+  SystemDescription d;
+  d.title = s.title();
+  d.gravity = s.gravity();
+  std::vector<int> local(static_cast<std::size_t>(n_bodies), -1), bodies;
+  for (int b = p.first_body; b < p.end_body; ++b) {
+    local[static_cast<std::size_t>(b)] = static_cast<int>(bodies.size());
+    bodies.push_back(b);
+    d.bodies.push_back(s.bodies()[static_cast<std::size_t>(b)]);
+  }
+  const auto local_body = [&](int body) {
+    if (body < 0) return -1;
+    int& l = local[static_cast<std::size_t>(body)];
+    if (l < 0) {  // a ghost
+      l = static_cast<int>(bodies.size());
+      bodies.push_back(body);
+      Body ghost = s.bodies()[static_cast<std::size_t>(body)];
+      ghost.mass = 0;
+      ghost.inertia.setZero();
+      ghost.stiffness = 0;
+      ghost.damping = 0;
+      ghost.armature = 0;
+      d.bodies.push_back(std::move(ghost));
+    }
+    return l;
+  };
+  std::vector<int> degree(static_cast<std::size_t>(n_bodies), 0);
+  for (const Spring& spring : s.springs()) {
+    for (int end : {spring.a.body, spring.b.body})
+      if (end >= 0) ++degree[static_cast<std::size_t>(end)];
+    const int owner_end = spring.a.body >= 0 ? spring.a.body : spring.b.body;
+    if (owner_end < 0 || !owned(owner_end)) continue;
+    Spring mine = spring;
+    mine.a.body = local_body(spring.a.body);
+    mine.b.body = local_body(spring.b.body);
+    d.springs.push_back(mine);
+  }
+  for (const DeadLoad& load : s.loads())
+    if (load.at.body >= 0 && owned(load.at.body)) {
+      DeadLoad mine = load;
+      mine.at.body = local[static_cast<std::size_t>(load.at.body)];
+      d.loads.push_back(mine);
+    }
+  p.system.emplace(std::move(d));
+  for (std::size_t l = 0; l < bodies.size(); ++l) {
+    const int g = bodies[l];
+    for (int k = 0; k < s.joint_size(g); ++k) p.global.push_back(s.first_coordinate(g) + k);
+  }
+  const int widest = degree.empty() ? 0 : *std::max_element(degree.begin(), degree.end());
+  p.max_row = std::min<PetscInt>(3 * (widest + 1), s.size());
+  return p;
+}
+
+// ---------------------------------------------------------------- assembly
+
+// The global vectors and matrices and the local evaluation that fills them.
+struct Assembly {
+  const Part* part = nullptr;
+  Workspace* ws = nullptr;
+  VecScatter gather = nullptr;  // global x → the local coordinates (owned and ghosts)
+  Vec local = nullptr;          // sequential, part->global.size()
+  std::string failure;          // a local evaluation that threw (the ranks agree on it after the solve)
+
+  VectorX local_configuration(Vec x) {
+    MODAL_PETSC(VecScatterBegin(gather, x, local, INSERT_VALUES, SCATTER_FORWARD));
+    MODAL_PETSC(VecScatterEnd(gather, x, local, INSERT_VALUES, SCATTER_FORWARD));
+    const PetscScalar* v = nullptr;
+    MODAL_PETSC(VecGetArrayRead(local, &v));
+    VectorX q = Eigen::Map<const VectorX>(v, static_cast<Eigen::Index>(part->global.size()));
+    MODAL_PETSC(VecRestoreArrayRead(local, &v));
+    return q;
+  }
+  void add_vector(Vec f, const VectorX& g) {
+    MODAL_PETSC(VecSetValues(f, static_cast<PetscInt>(part->global.size()), part->global.data(), g.data(), ADD_VALUES));
+  }
+  void add_matrix(Mat A, const SparseMatrix& S) {
+    std::vector<PetscInt> rows;
+    std::vector<PetscScalar> values;
+    for (Eigen::Index j = 0; j < S.outerSize(); ++j) {
+      rows.clear();
+      values.clear();
+      for (SparseMatrix::InnerIterator it(S, j); it; ++it) {
+        rows.push_back(part->global[static_cast<std::size_t>(it.row())]);
+        values.push_back(it.value());
+      }
+      const PetscInt column = part->global[static_cast<std::size_t>(j)];
+      if (!rows.empty())
+        MODAL_PETSC(MatSetValues(A, static_cast<PetscInt>(rows.size()), rows.data(), 1, &column, values.data(), ADD_VALUES));
+    }
+  }
+};
+
+Mat create_matrix(const Part& p, PetscInt n) {
+  Mat A = nullptr;
+  MODAL_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
+  MODAL_PETSC(MatSetSizes(A, p.end_coordinate - p.first_coordinate, p.end_coordinate - p.first_coordinate, n, n));
+  MODAL_PETSC(MatSetType(A, MATAIJ));
+  MODAL_PETSC(MatSeqAIJSetPreallocation(A, p.max_row, nullptr));
+  MODAL_PETSC(MatMPIAIJSetPreallocation(A, p.max_row, nullptr, p.max_row, nullptr));
+  MODAL_PETSC(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  return A;
+}
+
+PetscErrorCode form_gradient(SNES, Vec x, Vec f, void* context) {
+  auto& a = *static_cast<Assembly*>(context);
+  PetscErrorCode code = VecZeroEntries(f);
+  if (code) return code;
+  VectorX g;
+  try {
+    g = potential_gradient(*a.part->system, *a.ws, a.local_configuration(x));
+    if (!g.allFinite()) throw NumericalError("the potential gradient ∇V is not finite on the way to the equilibrium");
+  } catch (const std::exception& e) {
+    // NaN makes the norm NaN on every rank: SNES stops (collectively) and the
+    // ranks agree on this message afterwards.
+    if (a.failure.empty()) a.failure = error_message(e);
+    g = VectorX::Constant(static_cast<Eigen::Index>(a.part->global.size()), std::numeric_limits<double>::quiet_NaN());
+  }
+  a.add_vector(f, g);
+  code = VecAssemblyBegin(f);
+  if (code) return code;
+  return VecAssemblyEnd(f);
+}
+
+PetscErrorCode form_hessian(SNES, Vec x, Mat J, Mat, void* context) {
+  auto& a = *static_cast<Assembly*>(context);
+  PetscErrorCode code = MatZeroEntries(J);
+  if (code) return code;
+  try {
+    a.add_matrix(J, sparse_potential_hessian(*a.part->system, *a.ws, a.local_configuration(x)));
+  } catch (const std::exception& e) {
+    if (a.failure.empty()) a.failure = error_message(e);
+  }
+  code = MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY);
+  if (code) return code;
+  return MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY);
+}
+
+// The whole of a distributed vector on rank 0 (empty elsewhere).
+VectorX gather_to_root(Vec v) {
+  VecScatter to_zero = nullptr;
+  Vec all = nullptr;
+  MODAL_PETSC(VecScatterCreateToZero(v, &to_zero, &all));
+  MODAL_PETSC(VecScatterBegin(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
+  MODAL_PETSC(VecScatterEnd(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscInt n = 0;
+  MODAL_PETSC(VecGetLocalSize(all, &n));
+  const PetscScalar* values = nullptr;
+  MODAL_PETSC(VecGetArrayRead(all, &values));
+  VectorX out = Eigen::Map<const VectorX>(values, n);
+  MODAL_PETSC(VecRestoreArrayRead(all, &values));
+  MODAL_PETSC(VecScatterDestroy(&to_zero));
+  MODAL_PETSC(VecDestroy(&all));
+  return out;
+}
+
+// A KSP that applies one MUMPS factorization (LU or Cholesky) of its operator; its PC.
+PC direct_mumps(KSP ksp, PCType type) {
+  PC pc = nullptr;
+  MODAL_PETSC(KSPSetType(ksp, KSPPREONLY));
+  MODAL_PETSC(KSPGetPC(ksp, &pc));
+  MODAL_PETSC(PCSetType(pc, type));
+  MODAL_PETSC(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  return pc;
+}
+
+// ---------------------------------------------------------------- inertia
+
+// The number of eigenvalues of (K, M) below σ: the negative pivots of a MUMPS
+// LDLᵀ of K − σM (ICNTL(13) = 1: no ScaLAPACK root, so every pivot is seen;
+// ICNTL(24) = 1: null pivots detected). Nothing when a pivot is null.
+std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
+  Mat A = nullptr;
+  MODAL_PETSC(MatDuplicate(K, MAT_COPY_VALUES, &A));
+  MODAL_PETSC(MatAXPY(A, -sigma, M, DIFFERENT_NONZERO_PATTERN));
+  MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
+  KSP ksp = nullptr;
+  Mat F = nullptr;
+  MODAL_PETSC(KSPCreate(PETSC_COMM_WORLD, &ksp));
+  MODAL_PETSC(KSPSetOperators(ksp, A, A));
+  PC pc = direct_mumps(ksp, PCCHOLESKY);
+  MODAL_PETSC(PCFactorSetUpMatSolverType(pc));
+  MODAL_PETSC(PCFactorGetMatrix(pc, &F));
+  MODAL_PETSC(MatMumpsSetIcntl(F, 13, 1));
+  MODAL_PETSC(MatMumpsSetIcntl(F, 24, 1));
+  MODAL_PETSC(KSPSetUp(ksp));
+  PetscInt negative = 0, zero = 0, positive = 0;
+  MatFactorError error = MAT_FACTOR_NOERROR;
+  MODAL_PETSC(MatFactorGetError(F, &error));
+  std::optional<PetscInt> result;
+  if (error == MAT_FACTOR_NOERROR) {
+    MODAL_PETSC(MatGetInertia(F, &negative, &zero, &positive));
+    if (zero == 0) result = negative;
+  }
+  MODAL_PETSC(KSPDestroy(&ksp));
+  MODAL_PETSC(MatDestroy(&A));
+  return result;
+}
+
+// The inertia at σ, moved by 1e-6·max(|σ|, s) while a pivot is null.
+PetscInt inertia_near(Mat K, Mat M, double& sigma, double s) {
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    if (const auto below = inertia_below(K, M, sigma)) return *below;
+    sigma -= 1e-6 * std::max(std::abs(sigma), s);
+  }
+  throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
+}
+
+// The peak resident memory of this process, bytes (Linux VmHWM; 0 elsewhere).
+double peak_memory() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::strtod(line.c_str() + 6, nullptr);
+  return 0;
+}
+
+struct Timings {
+  std::vector<std::pair<std::string, double>> seconds;
+  Clock::time_point last = Clock::now();
+  void mark(const std::string& name) {
+    const auto now = Clock::now();
+    seconds.emplace_back(name, std::chrono::duration<double>(now - last).count());
+    last = now;
+  }
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------- session
+
+DistributedSession::DistributedSession() {
+  if (SlepcInitializeNoArguments() != 0) throw std::runtime_error("modal-mpi: MPI, PETSc and SLEPc could not start");
+  PetscPopSignalHandler();  // modal's own handlers (removing partial outputs) stay
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);  // errors come back as codes, printed by modal
+  rank_ = world_rank();
+  size_ = world_size();
+}
+
+DistributedSession::~DistributedSession() { SlepcFinalize(); }
+
+// ---------------------------------------------------------------- analysis
+
+int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err) {
+  const int rank = world_rank(), size = world_size();
+  Timings timings;
+  std::optional<Model> model;
+  Part part;
+  std::optional<Workspace> ws;
+  Assembly assembly;
+  Vec x = nullptr, f = nullptr;
+  Mat J = nullptr, K = nullptr, M = nullptr;
+  SNES snes = nullptr;
+  EPS eps_solver = nullptr;
+  const AnalysisOptions& options = request.options;
+  int status = 0;
+  try {
+    phase([&] {
+      const Outputs& o = request.outputs;
+      if (o.energy || !o.report.empty() || !o.matrices.empty())
+        throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
+                         "need the serial backend");
+      if (options.at) throw InputError("--at: the petsc backend starts from the scene's configuration only");
+      if (options.solver == SolverChoice::dense)
+        throw InputError("--solver dense does not go with --backend petsc, which solves the sparse problem");
+      if (options.derivatives != DerivativeMethod::exact)
+        throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
+      if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
+      model.emplace(load_model(request.scene_file, request.sets, request.limits, request.format));
+      if (const auto why = distributed_unsupported(model->system))
+        throw InputError("--backend petsc does not apply to this scene: " + *why);
+    });
+    timings.mark("parse+build");
+    const System& sys = model->system;
+    const PetscInt n = sys.size();
+
+    phase([&] {
+      part = partition(sys, rank, size);
+      ws.emplace(*part.system);
+    });
+    phase([&] {  // collective from here on: nothing rank-local throws before the PETSc calls
+      assembly.part = &part;
+      assembly.ws = &*ws;
+      MODAL_PETSC(VecCreateMPI(PETSC_COMM_WORLD, part.end_coordinate - part.first_coordinate, n, &x));
+      MODAL_PETSC(VecDuplicate(x, &f));
+      MODAL_PETSC(VecCreateSeq(PETSC_COMM_SELF, static_cast<PetscInt>(part.global.size()), &assembly.local));
+      IS from = nullptr;
+      MODAL_PETSC(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(part.global.size()), part.global.data(),
+                                  PETSC_COPY_VALUES, &from));
+      MODAL_PETSC(VecScatterCreate(x, from, assembly.local, nullptr, &assembly.gather));
+      MODAL_PETSC(ISDestroy(&from));
+      const VectorX q0 = sys.initial_configuration();
+      for (PetscInt i = part.first_coordinate; i < part.end_coordinate; ++i)
+        MODAL_PETSC(VecSetValue(x, i, q0(i), INSERT_VALUES));
+      MODAL_PETSC(VecAssemblyBegin(x));
+      MODAL_PETSC(VecAssemblyEnd(x));
+      J = create_matrix(part, n);
+    });
+    timings.mark("partition");
+
+    // ---- equilibrium: Newton with a line search, then with a trust region
+    Equilibrium eq;
+    double scale = 0;
+    phase([&] {
+      const VectorX q0 = assembly.local_configuration(x);
+      scale = sum_over_ranks([&] { return force_scale(*part.system, *ws, q0); });
+      const double tolerance = options.equilibrium_tolerance;
+      const double target = tolerance * scale;
+      Vec start = nullptr;
+      MODAL_PETSC(VecDuplicate(x, &start));
+      MODAL_PETSC(VecCopy(x, start));
+      PetscReal norm = std::numeric_limits<double>::infinity();
+      PetscInt iterations = 0;
+      // One Newton run from x: SNES `type`, line search `search` (line-search
+      // Newton only); ‖∇V‖ after it in `norm`, its steps added to `iterations`.
+      const auto newton = [&](SNESType type, SNESLineSearchType search, PetscInt max_steps) {
+        MODAL_PETSC(SNESCreate(PETSC_COMM_WORLD, &snes));
+        MODAL_PETSC(SNESSetType(snes, type));
+        MODAL_PETSC(SNESSetFunction(snes, f, form_gradient, &assembly));
+        MODAL_PETSC(SNESSetJacobian(snes, J, J, form_hessian, &assembly));
+        MODAL_PETSC(SNESSetTolerances(snes, 1e-3 * eps * scale, 0.0, 0.0, max_steps, 100000));
+        KSP ksp = nullptr;
+        MODAL_PETSC(SNESGetKSP(snes, &ksp));
+        direct_mumps(ksp, PCLU);
+        if (search) {
+          SNESLineSearch line = nullptr;
+          MODAL_PETSC(SNESGetLineSearch(snes, &line));
+          MODAL_PETSC(SNESLineSearchSetType(line, search));
+        }
+        MODAL_PETSC(SNESSetFromOptions(snes));  // PETSC_OPTIONS may change any of the above
+        MODAL_PETSC(SNESSolve(snes, nullptr, x));
+        PetscInt steps = 0;
+        MODAL_PETSC(SNESGetIterationNumber(snes, &steps));
+        iterations += steps;
+        MODAL_PETSC(SNESDestroy(&snes));
+        MODAL_PETSC(form_gradient(nullptr, x, f, &assembly));
+        MODAL_PETSC(VecNorm(f, NORM_2, &norm));
+      };
+      // ∇V is a gradient: the critical-point line search (the step along the
+      // Newton direction d where ∇V·d vanishes, by secants) shortens the first
+      // steps from a flat or slack start without the many short steps of
+      // backtracking on ‖∇V‖ (a 10 092-coordinate sagging net: 5 Newton steps
+      // against 23). It may stop short of the rounding level, so a polish with
+      // backtracking follows, which takes full steps there and stops when a
+      // step no longer decreases ‖∇V‖ (as the serial polish), at most 3. If the first
+      // run fails, a trust region from the same start.
+      std::string method = "line search";
+      newton(SNESNEWTONLS, SNESLINESEARCHCP, 100);
+      if (!(std::isfinite(norm) && norm <= target)) {
+        MODAL_PETSC(VecCopy(start, x));
+        iterations = 0;
+        newton(SNESNEWTONTR, nullptr, 100);
+        method = "trust region";
+      }
+      // Newton from an accepted point reaches the rounding level in one or two steps.
+      if (std::isfinite(norm) && norm <= target) newton(SNESNEWTONLS, SNESLINESEARCHBT, 3);
+      MODAL_PETSC(VecDestroy(&start));
+      eq.iterations = static_cast<int>(iterations);
+      eq.method = fmt::format("Newton with a {} (PETSc SNES, MUMPS LU) over {} rank{}", method, size,
+                              size == 1 ? "" : "s");
+      eq.residual_norm = norm;
+      // The cause first: an evaluation that failed on some rank (the others
+      // only saw a NaN residual).
+      if (!assembly.failure.empty()) throw NumericalError(assembly.failure);
+    });
+    phase([&] {
+      const double tolerance = options.equilibrium_tolerance, target = tolerance * scale, norm = eq.residual_norm;
+      const double relative = scale > 0 ? norm / scale : norm;
+      if (!(norm <= target))
+        throw NumericalError(fmt::format("--backend petsc: Newton's method (PETSc SNES, line search and then trust "
+                                         "region) did not reach an equilibrium from the scene's configuration: "
+                                         "relative residual {:.2e}, accepted {:.0e}",
+                                         relative, tolerance));
+      eq.residual = relative;
+      const VectorX q = assembly.local_configuration(x);
+      eq.potential = sum_over_ranks([&] { return potential(*part.system, *ws, q); });
+    });
+    timings.mark("equilibrium");
+
+    // ---- K and M at the equilibrium
+    phase([&] {
+      K = create_matrix(part, n);
+      MODAL_PETSC(form_hessian(nullptr, x, K, K, &assembly));
+      if (!assembly.failure.empty()) throw NumericalError(assembly.failure);
+      M = create_matrix(part, n);
+      const VectorX q = assembly.local_configuration(x);
+      SparseMatrix local_mass;
+      phase([&] { local_mass = sparse_mass_matrix(*part.system, *ws, q); });
+      assembly.add_matrix(M, local_mass);
+      MODAL_PETSC(MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY));
+      MODAL_PETSC(MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY));
+      for (Mat A : {K, M}) MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
+    });
+    timings.mark("assembly");
+
+    // ---- the lowest modes
+    ModalResult result;
+    std::vector<VectorX> shapes;  // rank 0
+    std::vector<std::array<double, 3>> numbers;  // λ, error, rounding per mode
+    phase([&] {
+      const auto started = Clock::now();
+      Vec dk = nullptr, dm = nullptr;
+      MODAL_PETSC(MatCreateVecs(K, &dk, nullptr));
+      MODAL_PETSC(VecDuplicate(dk, &dm));
+      MODAL_PETSC(MatGetDiagonal(K, dk));
+      MODAL_PETSC(MatGetDiagonal(M, dm));
+      PetscReal min_mass = 0;
+      MODAL_PETSC(VecMin(dm, nullptr, &min_mass));
+      if (!(min_mass > 0))
+        throw SingularMassMatrix("--backend petsc: a particle coordinate has no mass (M is singular)");
+      // The shift rule of solve_sparse_modes: s = max K_ii/M_ii (then max |K_ii|/M_ii, then 1), ζ = 1e-8·s.
+      Vec ratio = nullptr;
+      MODAL_PETSC(VecDuplicate(dk, &ratio));
+      MODAL_PETSC(VecPointwiseDivide(ratio, dk, dm));
+      PetscReal s = 0;
+      MODAL_PETSC(VecMax(ratio, nullptr, &s));
+      if (!(s > 0)) {
+        MODAL_PETSC(VecAbs(ratio));
+        MODAL_PETSC(VecMax(ratio, nullptr, &s));
+      }
+      if (!(s > 0)) s = 1;
+      MODAL_PETSC(VecDestroy(&ratio));
+      const double zeta = 1e-8 * s;
+      double s0 = -zeta;
+      const PetscInt m = inertia_near(K, M, s0, s);
+      const PetscInt k = std::min<PetscInt>(options.modes > 0 ? options.modes : 10, n);
+      // Where SLEPc looks: the user's shift; σ₀ when no eigenvalue lies below
+      // it; else a shift below the whole spectrum, found from the inertia
+      // alone (down by factors of 4, then up by bisection until it is within
+      // a quarter of its distance to σ₀ below λ₁), so that the k nearest it
+      // are the k lowest.
+      double target = s0;
+      std::string where = "σ₀ = −ζ";
+      if (options.shift) {
+        target = *options.shift;
+        where = "the shift";
+      } else if (m > 0) {
+        double low = zeta, high = 0;  // distances below σ₀: low fails (eigenvalues below), high succeeds
+        for (int tries = 0;; ++tries) {
+          if (tries > 200) throw NumericalError("--backend petsc: no shift below the spectrum was found");
+          double sigma = s0 - 4 * low;
+          if (inertia_near(K, M, sigma, s) == 0) {
+            high = s0 - sigma;
+            break;
+          }
+          low = s0 - sigma;
+        }
+        while (high - low > 0.25 * high) {
+          const double mid = 0.5 * (low + high);
+          double sigma = s0 - mid;
+          if (inertia_near(K, M, sigma, s) == 0) high = s0 - sigma;
+          else low = mid;
+        }
+        target = s0 - high;
+        where = "a shift below the spectrum";
+      }
+      const auto factored = Clock::now();
+      MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+      MODAL_PETSC(EPSSetOperators(eps_solver, K, M));
+      MODAL_PETSC(EPSSetProblemType(eps_solver, EPS_GHEP));
+      MODAL_PETSC(EPSSetType(eps_solver, EPSKRYLOVSCHUR));
+      MODAL_PETSC(EPSSetDimensions(eps_solver, k, PETSC_DEFAULT, PETSC_DEFAULT));
+      MODAL_PETSC(EPSSetTolerances(eps_solver, options.tolerance, 1000));
+      MODAL_PETSC(EPSSetTarget(eps_solver, target));
+      MODAL_PETSC(EPSSetWhichEigenpairs(eps_solver, EPS_TARGET_MAGNITUDE));
+      ST st = nullptr;
+      KSP ksp = nullptr;
+      MODAL_PETSC(EPSGetST(eps_solver, &st));
+      MODAL_PETSC(STSetType(st, STSINVERT));
+      MODAL_PETSC(STGetKSP(st, &ksp));
+      direct_mumps(ksp, PCCHOLESKY);
+      MODAL_PETSC(EPSSetFromOptions(eps_solver));
+      MODAL_PETSC(EPSSolve(eps_solver));
+      PetscInt converged = 0;
+      MODAL_PETSC(EPSGetConverged(eps_solver, &converged));
+      if (converged < k)
+        throw NumericalError(fmt::format("--backend petsc: SLEPc's Krylov–Schur iteration converged {} of the {} "
+                                         "modes asked for; try a larger --tol",
+                                         converged, k));
+      PetscReal K1 = 0, M1 = 0;
+      MODAL_PETSC(MatNorm(K, NORM_1, &K1));
+      MODAL_PETSC(MatNorm(M, NORM_1, &M1));
+      Vec phi = nullptr, Kphi = nullptr, Mphi = nullptr, r = nullptr;
+      MODAL_PETSC(MatCreateVecs(K, &phi, nullptr));
+      for (Vec* v : {&Kphi, &Mphi, &r}) MODAL_PETSC(VecDuplicate(phi, v));
+      for (PetscInt i = 0; i < k; ++i) {
+        PetscScalar value = 0;
+        MODAL_PETSC(EPSGetEigenpair(eps_solver, i, &value, nullptr, phi, nullptr));
+        // φ M-normalized, λ its Rayleigh quotient, e = ‖Kφ − λMφ‖ in the M⁻¹-norm (M diagonal).
+        MODAL_PETSC(MatMult(M, phi, Mphi));
+        PetscScalar mm = 0;
+        MODAL_PETSC(VecDot(phi, Mphi, &mm));
+        const double unit = 1.0 / std::sqrt(mm);
+        MODAL_PETSC(VecScale(phi, unit));
+        MODAL_PETSC(VecScale(Mphi, unit));
+        MODAL_PETSC(MatMult(K, phi, Kphi));
+        PetscScalar lambda = 0;
+        MODAL_PETSC(VecDot(phi, Kphi, &lambda));
+        MODAL_PETSC(VecWAXPY(r, -lambda, Mphi, Kphi));
+        MODAL_PETSC(VecPointwiseMult(Kphi, r, r));
+        MODAL_PETSC(VecPointwiseDivide(Kphi, Kphi, dm));
+        PetscScalar e2 = 0;
+        MODAL_PETSC(VecSum(Kphi, &e2));
+        PetscReal x2 = 0;
+        MODAL_PETSC(VecNorm(phi, NORM_2, &x2));
+        x2 *= x2;
+        numbers.push_back({lambda, std::sqrt(std::max(0.0, e2)), 4 * eps * (K1 + std::abs(lambda) * M1) * x2});
+        shapes.push_back(gather_to_root(phi));
+      }
+      for (Vec* v : {&phi, &Kphi, &Mphi, &r, &dk, &dm}) MODAL_PETSC(VecDestroy(v));
+      MODAL_PETSC(EPSDestroy(&eps_solver));
+      if (rank == 0) {
+        for (std::size_t i = 0; i < shapes.size(); ++i)
+          result.modes.push_back(sparse_mode(std::move(shapes[i]), numbers[i][0], numbers[i][1], numbers[i][2]));
+        std::stable_sort(result.modes.begin(), result.modes.end(),
+                         [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+        PetscInt resolved_small_negative = 0;
+        for (const Mode& mode : result.modes) {
+          if (mode.kind == ModeKind::zero) ++result.zero_modes;
+          if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
+        }
+        result.morse_index = static_cast<int>(m + resolved_small_negative);
+        result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
+        if (!options.shift && m > 0 && k >= m) {
+          const auto below = std::count_if(result.modes.begin(), result.modes.end(),
+                                           [&](const Mode& mode) { return mode.omega2 < s0; });
+          if (below != m)
+            throw NumericalError(fmt::format("--backend petsc: the inertia of K − σM at σ₀ = {:.3g} counts {} "
+                                             "eigenvalues below it, but SLEPc found {} of them",
+                                             s0, m, below));
+        }
+        if (k < m)
+          result.notes.push_back(fmt::format("the equilibrium has {} negative eigenvalues below −ζ = {:.3g}; only the "
+                                             "{} most negative are returned (morse_index counts all of them)",
+                                             m, s0, k));
+        if (options.shift) result.notes.push_back(fmt::format("the {} modes nearest the shift σ = {:.8g}", k, *options.shift));
+        result.solver = fmt::format("distributed shift-invert Krylov–Schur (SLEPc, MUMPS Cholesky of K − σM at {}, "
+                                    "{} rank{}; inertia of K − σM at σ₀ = −ζ = {:.3g}: {} eigenvalue{} below)",
+                                    where, size, size == 1 ? "" : "s", s0, m, m == 1 ? "" : "s");
+        result.timings = {
+            {"factorization", std::chrono::duration<double>(factored - started).count()},
+            {"eigen-solution", std::chrono::duration<double>(Clock::now() - factored).count()}};
+      }
+    });
+    timings.mark("eigen");
+
+    // ---- one report, by rank 0
+    const VectorX q = gather_to_root(x);
+    bool unstable = false;
+    phase([&] {
+      if (rank != 0) return;
+      eq.q = q;
+      Analysis a;
+      a.report = make_report(sys, model->scene.file, model->scene.parameters);
+      a.report.equilibria.push_back({eq, std::move(result), std::nullopt, std::nullopt});
+      write_analysis(out, a, request.outputs);
+      unstable = a.unstable();
+    });
+    timings.mark("report");
+    int flag = unstable ? 1 : 0;
+    MPI_Bcast(&flag, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (request.timing) {
+      for (const auto& [name, seconds] : timings.seconds) {
+        double high = seconds, low = seconds;
+        MPI_Allreduce(MPI_IN_PLACE, &high, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        MPI_Allreduce(MPI_IN_PLACE, &low, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+        if (rank == 0)
+          err << fmt::format("timing: {:<16} {:>12.3f} ms max {:>12.3f} ms min over {} rank{}\n", name, 1e3 * high,
+                             1e3 * low, size, size == 1 ? "" : "s");
+      }
+      double high = peak_memory(), low = high;
+      MPI_Allreduce(MPI_IN_PLACE, &high, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      MPI_Allreduce(MPI_IN_PLACE, &low, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+      if (rank == 0)
+        err << fmt::format("timing: peak memory per rank {:.1f} MiB max {:.1f} MiB min\n", high / 1048576, low / 1048576);
+    }
+    if (request.require_stable && flag) {
+      if (rank == 0) err << "modal: the equilibrium is unstable\n";
+      status = static_cast<int>(ExitStatus::unstable);
+    }
+  } catch (const Agreed& a) {
+    if (rank == 0) err << a.failure.message << '\n';
+    status = a.failure.status;
+  }
+  if (assembly.gather) VecScatterDestroy(&assembly.gather);
+  for (Vec* v : {&assembly.local, &x, &f})
+    if (*v) VecDestroy(v);
+  for (Mat* A : {&J, &K, &M})
+    if (*A) MatDestroy(A);
+  if (snes) SNESDestroy(&snes);
+  if (eps_solver) EPSDestroy(&eps_solver);
+  return status;
+}
+
+}  // namespace modal

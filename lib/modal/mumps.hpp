@@ -1,0 +1,44 @@
+// lib/modal/mumps.hpp — the sparse symmetric indefinite LDLᵀ of the modal
+// stage (MUMPS), behind a small interface (internal: not installed).
+//
+// The implementation (lib/modal/mumps/mumps_ldlt.cpp) is compiled twice,
+// against two builds of MUMPS that must never meet in one process: the
+// sequential one (libdmumps_seq with its MPI stand-in libmpiseq_seq, which
+// defines MPI_Init and friends itself) for libmodal and the program `modal`,
+// and the parallel one (libdmumps over OpenMPI, the build PETSc links) for
+// `modal-mpi`, where it runs on MPI_COMM_SELF. The stage library modal_modal
+// therefore links neither: each final link adds one variant
+// (docs/design.md, "Distributed backend").
+#pragma once
+
+#include "modal/core.hpp"
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace modal::detail {
+
+class MumpsLdlt {
+ public:
+  // A: full symmetric storage, compressed; its lower triangle is used.
+  // `order`: a fill-reducing pivot order (order[k] = the k-th variable), e.g.
+  // CHOLMOD's for the same pattern, which spares MUMPS its own ordering;
+  // empty: MUMPS chooses. Throws NumericalError when MUMPS cannot start.
+  MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order);
+  MumpsLdlt(const MumpsLdlt&) = delete;
+  MumpsLdlt& operator=(const MumpsLdlt&) = delete;
+  ~MumpsLdlt();
+
+  // Factors A (same pattern as at construction); the number of negative
+  // pivots, or nothing when the factorization failed or met a null pivot.
+  std::optional<Eigen::Index> factor(const SparseMatrix& A);
+  // y = A⁻¹x; false when MUMPS fails.
+  bool solve(const double* in, double* out);
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace modal::detail
