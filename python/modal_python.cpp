@@ -201,7 +201,7 @@ modal::MatrixX or_zero(const modal::MatrixX& m, Eigen::Index n) { return m.size(
 modal::AnalysisOptions analysis_options(int modes, std::optional<modal::VectorX> at, const std::string& solver,
                                         std::optional<double> shift, double tol, const std::string& dense_solver,
                                         const std::string& derivatives, double step, double eq_tol,
-                                        const std::string& large_equilibrium, bool energy) {
+                                        const std::string& large_equilibrium, bool energy, bool drawing) {
   static const std::pair<const char*, modal::SolverChoice> solvers[] = {{"auto", modal::SolverChoice::automatic},
                                                                         {"dense", modal::SolverChoice::dense},
                                                                         {"sparse", modal::SolverChoice::sparse}};
@@ -233,15 +233,21 @@ modal::AnalysisOptions analysis_options(int modes, std::optional<modal::VectorX>
   o.equilibrium_tolerance = eq_tol;
   o.large_equilibrium = parse_choice("large_equilibrium", large_equilibrium, large);
   o.energy = energy;
+  o.drawing = drawing;
   return o;
 }
 
+// What write() was asked for; nothing at all is an error.
 modal::Outputs outputs(const std::optional<std::string>& csv, const std::optional<std::string>& json,
-                       const std::optional<std::string>& matrices = std::nullopt) {
+                       const std::optional<std::string>& matrices = std::nullopt,
+                       const std::optional<std::string>& report = std::nullopt) {
   modal::Outputs o;
   o.csv = csv.value_or("");
   o.json = json.value_or("");
   o.matrices = matrices.value_or("");
+  o.report = report.value_or("");
+  if (o.csv.empty() && o.json.empty() && o.matrices.empty() && o.report.empty())
+    throw modal::InputError("write: give at least one file to write (csv=, json=, matrices= or report=)");
   return o;
 }
 
@@ -492,7 +498,7 @@ PYBIND11_MODULE(_modal, m) {
   py::class_<modal::AnalysisOptions>(m, "AnalysisOptions", "The options of modal.analyze (made by modal.analyze).");
   m.def("_analysis_options", &analysis_options, py::arg("modes"), py::arg("at"), py::arg("solver"), py::arg("shift"),
         py::arg("tol"), py::arg("dense_solver"), py::arg("derivatives"), py::arg("step"), py::arg("eq_tol"),
-        py::arg("large_equilibrium"), py::arg("energy"));
+        py::arg("large_equilibrium"), py::arg("energy"), py::arg("drawing"));
   m.def(
       "_analyze",
       [](std::shared_ptr<const modal::Model> model, const modal::AnalysisOptions& options) {
@@ -758,17 +764,20 @@ PYBIND11_MODULE(_modal, m) {
       .def(
           "write",
           [](const modal::Analysis& a, std::optional<std::string> csv, std::optional<std::string> json,
-             std::optional<std::string> matrices) {
-            modal::Outputs o = outputs(csv, json, matrices);
+             std::optional<std::string> matrices, std::optional<std::string> report) {
+            modal::Outputs o = outputs(csv, json, matrices, report);
             o.energy = !o.csv.empty() && a.report.equilibria.front().energy.has_value();
             modal::check_outputs(modal::Command::analyze, o, a.report.scene_file);
             std::ostringstream discard;
             modal::write_analysis(discard, a, o);
           },
           py::arg("csv") = py::none(), py::arg("json") = py::none(), py::arg("matrices") = py::none(),
+          py::arg("report") = py::none(),
           "Writes files as `modal analyze` does: csv=PREFIX (PREFIX_modes.csv, _shapes.csv, _equilibria.csv; with "
           "energy=True in analyze also _energy.csv and _participation.csv), "
-          "json=FILE, matrices=DIR (M, K, … in Matrix Market). All or none are written; raises ReportError.",
+          "json=FILE, matrices=DIR (M, K, … in Matrix Market), report=FILE.html (the HTML report; its mode views "
+          "are animated when analyze was called with drawing=True, else bar charts). All or none are written; "
+          "raises ReportError.",
           py::call_guard<py::gil_scoped_release>())
       .def("__repr__", [](const modal::Analysis& a) {
         return "<modal.Analysis of '" + a.report.title + "': " + modal::to_string(a.result().stability) + ", " +
@@ -881,13 +890,15 @@ PYBIND11_MODULE(_modal, m) {
           "The JSON `modal equilibria --json` writes.")
       .def(
           "write",
-          [](const modal::EquilibriumSurvey& s, std::optional<std::string> csv, std::optional<std::string> json) {
-            const modal::Outputs o = outputs(csv, json);
+          [](const modal::EquilibriumSurvey& s, std::optional<std::string> csv, std::optional<std::string> json,
+             std::optional<std::string> report) {
+            const modal::Outputs o = outputs(csv, json, std::nullopt, report);
             modal::check_outputs(modal::Command::equilibria, o, s.report.scene_file);
             std::ostringstream discard;
             modal::write_equilibria(discard, s, o);
           },
-          py::arg("csv") = py::none(), py::arg("json") = py::none(), "Writes csv=FILE and/or json=FILE.",
+          py::arg("csv") = py::none(), py::arg("json") = py::none(), py::arg("report") = py::none(),
+          "Writes csv=FILE, json=FILE and/or report=FILE.html (the HTML report), all or none.",
           py::call_guard<py::gil_scoped_release>())
       .def("__repr__", [](const modal::EquilibriumSurvey& s) {
         return "<modal.Equilibria of '" + s.report.title + "': " + std::to_string(s.report.equilibria.size()) +
@@ -1052,16 +1063,16 @@ PYBIND11_MODULE(_modal, m) {
           "The table `modal sweep` prints.")
       .def(
           "write",
-          [](const modal::SweepStudy& s, const std::string& csv) {
-            modal::Outputs o;
-            o.csv = csv;
+          [](const modal::SweepStudy& s, std::optional<std::string> csv, std::optional<std::string> report) {
+            const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
             modal::check_outputs(modal::Command::sweep, o, s.scene_file, !s.convergence.empty());
             std::ostringstream discard;
             modal::write_sweep(discard, s, o);
           },
-          py::arg("csv"),
+          py::arg("csv") = py::none(), py::arg("report") = py::none(),
           "Writes the CSV files `modal sweep --csv FILE` writes (FILE, FILE_critical.csv, and with extrapolation "
-          "FILE_convergence.csv, FILE_extrapolation.csv; a map: FILE).",
+          "FILE_convergence.csv, FILE_extrapolation.csv; a map: FILE) and/or report=FILE.html (branches, root "
+          "locus, Campbell diagram, critical values; a map: the stability map), all or none.",
           py::call_guard<py::gil_scoped_release>())
       .def("__repr__", [](const modal::SweepStudy& s) {
         std::string axes;
@@ -1121,14 +1132,15 @@ PYBIND11_MODULE(_modal, m) {
           "The CSV `modal simulate` prints.")
       .def(
           "write",
-          [](const modal::Simulation& s, const std::string& csv) {
-            modal::Outputs o;
-            o.csv = csv;
-            modal::check_output_paths({csv});
+          [](const modal::Simulation& s, std::optional<std::string> csv, std::optional<std::string> report) {
+            const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
+            modal::check_outputs(modal::Command::simulate, o, s.scene_file);
             std::ostringstream discard;
             modal::write_simulation(discard, s, o);
           },
-          py::arg("csv"), "Writes the CSV to a file.", py::call_guard<py::gil_scoped_release>())
+          py::arg("csv") = py::none(), py::arg("report") = py::none(),
+          "Writes the CSV to a file and/or report=FILE.html (time series and energy error), all or none.",
+          py::call_guard<py::gil_scoped_release>())
       .def("__len__", [](const modal::Simulation& s) { return s.trajectory.size(); })
       .def("__repr__", [](const modal::Simulation& s) {
         return "<modal.Simulation: " + std::to_string(s.trajectory.size()) + " samples to t = " +
@@ -1223,14 +1235,16 @@ PYBIND11_MODULE(_modal, m) {
           "The table `modal amplitude` prints.")
       .def(
           "write",
-          [](const modal::AmplitudeStudy& s, const std::string& csv) {
-            modal::Outputs o;
-            o.csv = csv;
+          [](const modal::AmplitudeStudy& s, std::optional<std::string> csv, std::optional<std::string> report) {
+            const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
             modal::check_outputs(modal::Command::amplitude, o, s.scene_file);
             std::ostringstream discard;
             modal::write_amplitude(discard, s, o);
           },
-          py::arg("csv"), "Writes the CSV `modal amplitude --csv` writes.", py::call_guard<py::gil_scoped_release>())
+          py::arg("csv") = py::none(), py::arg("report") = py::none(),
+          "Writes the CSV `modal amplitude --csv` writes and/or report=FILE.html (period ratio and departure "
+          "against amplitude), all or none.",
+          py::call_guard<py::gil_scoped_release>())
       .def("__repr__", [](const modal::AmplitudeStudy& s) {
         return "<modal.Amplitude of mode " + std::to_string(s.mode) + " of '" + s.title + "'>";
       });

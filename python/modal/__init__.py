@@ -109,7 +109,8 @@ def _vector(values):
 
 
 def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, tol=1e-10, dense_solver="auto",
-            derivatives="exact", step=None, eq_tol=1e-12, large_equilibrium="newton", energy=False):
+            derivatives="exact", step=None, eq_tol=1e-12, large_equilibrium="newton", energy=False,
+            drawing=False):
     """Finds the equilibrium nearest the scene's initial configuration (or
     polishes `at`), linearizes there and solves for the modes: `modal analyze`.
 
@@ -124,6 +125,8 @@ def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, 
     large_equilibrium: 'newton' or 'lbfgs' (large scenes).
     energy: also compute each mode's energy distribution and its participation
     in base translation (Analysis.energy, an EnergyDistribution: `--energy`).
+    drawing: also compute what an HTML report animates (each mode's motion of
+    the scene's points), for Analysis.write(report="FILE.html").
 
     Returns an Analysis (omega2, errors, bounds, shapes, q, M, K, D, G,
     stability, …). Raises SceneError, InputError, NumericalError.
@@ -131,7 +134,7 @@ def analyze(scene, set=None, *, modes=None, at=None, solver="auto", shift=None, 
     model = _model(scene, set)
     options = _modal._analysis_options(-1 if modes is None else modes, _vector(at), solver, shift, tol, dense_solver,
                                        derivatives, 0.0 if step is None else step, eq_tol, large_equilibrium,
-                                       bool(energy))
+                                       bool(energy), bool(drawing))
     return _modal._analyze(model, options)
 
 
