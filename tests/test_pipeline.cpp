@@ -339,4 +339,40 @@ TEST_F(Pipeline, LowestModesEqualThoseOfTheFullAnalysis) {
   EXPECT_GT(zero, 0);
 }
 
+
+// The equilibrium of a large scene reports its progress (the CLI's bar): done
+// of 100, never decreasing, 100 at convergence; slack and pre-tensioned nets
+// of random size (above large_system_coordinates: Newton with the sparse
+// Hessian), and nothing on a small scene (the dense path is quick).
+TEST_F(Pipeline, LargeEquilibriaReportTheirProgress) {
+  std::mt19937_64 rng(7);
+  for (int trial = 0; trial < 4; ++trial) {
+    const int size = std::uniform_int_distribution<int>(22, 40)(rng);
+    const std::string text = "gravity = [0, 0, -9.81]\n[[lattice]]\nname = \"net\"\nsize = [" + std::to_string(size) +
+                             ", " + std::to_string(size) + ", 1]\nspacing = 0.1\nmass = 0.002\nstiffness = 1000\n"
+                             "prestrain = " + (trial % 2 ? "0.02" : "0") + "\nfixed = \"boundary\"\n";
+    SCOPED_TRACE(text);
+    const modal::Model model = modal::model_from_text(text, "net.toml");
+    ASSERT_GT(model.system.size(), modal::large_system_coordinates);
+    std::vector<std::pair<int, int>> calls;
+    modal::AnalysisOptions options;
+    options.modes = 2;
+    options.progress = [&calls](int done, int total) { calls.emplace_back(done, total); };
+    (void)modal::analyze(model, options);
+    ASSERT_FALSE(calls.empty());
+    for (std::size_t i = 0; i < calls.size(); ++i) {
+      EXPECT_EQ(calls[i].second, 100);
+      if (i > 0) {
+        EXPECT_GT(calls[i].first, calls[i - 1].first);
+      }
+    }
+    EXPECT_EQ(calls.back().first, 100);
+  }
+  int small_calls = 0;
+  modal::AnalysisOptions options;
+  options.progress = [&small_calls](int, int) { ++small_calls; };
+  (void)modal::analyze(modal::load_model(models + "double_pendulum.toml"), options);
+  EXPECT_EQ(small_calls, 0);
+}
+
 }  // namespace

@@ -440,7 +440,16 @@ int main(int argc, char** argv) {
       if (large_equilibrium == "lbfgs") ao.large_equilibrium = modal::LargeEquilibriumMethod::lbfgs;
       if (shift_option->count()) ao.shift = shift;
       if (at_option->count()) ao.at = modal::parse_coordinates(model.system, "--at", at);
-      const modal::Analysis a = modal::analyze(model, ao);
+      std::optional<modal::Analysis> analysis;
+      {
+        modal::ProgressBar bar("equilibrium");  // large scenes: the residual's digits (silent when not a terminal)
+        ao.progress = [&bar](int done, int total) {
+          bar.update(done, total);
+          if (done >= total) bar.finish();  // converged: the eigen-solution follows
+        };
+        analysis.emplace(modal::analyze(model, ao));
+      }
+      const modal::Analysis& a = *analysis;
       seconds.insert(seconds.end(), a.timings.begin(), a.timings.end());
       since(clock);
       modal::write_analysis(std::cout, a, analyze_out);

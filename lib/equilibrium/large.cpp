@@ -214,6 +214,22 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     return scale > 0 ? rnorm / scale : rnorm;
   };
 
+  // Progress (EquilibriumOptions::progress): the digits of the relative
+  // residual gained since the first point, out of those to the tolerance.
+  double first_residual = -1;
+  int shown = -1;
+  auto progress = [&](double rel) {
+    if (!options.progress || !(rel > 0) || !std::isfinite(rel)) return;
+    if (first_residual < 0) first_residual = rel;
+    const double digits = std::log(first_residual / options.tolerance);
+    const int done = digits > 0 ? static_cast<int>(std::clamp(100 * std::log(first_residual / rel) / digits, 0.0, 100.0))
+                                : 100;
+    if (done > shown) {
+      shown = done;
+      options.progress(done, 100);
+    }
+  };
+
   // Newton with the sparse Hessian from x; the best point seen goes to `best`.
   Equilibrium best;
   best.residual = std::numeric_limits<double>::infinity();
@@ -231,6 +247,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         best.residual_norm = rnorm;
         best.iterations = it;
       }
+      progress(rel);
       if (rel <= options.tolerance || rnorm == 0) return;
       const double forcing = std::min(0.1, r0 > 0 ? rnorm / r0 : 0.1);
       const VectorX d = steps.step(sparse_potential_hessian(s, w, q), r, forcing);
@@ -301,6 +318,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         best.residual_norm = rnorm;
         best.iterations = it;
       }
+      progress(rel);
       if (rel <= options.tolerance || rnorm == 0) return q;
       const SparseMatrix& H = sparse_potential_hessian(s, w, q);
       // Newton's region (the model trusted with a small shift, the residual

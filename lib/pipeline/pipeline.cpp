@@ -350,6 +350,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   EquilibriumOptions eo;
   eo.tolerance = options.equilibrium_tolerance;
   eo.large_method = options.large_equilibrium;
+  eo.progress = options.progress;
   if (options.step_factor > 0 && options.derivatives == DerivativeMethod::exact)
     throw InputError("--step sets the step of differences: give --derivatives central, forward or complex-step");
   if (!(options.step_factor >= 0 && options.step_factor <= max_step_factor))

@@ -61,7 +61,11 @@ struct EquilibriumOptions {
   int max_iterations = 100;  // per Newton polish
   LargeEquilibriumMethod large_method = LargeEquilibriumMethod::newton;
   // find_equilibria: called after each start with the starts done and their
-  // number (long surveys show it on a terminal). Empty: nothing is called.
+  // number (long surveys show it on a terminal). find_equilibrium and
+  // polish_equilibrium of a large scene (Newton with the sparse Hessian):
+  // called with total = 100 and done the share of the way, in digits of the
+  // relative residual, from the start's to the tolerance (never decreasing).
+  // Empty: nothing is called.
   std::function<void(int done, int total)> progress = nullptr;
 };
 

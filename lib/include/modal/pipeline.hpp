@@ -162,6 +162,10 @@ struct AnalysisOptions {
   // What an HTML report animates (scene_drawing in modal/report.hpp;
   // AnalyzedEquilibrium::drawing): two evaluations of the points per mode drawn.
   bool drawing = false;
+  // The equilibrium's progress on large scenes (EquilibriumOptions::progress:
+  // done of 100, in digits of the residual); the CLI's progress bar. Empty:
+  // nothing is called.
+  std::function<void(int done, int total)> progress = nullptr;
 };
 
 // One analyzed equilibrium: the report values (names, parameters, the
