@@ -636,6 +636,34 @@ TEST_F(Cli, AmplitudeScanAndItsRefusals) {
   EXPECT_EQ(run({"amplitude", models + "double_pendulum.toml", "--amplitudes", "-1"}).status, 1);
 }
 
+
+// The progress bar (long work on a terminal): shown when stderr is a
+// terminal, not with --quiet (before or after the command's name) nor under
+// CI=true. The terminal is a pseudo-terminal made by script(1) (util-linux);
+// a simulation of about two seconds (the bar waits one).
+TEST_F(Cli, ProgressBarOnlyOnATerminalWithoutQuietOrCi) {
+  if (std::system("command -v script > /dev/null 2>&1") != 0) GTEST_SKIP() << "script(1) is not installed";
+  const std::string scene = std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.toml";
+  auto shown = [&](const std::string& environment, const std::string& before, const std::string& after) {
+    const std::filesystem::path log = dir / "terminal.txt";
+    const std::string command = environment + " " + modal::test::quote(MODAL_BINARY) + before + " simulate " +
+                                modal::test::quote(scene) + " --duration 1000 --at 0.5,0 --interval 1" + after +
+                                " > /dev/null";
+    const std::string run = "script -qec " + modal::test::quote(command) + " " + modal::test::quote(log.string()) +
+                            " > /dev/null 2>&1";
+    EXPECT_EQ(std::system(run.c_str()), 0) << run;
+    return modal::test::slurp(log).find("simulate [") != std::string::npos;
+  };
+  EXPECT_TRUE(shown("env -u CI", "", ""));
+  EXPECT_FALSE(shown("env -u CI", "", " --quiet"));
+  EXPECT_FALSE(shown("env -u CI", " -q", ""));
+  EXPECT_FALSE(shown("env CI=true", "", ""));
+  // Not a terminal: nothing, whatever the environment.
+  const Outcome piped = run({"simulate", scene, "--duration", "1000", "--at", "0.5,0", "--interval", "1"});
+  EXPECT_EQ(piped.status, 0);
+  EXPECT_EQ(piped.err.find("simulate ["), std::string::npos);
+}
+
 }  // namespace
 
 // The same scene through both solvers: the 10 lowest eigenvalues agree to

@@ -170,6 +170,9 @@ int main(int argc, char** argv) {
   app.failure_message(CLI::FailureMessage::help);
   app.set_version_flag("--version", std::string("modal ") + MODAL_VERSION);
   app.require_subcommand(1);
+  bool quiet = false;
+  app.add_flag("--quiet,-q", quiet, "no progress bar on stderr (errors, warnings and --timing are still printed)");
+  app.fallthrough();  // --quiet after the command's name too
   app.footer(
       "Exit status: 0 success, 1 usage, 2 bad scene or input, 3 unstable under --require-stable, "
       "4 numerical failure.\n");
@@ -442,7 +445,7 @@ int main(int argc, char** argv) {
       if (at_option->count()) ao.at = modal::parse_coordinates(model.system, "--at", at);
       std::optional<modal::Analysis> analysis;
       {
-        modal::ProgressBar bar("equilibrium");  // large scenes: the residual's digits (silent when not a terminal)
+        modal::ProgressBar bar("equilibrium", !quiet);  // large scenes: the residual's digits (silent when not a terminal)
         ao.progress = [&bar](int done, int total) {
           bar.update(done, total);
           if (done >= total) bar.finish();  // converged: the eigen-solution follows
@@ -462,7 +465,7 @@ int main(int argc, char** argv) {
     } else if (*equilibria) {
       modal::check_outputs(modal::Command::equilibria, equilibria_out, equilibria_scene.file);
       const modal::Model model = load(equilibria_scene);
-      modal::ProgressBar bar("equilibria");
+      modal::ProgressBar bar("equilibria", !quiet);
       eo.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::EquilibriumSurvey survey = modal::equilibria(model, eo);
       bar.finish();
@@ -475,7 +478,7 @@ int main(int argc, char** argv) {
       for (const std::string& v : varies) axes.push_back(modal::parse_vary(v));
       modal::check_outputs(modal::Command::sweep, sweep_out, sweep_scene.file, sweep_options.extrapolate);
       const modal::Model model = load(sweep_scene);
-      modal::ProgressBar bar("sweep");
+      modal::ProgressBar bar("sweep", !quiet);
       sweep_options.sweep.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::SweepStudy study = modal::sweep(model, axes, sweep_options);
       bar.finish();
@@ -487,7 +490,7 @@ int main(int argc, char** argv) {
       if (simulate_velocity_option->count())
         sim.velocity = modal::parse_coordinates(model.system, "--velocity", simulate_velocity);
       if (simulate_interval_option->count()) sim.interval = simulate_interval;
-      modal::ProgressBar bar("simulate");
+      modal::ProgressBar bar("simulate", !quiet);
       sim.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::Simulation s = modal::simulate(model, sim);
       bar.finish();
@@ -508,7 +511,7 @@ int main(int argc, char** argv) {
       modal::check_outputs(modal::Command::amplitude, amplitude_out, amplitude_scene.file);
       const modal::Model model = load(amplitude_scene);
       if (amplitude_at_option->count()) amp.at = modal::parse_coordinates(model.system, "--at", amplitude_at);
-      modal::ProgressBar bar("amplitude");
+      modal::ProgressBar bar("amplitude", !quiet);
       amp.options.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::AmplitudeStudy study = modal::amplitude(model, amp);
       bar.finish();

@@ -3,6 +3,7 @@
 #include "modal/report.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <array>
 #include <atomic>
 #include <csignal>
@@ -232,8 +233,18 @@ double now_seconds() {
 }
 }  // namespace
 
-ProgressBar::ProgressBar(std::string label)
-    : label_(std::move(label)), terminal_(isatty(STDERR_FILENO) == 1), start_(now_seconds()) {}
+namespace {
+// A continuous-integration run (CI=true, as most CI services set it).
+bool in_ci() {
+  const char* ci = std::getenv("CI");
+  if (!ci) return false;
+  const std::string v(ci);
+  return !(v.empty() || v == "0" || v == "false");
+}
+}  // namespace
+
+ProgressBar::ProgressBar(std::string label, bool shown)
+    : label_(std::move(label)), terminal_(shown && isatty(STDERR_FILENO) == 1 && !in_ci()), start_(now_seconds()) {}
 
 void ProgressBar::update(int done, int total) {
   if (!terminal_ || total <= 0) return;

@@ -300,12 +300,14 @@ void print_simulation_summary(std::ostream& out, const Trajectory& trajectory, c
 void print_timings(std::ostream& out, const std::vector<std::pair<std::string, double>>& seconds);
 
 // Progress of long work (sweeps, …) on a terminal: "sweep [#####     ] 12/40
-// 3.1 s, about 7 s left", redrawn in place, shown only when `out` is a
-// terminal (stderr by default) and the work has taken more than a second;
-// silent in pipes, files and CI. finish() clears the line.
+// 3.1 s, about 7 s left", redrawn on stderr in place, shown only when stderr
+// is a terminal, the environment variable CI is unset (or empty, "0",
+// "false"), `shown` is true (the CLI's --quiet makes it false) and the work
+// has taken more than a second; silent in pipes, files and CI. finish()
+// clears the line.
 class ProgressBar {
  public:
-  explicit ProgressBar(std::string label);
+  explicit ProgressBar(std::string label, bool shown = true);
   void update(int done, int total);
   void finish();
   ~ProgressBar();
