@@ -255,7 +255,7 @@ PetscErrorCode form_gradient(SNES, Vec x, Vec f, void* context) {
   } catch (const std::exception& e) {
     // NaN makes the norm NaN on every rank: SNES stops (collectively) and the
     // ranks agree on this message afterwards.
-    if (a.failure.empty()) a.failure = error_message(e);
+    if (a.failure.empty()) a.failure = e.what();  // the cause; error_message adds the prefix once
     g = VectorX::Constant(static_cast<Eigen::Index>(a.part->global.size()), std::numeric_limits<double>::quiet_NaN());
   }
   a.add_vector(f, g);
@@ -271,7 +271,7 @@ PetscErrorCode form_hessian(SNES, Vec x, Mat J, Mat, void* context) {
   try {
     a.add_matrix(J, sparse_potential_hessian(*a.part->system, *a.ws, a.local_configuration(x)));
   } catch (const std::exception& e) {
-    if (a.failure.empty()) a.failure = error_message(e);
+    if (a.failure.empty()) a.failure = e.what();  // the cause; error_message adds the prefix once
   }
   code = MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY);
   if (code) return code;

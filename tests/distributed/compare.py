@@ -49,6 +49,8 @@ def main():
             sys.exit("FAIL: the message is not the failing rank's")
         if len(lines) != 1:
             sys.exit("FAIL: expected one message line, got %d" % len(lines))
+        if r.stderr.count("modal:") > 1 or r.stderr.count("failure:") > 1:
+            sys.exit("FAIL: the message repeats its prefix: " + r.stderr)
         if r.stdout.strip():
             sys.exit("FAIL: output on stdout: " + r.stdout)
         return
