@@ -204,7 +204,8 @@ modal::AnalysisOptions analysis_options(int modes, std::optional<modal::VectorX>
                                         const std::string& large_equilibrium, bool energy, bool drawing) {
   static const std::pair<const char*, modal::SolverChoice> solvers[] = {{"auto", modal::SolverChoice::automatic},
                                                                         {"dense", modal::SolverChoice::dense},
-                                                                        {"sparse", modal::SolverChoice::sparse}};
+                                                                        {"sparse", modal::SolverChoice::sparse},
+                                                                        {"tree", modal::SolverChoice::tree}};
   static const std::pair<const char*, modal::DenseSolver> dense_solvers[] = {{"auto", modal::DenseSolver::automatic},
                                                                              {"eigen", modal::DenseSolver::eigen},
                                                                              {"lapack", modal::DenseSolver::lapack}};
@@ -673,20 +674,23 @@ PYBIND11_MODULE(_modal, m) {
           "sparse", [](const modal::Analysis& a) { return a.sparse.has_value(); },
           "True when the sparse path ran (M and K are scipy.sparse matrices)")
       .def_property_readonly(
-          "symmetric", [](const modal::Analysis& a) { return a.sparse.has_value() || a.linear->symmetric(); },
+          "symmetric",
+          [](const modal::Analysis& a) { return a.sparse.has_value() || a.tree.has_value() || a.linear->symmetric(); },
           "K φ = λ M φ describes the motion (no damping, gyroscopic or circulatory terms)")
       .def_property_readonly(
           "M",
           [](const modal::Analysis& a) -> py::object {
             if (a.sparse) return sparse_matrix(a.sparse->M);
+            if (a.tree) return py::none();
             return py::cast(a.linear->M);
           },
-          "mass matrix, n × n (dense numpy array; scipy.sparse.csc_matrix on the sparse path; projected onto the "
-          "constraints when there are some, see basis)")
+          "mass matrix, n × n (dense numpy array; scipy.sparse.csc_matrix on the sparse path; None on the "
+          "matrix-free path, which forms none; projected onto the constraints when there are some, see basis)")
       .def_property_readonly(
           "K",
           [](const modal::Analysis& a) -> py::object {
             if (a.sparse) return sparse_matrix(a.sparse->K);
+            if (a.tree) return py::none();
             return py::cast(a.linear->K);
           },
           "stiffness matrix, n × n (not symmetric with follower loads)")
@@ -694,6 +698,7 @@ PYBIND11_MODULE(_modal, m) {
           "D",
           [](const modal::Analysis& a) -> py::object {
             if (a.sparse) return sparse_matrix(modal::SparseMatrix(a.sparse->M.rows(), a.sparse->M.cols()));
+            if (a.tree) return py::none();
             return py::cast(or_zero(a.linear->D, a.linear->M.rows()));
           },
           "damping matrix, n × n, symmetric (zero without dampers)")
@@ -701,20 +706,21 @@ PYBIND11_MODULE(_modal, m) {
           "G",
           [](const modal::Analysis& a) -> py::object {
             if (a.sparse) return sparse_matrix(modal::SparseMatrix(a.sparse->M.rows(), a.sparse->M.cols()));
+            if (a.tree) return py::none();
             return py::cast(or_zero(a.linear->G, a.linear->M.rows()));
           },
           "gyroscopic matrix, n × n, skew (zero when absent)")
       .def_property_readonly(
           "K_error",
           [](const modal::Analysis& a) -> py::object {
-            if (a.sparse || a.linear->K_error.size() == 0) return py::none();
+            if (a.sparse || a.tree || a.linear->K_error.size() == 0) return py::none();
             return py::cast(a.linear->K_error);
           },
           "estimate of the absolute error of K's entries (dense path), or None")
       .def_property_readonly(
           "basis",
           [](const modal::Analysis& a) -> py::object {
-            if (a.sparse || !a.linear->constrained()) return py::none();
+            if (a.sparse || a.tree || !a.linear->constrained()) return py::none();
             return py::cast(a.linear->basis);
           },
           "with constraints: N (n × n_r, orthonormal columns), M = Nᵀ M(q) N, …; a mode φ moves q by N φ. "

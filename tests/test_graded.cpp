@@ -10,6 +10,7 @@
 #include "modal/linearize.hpp"
 #include "modal/modes.hpp"
 #include "program.hpp"
+#include "reference_ld.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -26,9 +27,6 @@
 namespace {
 
 using namespace modal;
-using LD = long double;
-using MatLD = Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>;
-using VecLD = Eigen::Matrix<LD, Eigen::Dynamic, 1>;
 
 double log_uniform(std::mt19937_64& rng, double lo, double hi) {
   return std::exp(std::uniform_real_distribution<double>(std::log(lo), std::log(hi))(rng));
@@ -55,135 +53,6 @@ std::pair<double, double> double_pendulum_roots(LD m1, LD m2, LD l1, LD l2, LD g
   const LD a = m1 * l1 * l2, b = -g * (m1 + m2) * (l1 + l2), c = g * g * (m1 + m2);
   const LD big = (-b + std::sqrt(b * b - 4 * a * c)) / (2 * a);
   return {static_cast<double>(c / a / big), static_cast<double>(big)};
-}
-
-// The reference basis θ, q = Tθ (T an integer matrix, exact): a rotational
-// coordinate of a body whose parent has a rotational coordinate about the same
-// world axis at q = 0 (hinge or rotation-vector component; the generated
-// bodies have no orientation, so the axes are the joints' own) is measured
-// from it, q_k = θ_k − θ_j. In relative angles a short link before a long one
-// makes M singular to (l_short/l_long)² — below long double's ε too (1e-24
-// for the families below) — while in θ the pencil is as well conditioned as
-// the links. Decided here from the scene description, not by modal.
-MatLD reference_basis(const System& s) {
-  const int n = s.size();
-  MatLD T = MatLD::Identity(n, n);
-  auto axes = [&](int b) {  // world rotation axis of each coordinate of body b at q = 0 (zero: a translation)
-    const Body& body = s.bodies()[static_cast<std::size_t>(b)];
-    std::vector<Vec3> a;
-    if (body.joint == JointType::hinge) a.push_back(body.axis);
-    if (body.joint == JointType::slide) a.push_back(Vec3::Zero());
-    if (body.joint == JointType::ball)
-      for (int i = 0; i < 3; ++i) a.push_back(Vec3::Unit(i));
-    return a;
-  };
-  for (int b = 0; b < static_cast<int>(s.bodies().size()); ++b) {
-    const int p = s.bodies()[static_cast<std::size_t>(b)].parent;
-    if (p < 0) continue;
-    const auto mine = axes(b), theirs = axes(p);
-    for (std::size_t i = 0; i < mine.size(); ++i)
-      for (std::size_t j = 0; j < theirs.size(); ++j)
-        if (!mine[i].isZero() && mine[i] == theirs[j])
-          T(s.first_coordinate(b) + static_cast<int>(i), s.first_coordinate(p) + static_cast<int>(j)) = -1;
-  }
-  return T;
-}
-
-// M and ∇∇V at q in the basis θ, in long double, and the ω² of K φ = λ M φ
-// solved in long double by Eigen. M = Σ_b m J_vᵀJ_v + J_ωᵀ(R I Rᵀ)J_ω from
-// the Jacobians of each body's centre of mass and rotation, obtained by
-// forward-mode AD of the templated forward kinematics with the seeds Tθ
-// (independent of modal's composite-inertia mass matrix); ∇∇V by nested
-// duals of the templated potential with the same seeds. The pencil is scaled
-// by diag(M)^{-1/2} before the solve.
-std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
-  const int n = s.size();
-  const auto nb = s.bodies().size();
-  const MatLD T = reference_basis(s);
-  using D1 = Dual<LD, 1>;
-  std::vector<MatLD> Jv(nb, MatLD::Zero(3, n)), Jw(nb, MatLD::Zero(3, n));
-  model::TreeState<D1> st;
-  for (int i = 0; i < n; ++i) {
-    std::vector<D1> qd(static_cast<std::size_t>(n));
-    for (int k = 0; k < n; ++k) {
-      qd[static_cast<std::size_t>(k)] = D1(static_cast<LD>(q[k]));
-      qd[static_cast<std::size_t>(k)].d[0] = T(k, i);
-    }
-    model::forward_kinematics(s, qd.data(), st);
-    for (std::size_t b = 0; b < nb; ++b) {
-      const model::V3<D1> x = st.position[b] + st.rotation[b] * model::cast3<D1>(s.bodies()[b].com);
-      model::M3<LD> R, Rdot;
-      for (int r = 0; r < 3; ++r) {
-        Jv[b](r, i) = x[r].d[0];
-        for (int c = 0; c < 3; ++c) {
-          R(r, c) = st.rotation[b](r, c).v;
-          Rdot(r, c) = st.rotation[b](r, c).d[0];
-        }
-      }
-      const model::M3<LD> W = Rdot * R.transpose();  // ω̂
-      Jw[b](0, i) = W(2, 1);
-      Jw[b](1, i) = W(0, 2);
-      Jw[b](2, i) = W(1, 0);
-    }
-  }
-  std::vector<LD> ql(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) ql[static_cast<std::size_t>(i)] = q[i];
-  model::TreeState<LD> sl;
-  model::forward_kinematics(s, ql.data(), sl);
-  MatLD M = MatLD::Zero(n, n);
-  for (std::size_t b = 0; b < nb; ++b) {
-    const Body& body = s.bodies()[b];
-    MatLD I(3, 3);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) I(r, c) = body.inertia(r, c);
-    const MatLD R = sl.rotation[b];
-    M += static_cast<LD>(body.mass) * Jv[b].transpose() * Jv[b] + Jw[b].transpose() * (R * I * R.transpose()) * Jw[b];
-  }
-  MatLD A = MatLD::Zero(n, n);  // joint armatures: ½a|q̇_joint|² (J_l = I at φ = 0)
-  for (std::size_t b = 0; b < nb; ++b)
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
-      A(s.first_coordinate(static_cast<int>(b)) + i, s.first_coordinate(static_cast<int>(b)) + i) =
-          s.bodies()[b].armature;
-  M += T.transpose() * A * T;
-  using D = Dual<Dual<LD, 1>, 1>;
-  MatLD K(n, n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j <= i; ++j) {
-      model::VX<D> qd(n);
-      for (int k = 0; k < n; ++k) {
-        qd[k] = D(Dual<LD, 1>(ql[static_cast<std::size_t>(k)]));
-        qd[k].v.d[0] = T(k, i);
-        qd[k].d[0].v = T(k, j);
-      }
-      model::TreeState<D> sd;
-      model::forward_kinematics(s, qd.data(), sd);
-      K(i, j) = K(j, i) = model::potential(s, sd, qd.data()).d[0].d[0];
-    }
-  VecLD d(n);
-  for (int i = 0; i < n; ++i) d[i] = 1 / std::sqrt(M(i, i));
-  const MatLD Ms = d.asDiagonal() * M * d.asDiagonal(), Ks = d.asDiagonal() * K * d.asDiagonal();
-  // The solver's eigenvalues are accurate normwise, to ε_LD·‖λ‖_max: 1e-14
-  // absolute when ω² spans 1e-6 … 1e5, a relative 5e-9 on the small root
-  // (measured: a ball-and-slide chain, 2.79186494793e-6 against the closed
-  // form 2.79186494123397e-6, which modal's double path matched). Each pair
-  // is refined by two steps of inverse iteration in long double and the
-  // Rayleigh quotient, whose error is the square of the vector's.
-  Eigen::GeneralizedSelfAdjointEigenSolver<MatLD> eig(Ks, Ms, Eigen::ComputeEigenvectors);
-  std::vector<LD> out(static_cast<std::size_t>(n));
-  for (int j = 0; j < n; ++j) {
-    VecLD x = eig.eigenvectors().col(j);
-    LD lambda = eig.eigenvalues()[j];
-    for (int step = 0; step < 2; ++step) {
-      const Eigen::PartialPivLU<MatLD> lu(Ks - lambda * Ms);  // no rank decision: a huge y is the point
-      const VecLD y = lu.solve(VecLD(Ms * x));
-      if (!y.allFinite() || y.norm() == 0) break;
-      x = y / y.norm();
-      lambda = x.dot(Ks * x) / x.dot(Ms * x);
-    }
-    out[static_cast<std::size_t>(j)] = lambda;
-  }
-  std::sort(out.begin(), out.end());
-  return out;
 }
 
 struct Figures {

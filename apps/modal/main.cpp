@@ -211,10 +211,12 @@ int main(int argc, char** argv) {
   analyze
       ->add_option("--solver", solver,
                    "eigen-solver: dense (all modes), sparse (the --modes lowest, default 10, by shift-invert "
-                   "Lanczos with a sparse Cholesky), or auto: sparse above " +
+                   "Lanczos with a sparse Cholesky), tree (the same without matrices, by recursions over a tree of "
+                   "hinges and slides: long chains), or auto: sparse above " +
                        std::to_string(modal::large_system_coordinates) +
-                       " coordinates when the scene has no dampers, follower loads, constraints, rotating frame or map")
-      ->check(CLI::IsMember({"auto", "dense", "sparse"}))
+                       " coordinates when the scene has no dampers, follower loads, constraints, rotating frame or "
+                       "map, tree there for long chains")
+      ->check(CLI::IsMember({"auto", "dense", "sparse", "tree"}))
       ->capture_default_str();
   analyze
       ->add_option("--backend", backend,
@@ -436,7 +438,7 @@ int main(int argc, char** argv) {
       const modal::Model model = load(analyze_scene);
       Seconds seconds{{"parse+build", since(clock)}};
       ao.solver = choose(solver, {modal::SolverChoice::automatic, modal::SolverChoice::dense,
-                                  modal::SolverChoice::sparse});
+                                  modal::SolverChoice::sparse, modal::SolverChoice::tree});
       ao.dense_solver =
           choose(dense_solver, {modal::DenseSolver::automatic, modal::DenseSolver::eigen, modal::DenseSolver::lapack});
       ao.derivatives = *modal::parse_derivative_method(derivatives);

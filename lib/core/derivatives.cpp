@@ -751,6 +751,62 @@ AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const Vec
   return m;
 }
 
+std::optional<std::string> tree_pencil_unsupported(const System& s) {
+  if (s.is_map()) return "it is a kinematic map, not a tree of bodies";
+  if (!s.springs().empty()) return "its springs between points couple bodies across the tree";
+  if (s.has_constraints()) return "it has constraints";
+  if (s.has_follower_loads()) return "it has follower loads";
+  if (s.has_damping()) return "it has dampers";
+  if (s.rotating()) return "its frame rotates";
+  for (const Body& b : s.bodies())
+    if (b.joint != JointType::hinge && b.joint != JointType::slide && b.joint != JointType::fixed)
+      return std::string("body '") + b.name + "' has a " + to_string(b.joint) + " joint (only hinges, slides and fixed joints)";
+  return std::nullopt;
+}
+
+TreePencil tree_pencil(const System& s, Workspace& w, const VectorX& q) {
+  if (const auto why = tree_pencil_unsupported(s)) throw std::invalid_argument("tree_pencil: " + *why);
+  const TreeState<double>& st = kinematics(s, w, q);
+  accumulate(s, w, true, [](auto&&...) {});  // gravity and dead loads: no local Hessians
+  const auto& bodies = s.bodies();
+  const std::size_t nb = bodies.size();
+  const model::Inertias<double> Ic = model::composite_inertias(s, st);
+  TreePencil p;
+  p.parent.resize(nb);
+  p.coordinate.resize(nb);
+  p.twist.resize(nb);
+  p.offset.resize(nb);
+  p.K.resize(nb);
+  p.M.resize(nb);
+  p.K_diagonal = VectorX::Zero(s.size());
+  p.M_diagonal = VectorX::Zero(s.size());
+  std::vector<int> depth(nb, 0);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Body& body = bodies[b];
+    p.parent[b] = body.parent;
+    depth[b] = 1 + (body.parent >= 0 ? depth[static_cast<std::size_t>(body.parent)] : 0);
+    p.depth = std::max(p.depth, depth[b]);
+    p.offset[b] = st.offset[b];
+    p.M[b] = Ic[b];
+    const Mat3& P = w.cache().P[b];
+    const Vec3& F = w.cache().F[b];
+    p.K[b].setZero();
+    p.K[b].block<3, 3>(0, 0) = P - P.trace() * Mat3::Identity();
+    p.K[b].block<3, 3>(0, 3) = -model::hat(F);
+    if (s.joint_size(static_cast<int>(b)) == 0) {
+      p.coordinate[b] = -1;
+      p.twist[b].setZero();
+      continue;
+    }
+    const int k = s.first_coordinate(static_cast<int>(b));
+    p.coordinate[b] = k;
+    p.twist[b] = model::coordinate_twist(st, k);
+    p.K_diagonal[k] = body.stiffness;
+    p.M_diagonal[k] = body.armature;  // a·(|ω|² + |u|²) = a for a hinge or slide
+  }
+  return p;
+}
+
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd) {
   check_size(s, qd, "kinetic_energy");
   return 0.5 * qd.dot(mass_matrix(s, w, q) * qd);

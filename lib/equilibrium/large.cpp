@@ -37,6 +37,7 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <vector>
 
 namespace modal::equilibrium_detail {
@@ -208,6 +209,19 @@ bool prefers_sparse_equilibrium(const System& s, const VectorX& start) {
 Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
   Workspace w(s);
   const int n = s.size();
+  // Deep trees (long chains): ∇∇V is dense, so every step goes through its
+  // ordered form instead (TreePencil, O(bodies)): an exact Newton step by the
+  // tree's LDLᵀ, the damped steps by that of ∇∇V + μhI.
+  const bool matrix_free = !tree_pencil_unsupported(s) && coupled_pairs(s) > 64.0 * n;
+  int tree_factorizations = 0;
+  auto tree_solve = [&](const TreePencil& p, double shift, bool positive, const VectorX& r) -> VectorX {
+    TreeFactor f;
+    ++tree_factorizations;
+    if (!f.factor(p, 1.0, 0.0, shift) || (positive && f.negative_pivots() > 0)) return {};
+    VectorX d = -f.solve(r);
+    if (!d.allFinite()) return {};
+    return d;
+  };
   VectorX q = canonical_coordinates(s, start);
   auto relative = [&](const VectorX& x, double rnorm) {
     const double scale = force_scale(s, w, x);
@@ -250,7 +264,8 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       progress(rel);
       if (rel <= options.tolerance || rnorm == 0) return;
       const double forcing = std::min(0.1, r0 > 0 ? rnorm / r0 : 0.1);
-      const VectorX d = steps.step(sparse_potential_hessian(s, w, q), r, forcing);
+      const VectorX d = matrix_free ? tree_solve(tree_pencil(s, w, q), 0.0, false, r)
+                                    : steps.step(sparse_potential_hessian(s, w, q), r, forcing);
       if (d.size() == 0) return;
       ++newton_iterations;
       bool accepted = false;
@@ -320,27 +335,32 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       }
       progress(rel);
       if (rel <= options.tolerance || rnorm == 0) return q;
-      const SparseMatrix& H = sparse_potential_hessian(s, w, q);
+      std::optional<TreePencil> pencil;
+      SparseMatrix H;
+      if (matrix_free) pencil = tree_pencil(s, w, q);
+      else H = sparse_potential_hessian(s, w, q);
       // Newton's region (the model trusted with a small shift, the residual
       // down by 10³): the truncated Newton finishes with its kept factor.
       if (mu < 1e-3 && rnorm < 1e-3 * r0) return q;
-      const double h = std::max(H.diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
+      const VectorX diagonal = matrix_free ? tree_diagonal(*pencil, 1.0, 0.0) : VectorX(H.diagonal());
+      const double h = std::max(diagonal.cwiseAbs().mean(), std::numeric_limits<double>::min());
       if (mu < 0) {
         // First step: the size at which a gradient step moves the largest
         // coordinate by 10⁻³ of the scene's length scale, unless H is
         // positive definite (then Newton is tried first, μ = 0).
         mu = std::max(r.cwiseAbs().maxCoeff() / (h * 1e-3 * s.length_scale()), 1e-10);
       }
-      SparseMatrix I(H.rows(), H.cols());
+      SparseMatrix I(n, n);
       I.setIdentity();
       VectorX d;
       for (int tries = 0; tries < 60 && d.size() == 0; ++tries) {
-        d = steps.solve_positive(H + (mu * h) * I, r);
+        d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(H + (mu * h) * I, r);
         if (d.size() == 0) mu = std::max(4 * mu, 1e-10);
       }
       if (d.size() == 0) return q;
       ++damped_steps;
-      const double predicted = -(r.dot(d) + 0.5 * d.dot(H * d));
+      const VectorX Hd = matrix_free ? tree_product(*pencil, 1.0, 0.0, d) : VectorX(H * d);
+      const double predicted = -(r.dot(d) + 0.5 * d.dot(Hd));
       VectorX qt = q + d;
       double vt = std::numeric_limits<double>::infinity();
       VectorX rt;
@@ -425,9 +445,11 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   best.fill_reducing_order = steps.ordering();
   best.method = (lbfgs_evaluations > 0 ? "L-BFGS (" + std::to_string(lbfgs_evaluations) + " evaluations of V and ∇V), then " : std::string()) +
                 (damped_steps > 0 ? "damped Newton (" + std::to_string(damped_steps) + " steps), then " : std::string()) +
-                "truncated Newton with the sparse Hessian: " + std::to_string(newton_iterations) + " steps, " +
-                std::to_string(steps.factorizations) + " factorizations, " + std::to_string(steps.cg_iterations) +
-                " preconditioned CG iterations";
+                (matrix_free ? "Newton through the tree (matrix-free): " + std::to_string(newton_iterations) +
+                                   " steps, " + std::to_string(tree_factorizations) + " O(n) factorizations"
+                             : "truncated Newton with the sparse Hessian: " + std::to_string(newton_iterations) +
+                                   " steps, " + std::to_string(steps.factorizations) + " factorizations, " +
+                                   std::to_string(steps.cg_iterations) + " preconditioned CG iterations");
   return best;
 }
 

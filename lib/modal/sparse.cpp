@@ -499,10 +499,10 @@ class ShiftedFactor {
 
 // The shift-invert operator in the form Spectra's SymGEigsShiftSolver expects
 // (the interface of Spectra::SymShiftInvert), backed by a ShiftedFactor.
-class ShiftInvertOp {
+template <class Factor> class ShiftInvertOp {
  public:
   using Scalar = double;
-  explicit ShiftInvertOp(ShiftedFactor& factor) : factor_(factor) {}
+  explicit ShiftInvertOp(Factor& factor) : factor_(factor) {}
   Index rows() const { return factor_.size(); }
   Index cols() const { return factor_.size(); }
   void set_shift(const Scalar& sigma) {
@@ -514,7 +514,7 @@ class ShiftInvertOp {
   void perform_op(const Scalar* x_in, Scalar* y_out) const { factor_.solve(x_in, y_out); }
 
  private:
-  ShiftedFactor& factor_;
+  Factor& factor_;
 };
 
 // y = M x for Spectra's B-inner products, which a Lanczos step takes several
@@ -571,15 +571,16 @@ struct LanczosRun {
   std::string factor;
 };
 
-LanczosRun run_lanczos(ShiftedFactor& factor, MassProduct& mass_op, double sigma, Index nev,
-                       const SparseModalOptions& options, const Units& units) {
+template <class Factor, class MassOp>
+LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev, const SparseModalOptions& options,
+                       const Units& units) {
   const Index n = mass_op.rows();
   LanczosRun run;
   run.sigma = sigma;
   run.ncv = std::min<Index>(n, std::max<Index>(2 * nev + 1, 20));
-  ShiftInvertOp op(factor);
+  ShiftInvertOp<Factor> op(factor);
   try {
-    Spectra::SymGEigsShiftSolver<ShiftInvertOp, MassProduct, Spectra::GEigsMode::ShiftInvert>
+    Spectra::SymGEigsShiftSolver<ShiftInvertOp<Factor>, MassOp, Spectra::GEigsMode::ShiftInvert>
         eigs(op, mass_op, nev, run.ncv, sigma);
     eigs.init();
     const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
@@ -610,6 +611,22 @@ std::string describe_run(const LanczosRun& run, Index nev, const Units& units) {
   out << run.factor << " of K − σM at σ = " << units(run.sigma, 6) << ", " << nev << " wanted, ncv "
       << run.ncv << ", " << run.restarts << " restarts, " << run.solves << " solves";
   return out.str();
+}
+
+ModalResult no_coordinates() {
+  ModalResult empty;
+  empty.solver = "none (no coordinates)";
+  return empty;
+}
+
+void check_options(const SparseModalOptions& options, const std::string& who) {
+  if (options.modes < 1)
+    throw std::invalid_argument(who + ": the number of modes wanted must be at least 1 (got " +
+                                std::to_string(options.modes) + ")");
+  if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
+    throw std::invalid_argument(who + ": the tolerance must be positive and finite");
+  if (options.max_iterations < 1) throw std::invalid_argument(who + ": max_iterations must be at least 1");
+  if (options.shift && !std::isfinite(*options.shift)) throw std::invalid_argument(who + ": the shift must be finite");
 }
 
 // ------------------------------------------------------------------- modes
@@ -684,12 +701,72 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
   return result;
 }
 
-// The Lanczos path of solve_sparse_modes for the equilibrated K, M (both
-// symmetric, n > dense_limit, k < n − 1) and `systematic` (SES or empty);
-// `scale` only names directions in a diagnosis. Shapes are those of the
+// The pencil K − σM as the Lanczos path uses it, assembled sparse: K and M
+// on one pattern, their factorizations (ShiftedFactor; CHOLMOD for M, for
+// the error estimates), M's products. The matrix-free TreeLanczosPencil
+// below offers the same calls.
+class SparsePencil {
+ public:
+  SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
+               const VectorX& coordinate_scale)
+      : K_(std::move(K)), M_(std::move(M)), systematic_(systematic),
+        mass_(factor_sparse_mass(M_, coordinate_scale)), norms_{norm1(K_), norm1(M_)}, mass_op_(M_),
+        factor_(common(K_, M_), M_, options.fill_reducing_order) {}
+  Index size() const { return K_.rows(); }
+  ShiftedFactor& factor() { return factor_; }
+  MassProduct& mass_op() { return mass_op_; }
+  // s = max K_ii/M_ii (see the header comment) and the Gershgorin bound of D^{-1/2}KD^{-1/2}.
+  std::pair<double, double> scale_and_gershgorin() const {
+    const Index n = size();
+    double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
+    const VectorX dM = M_.diagonal(), dK = K_.diagonal();
+    VectorX radius = VectorX::Zero(n);
+    for (Index j = 0; j < n; ++j)
+      for (SparseMatrix::InnerIterator it(K_, j); it; ++it)
+        if (it.row() != j) radius(it.row()) += std::abs(it.value()) / std::sqrt(dM(it.row()) * dM(j));
+    for (Index i = 0; i < n; ++i) {
+      scale = std::max(scale, dK(i) / dM(i));
+      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius(i));
+    }
+    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
+    if (!(scale > 0)) scale = K_.nonZeros() > 0 ? norms_.K1 / dM.maxCoeff() : 0.0;
+    if (!(scale > 0)) scale = 1.0;
+    return {scale, gershgorin};
+  }
+  Mode make_mode(VectorX phi, double& relative_residual) const {
+    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, std::move(phi), relative_residual);
+  }
+
+ private:
+  static const SparseMatrix& common(SparseMatrix& K, SparseMatrix& M) {
+    to_common_pattern(K, M);
+    return K;
+  }
+  SparseMatrix K_, M_;
+  const SparseMatrix& systematic_;
+  std::unique_ptr<CholmodFactor> mass_;
+  Norms norms_;
+  MassProduct mass_op_;  // on M's own pattern, before the common one
+  ShiftedFactor factor_;
+};
+
+// The modes of the equilibrated pencil in the model's units: eigenvalues and
+// estimates by the magnitudes, then the cluster notes, shapes φ = Sφ̃ with
+// their largest component positive.
+void finish_scaled(ModalResult& result, const detail::Magnitudes& magnitude, const VectorX& scale) {
+  detail::restore_magnitudes(result, magnitude, true);
+  detail::add_cluster_notes(result.modes, true, result.notes);
+  for (Mode& mode : result.modes) {
+    mode.shape = scale.cast<std::complex<double>>().cwiseProduct(mode.shape);
+    if (mode.shape(detail::dominant_index(mode.shape)).real() < 0) mode.shape = -mode.shape;
+  }
+}
+
+// The Lanczos path of solve_sparse_modes and solve_tree_modes for an
+// equilibrated pencil (n > dense_limit, k < n − 1). Shapes are those of the
 // scaled pencil.
-ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
-                                const SparseMatrix& systematic, const VectorX& coordinate_scale, const Units& units);
+template <class Pencil>
+ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& options, const Units& units);
 
 }  // namespace
 
@@ -717,21 +794,9 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
     throw std::invalid_argument("solve_sparse_modes: K and M must be square and of the same size (K is " +
                                 std::to_string(K_in.rows()) + "×" + std::to_string(K_in.cols()) + ", M " +
                                 std::to_string(M_in.rows()) + "×" + std::to_string(M_in.cols()) + ")");
-  if (options.modes < 1)
-    throw std::invalid_argument("solve_sparse_modes: the number of modes wanted must be at least 1 (got " +
-                                std::to_string(options.modes) + ")");
-  if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
-    throw std::invalid_argument("solve_sparse_modes: the tolerance must be positive and finite");
-  if (options.max_iterations < 1)
-    throw std::invalid_argument("solve_sparse_modes: max_iterations must be at least 1");
-  if (options.shift && !std::isfinite(*options.shift))
-    throw std::invalid_argument("solve_sparse_modes: the shift must be finite");
+  check_options(options, "solve_sparse_modes");
   const Index n = K_in.rows();
-  if (n == 0) {
-    ModalResult empty;
-    empty.solver = "none (no coordinates)";
-    return empty;
-  }
+  if (n == 0) return no_coordinates();
   require_finite(M_in, "mass matrix M");
   require_finite(K_in, "stiffness matrix K");
   std::optional<SparseMatrix> M_sym = symmetric_part(M_in);
@@ -803,46 +868,25 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   const Units units{std::ldexp(1.0, 2 * (magnitude.a - magnitude.b))};
   ModalResult result = n <= dense_limit || k >= n - 1
                            ? solve_dense_fallback(K, M, k, scaled_options, systematic, scale, units)
-                           : solve_lanczos_modes(std::move(K), std::move(M), k, scaled_options, systematic, scale,
-                                                 units);
-  detail::restore_magnitudes(result, magnitude, true);
-  detail::add_cluster_notes(result.modes, true, result.notes);
-  for (Mode& mode : result.modes) {  // φ = Sφ̃, largest component positive
-    mode.shape = scale.cast<std::complex<double>>().cwiseProduct(mode.shape);
-    if (mode.shape(detail::dominant_index(mode.shape)).real() < 0) mode.shape = -mode.shape;
-  }
+                           : [&] {
+                               SparsePencil pencil(std::move(K), std::move(M), scaled_options, systematic, scale);
+                               return lanczos_modes(pencil, k, scaled_options, units);
+                             }();
+  finish_scaled(result, magnitude, scale);
   return result;
 }
 
 namespace {
 
-ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const SparseModalOptions& options,
-                                const SparseMatrix& systematic, const VectorX& coordinate_scale, const Units& units) {
-  const Index n = K.rows();
-  // ---- mass factor, scale, ζ
-  const std::unique_ptr<CholmodFactor> mass = factor_sparse_mass(M, coordinate_scale);
-  const Norms norms{norm1(K), norm1(M)};
-  double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
-  {
-    const VectorX dM = M.diagonal(), dK = K.diagonal();
-    VectorX radius = VectorX::Zero(n);
-    for (Index j = 0; j < n; ++j)
-      for (SparseMatrix::InnerIterator it(K, j); it; ++it)
-        if (it.row() != j) radius(it.row()) += std::abs(it.value()) / std::sqrt(dM(it.row()) * dM(j));
-    for (Index i = 0; i < n; ++i) {
-      scale = std::max(scale, dK(i) / dM(i));
-      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius(i));
-    }
-    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
-    if (!(scale > 0)) scale = K.nonZeros() > 0 ? norm1(K) / dM.maxCoeff() : 0.0;
-    if (!(scale > 0)) scale = 1.0;
-  }
+template <class Pencil>
+ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& options, const Units& units) {
+  const Index n = pencil.size();
+  const auto [scale, gershgorin] = pencil.scale_and_gershgorin();
   const double zeta = 1e-8 * scale;
   const double sigma0 = -zeta;
 
-  MassProduct mass_op(M);
-  to_common_pattern(K, M);
-  ShiftedFactor factor(K, M, options.fill_reducing_order);
+  auto& mass_op = pencil.mass_op();
+  auto& factor = pencil.factor();
   ModalResult result;
   std::vector<std::string> runs;
 
@@ -998,7 +1042,7 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
   std::vector<std::pair<Mode, double>> built;  // mode, relative residual
   for (auto& pair : pairs) {
     double relative_residual = 0;
-    Mode mode = make_sparse_mode(K, M, *mass, norms, systematic, std::move(pair.second), relative_residual);
+    Mode mode = pencil.make_mode(std::move(pair.second), relative_residual);
     built.emplace_back(std::move(mode), relative_residual);
   }
   std::stable_sort(built.begin(), built.end(),
@@ -1082,5 +1126,194 @@ ModalResult solve_lanczos_modes(SparseMatrix K, SparseMatrix M, Index k, const S
   return result;
 }
 
+
+// ------------------------------------------------------------ matrix-free
+
+// K − σM of a tree factored by the articulated-body recursion (TreeFactor),
+// with the calls of ShiftedFactor. No pivoting: where K − σM is indefinite
+// each solve gets one step of iterative refinement (a product, O(n)).
+class TreeShiftedFactor {
+ public:
+  explicit TreeShiftedFactor(const TreePencil& p) : p_(p) {}
+  Index size() const { return p_.size(); }
+  double sigma() const { return sigma_; }
+  bool valid() const { return valid_; }
+  bool positive_definite() const { return valid_ && negative_ == 0; }
+  std::optional<Index> factor(double sigma, bool /*inertia*/ = true, bool /*expect_indefinite*/ = false) {
+    sigma_ = sigma;
+    valid_ = factor_.factor(p_, 1.0, -sigma);
+    if (!valid_) return std::nullopt;
+    negative_ = factor_.negative_pivots();
+    return negative_;
+  }
+  bool positive_definite_at(double sigma) {
+    const std::optional<Index> below = factor(sigma);
+    return below && *below == 0;
+  }
+  void solve(const double* in, double* out) const {
+    if (!valid_) throw std::logic_error("solve_tree_modes: solve without a factorization");
+    factor_.solve(in, out);
+    if (negative_ > 0) {
+      const Eigen::Map<const VectorX> x(in, size());
+      Eigen::Map<VectorX> y(out, size());
+      const VectorX residual = x - tree_product(p_, 1.0, -sigma_, y);
+      y += factor_.solve(residual);
+    }
+  }
+  std::string describe() const { return "LDLᵀ by the articulated-body recursion (O(n))"; }
+
+ private:
+  const TreePencil& p_;
+  TreeFactor factor_;
+  double sigma_ = nan;
+  bool valid_ = false;
+  Index negative_ = 0;
+};
+
+// y = M x through the tree, for Spectra's B-inner products.
+class TreeMassProduct {
+ public:
+  using Scalar = double;
+  explicit TreeMassProduct(const TreePencil& p) : n_(p.size()), product_(p, 0.0, 1.0) {}
+  Index rows() const { return n_; }
+  Index cols() const { return n_; }
+  void perform_op(const Scalar* x_in, Scalar* y_out) const { product_.apply(x_in, y_out); }
+
+ private:
+  Index n_;
+  TreeProduct product_;
+};
+
+// The pencil of solve_tree_modes for lanczos_modes. Norms and the rounding
+// of φᵀKφ come from the magnitude recursion (tree_product with magnitude):
+// Σ|terms| of each entry, which bounds |K| entrywise, and the rounding of a
+// sum of depth·6 products grows with the tree's depth, hence the factor.
+class TreeLanczosPencil {
+ public:
+  explicit TreeLanczosPencil(const TreePencil& p) : p_(p), factor_(p), mass_op_(p) {
+    const VectorX ones = VectorX::Ones(p.size());
+    norms_ = {tree_product(p, 1.0, 0.0, ones, true).maxCoeff(), tree_product(p, 0.0, 1.0, ones, true).maxCoeff()};
+    if (!mass_.factor(p, 0.0, 1.0) || mass_.negative_pivots() > 0) {
+      const VectorX d = tree_diagonal(p, 0.0, 1.0);
+      Index worst = 0;
+      d.minCoeff(&worst);
+      throw SingularMassMatrix("the mass matrix is not positive definite: its LDLᵀ factorization through the tree "
+                               "meets a pivot that is not positive (coordinate q" + std::to_string(worst + 1) +
+                               " has the least inertia)");
+    }
+    rounding_factor_ = 4 * eps * (1 + 2 * std::sqrt(static_cast<double>(p.depth)));
+  }
+  Index size() const { return p_.size(); }
+  TreeShiftedFactor& factor() { return factor_; }
+  TreeMassProduct& mass_op() { return mass_op_; }
+  std::pair<double, double> scale_and_gershgorin() const {
+    const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
+    const VectorX v = dM.cwiseSqrt().cwiseInverse();
+    const VectorX bound = tree_product(p_, 1.0, 0.0, v, true);  // ≥ Σ_j |K_ij| v_j
+    double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
+    for (Index i = 0; i < size(); ++i) {
+      scale = std::max(scale, dK(i) / dM(i));
+      const double radius = std::max(0.0, bound(i) * v(i) - std::abs(dK(i)) / dM(i));
+      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius);
+    }
+    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
+    if (!(scale > 0)) scale = norms_.K1 > 0 ? norms_.K1 / dM.maxCoeff() : 0.0;
+    if (!(scale > 0)) scale = 1.0;
+    return {scale, gershgorin};
+  }
+  Mode make_mode(VectorX phi, double& relative_residual) const {
+    VectorX Mphi = tree_product(p_, 0.0, 1.0, phi);
+    const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
+    phi *= scale_phi;
+    Mphi *= scale_phi;
+    const VectorX Kphi = tree_product(p_, 1.0, 0.0, phi);
+    const double lambda = phi.dot(Kphi);
+    const VectorX r = Kphi - lambda * Mphi;
+    const double error = std::sqrt(std::max(0.0, r.dot(mass_.solve(r))));
+    const VectorX a = phi.cwiseAbs();
+    const double rounding = rounding_factor_ * (a.dot(tree_product(p_, 1.0, 0.0, a, true)) +
+                                                std::abs(lambda) * a.dot(tree_product(p_, 0.0, 1.0, a, true)));
+    const double scale = (norms_.K1 + std::abs(lambda) * norms_.M1) * phi.norm();
+    relative_residual = scale > 0 ? r.norm() / scale : 0.0;
+    return sparse_mode(std::move(phi), lambda, error, rounding, 0.0);
+  }
+
+ private:
+  const TreePencil& p_;
+  TreeShiftedFactor factor_;
+  TreeMassProduct mass_op_;
+  TreeFactor mass_;
+  Norms norms_;
+  double rounding_factor_ = 0;
+};
+
 }  // namespace
+
+ModalResult solve_tree_modes(TreePencil p, const SparseModalOptions& options) {
+  check_options(options, "solve_tree_modes");
+  const Index n = p.size();
+  if (n == 0) return no_coordinates();
+  for (std::size_t b = 0; b < p.parent.size(); ++b)
+    if (!p.K[b].allFinite() || !p.M[b].allFinite() || !p.twist[b].allFinite() || !p.offset[b].allFinite())
+      throw NumericalError("solve_tree_modes: the pencil has a non-finite entry (body " + std::to_string(b + 1) +
+                           "): the problem cannot be solved");
+  const Index k = std::min<Index>(options.modes, n);
+  if (n <= dense_limit || k >= n - 1) {  // small: the matrices themselves, as solve_sparse_modes does
+    MatrixX K(n, n), M(n, n);
+    for (Index j = 0; j < n; ++j) {
+      const VectorX e = VectorX::Unit(n, j);
+      K.col(j) = tree_product(p, 1.0, 0.0, e);
+      M.col(j) = tree_product(p, 0.0, 1.0, e);
+    }
+    K = (0.5 * (K + K.transpose())).eval();
+    M = (0.5 * (M + M.transpose())).eval();
+    return solve_sparse_modes(K.sparseView(), M.sparseView(), options);
+  }
+  // Equilibration as solve_sparse_modes: coordinates by powers of two
+  // (twists and the joints' own terms), K and M by powers of four (the
+  // composite forms); exact, undone on the modes.
+  VectorX scale = detail::coordinate_scale(options.inertia_scale, n);
+  {
+    TreePencil scaled = p;
+    for (std::size_t b = 0; b < p.parent.size(); ++b) {
+      const int c = p.coordinate[b];
+      if (c < 0) continue;
+      scaled.twist[b] *= scale[c];
+      scaled.K_diagonal[c] *= scale[c] * scale[c];
+      scaled.M_diagonal[c] *= scale[c] * scale[c];
+    }
+    bool exact = scaled.K_diagonal.allFinite() && scaled.M_diagonal.allFinite();
+    for (std::size_t b = 0; b < p.parent.size() && exact; ++b) exact = scaled.twist[b].allFinite();
+    if (exact) p = std::move(scaled);
+    else scale = VectorX::Ones(n);
+  }
+  detail::Magnitudes magnitude =
+      detail::magnitudes(tree_diagonal(p, 0.0, 1.0).cwiseAbs().maxCoeff(), tree_diagonal(p, 1.0, 0.0).cwiseAbs().maxCoeff());
+  SparseModalOptions scaled_options = options;
+  {
+    TreePencil scaled = p;
+    bool exact = true;
+    for (std::size_t b = 0; b < p.parent.size() && exact; ++b) {
+      scaled.M[b] = scaled.M[b].unaryExpr([&](double x) { return std::ldexp(x, 2 * magnitude.a); });
+      scaled.K[b] = scaled.K[b].unaryExpr([&](double x) { return std::ldexp(x, 2 * magnitude.b); });
+      exact = scaled.M[b].allFinite() && scaled.K[b].allFinite();
+    }
+    scaled.M_diagonal = scaled.M_diagonal.unaryExpr([&](double x) { return std::ldexp(x, 2 * magnitude.a); });
+    scaled.K_diagonal = scaled.K_diagonal.unaryExpr([&](double x) { return std::ldexp(x, 2 * magnitude.b); });
+    exact = exact && scaled.M_diagonal.allFinite() && scaled.K_diagonal.allFinite();
+    if (exact) {
+      p = std::move(scaled);
+      if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
+    } else {
+      magnitude = {};
+    }
+  }
+  const Units units{std::ldexp(1.0, 2 * (magnitude.a - magnitude.b))};
+  TreeLanczosPencil pencil(p);
+  ModalResult result = lanczos_modes(pencil, k, scaled_options, units);
+  finish_scaled(result, magnitude, scale);
+  result.solver = "matrix-free " + result.solver;
+  return result;
+}
+
 }  // namespace modal

@@ -100,15 +100,21 @@ bool first_order(const System& sys) {
   return sys.has_damping() || sys.has_frame_coupling() || sys.has_follower_loads();
 }
 
-// The documented rule: sparse for more than large_system_coordinates
-// coordinates when the sparse model describes the scene, else dense; and
-// automatically the other path when the preferred one would not fit in
-// memory (`limit`, SceneLimits::memory) and the other would. A path that does
-// not fit is refused before anything is allocated (InputError, exit 2).
-bool use_sparse(const System& sys, SolverChoice choice, double limit) {
+// The documented rule (SolverChoice): sparse for more than
+// large_system_coordinates coordinates when the sparse model describes the
+// scene, else dense; the matrix-free path for large trees it describes whose
+// matrices fill in; and automatically another path when the preferred one
+// would not fit in memory (`limit`, SceneLimits::memory) and the other would.
+// A path that does not fit is refused before anything is allocated
+// (InputError, exit 2).
+enum class Path { dense, sparse, tree };
+Path choose_path(const System& sys, SolverChoice choice, double limit, int modes) {
   const auto why = sparse_unsupported(sys);
+  const auto why_tree = tree_pencil_unsupported(sys);
   if (choice == SolverChoice::sparse && why)
     throw InputError("--solver sparse: the sparse solver does not apply to this scene: " + *why);
+  if (choice == SolverChoice::tree && why_tree)
+    throw InputError("--solver tree: the matrix-free path does not apply to this scene: " + *why_tree);
   const auto dense_refusal = [&] {
     return memory_refusal(dense_analysis_memory(sys),
                           fmt::format("the dense analysis of {} coordinates", sys.size()), limit);
@@ -119,26 +125,41 @@ bool use_sparse(const System& sys, SolverChoice choice, double limit) {
                                       sys.size(), coupled_pairs(sys)),
                           limit);
   };
+  const auto tree_refusal = [&] {
+    return memory_refusal(tree_analysis_memory(sys, modes),
+                          fmt::format("the matrix-free analysis of {} coordinates", sys.size()), limit);
+  };
   const auto refuse = [&](const std::string& reason, const std::string& advice) {
     throw InputError("this scene cannot be analyzed here: " + reason + advice);
   };
   if (choice == SolverChoice::dense) {
-    if (const auto r = dense_refusal()) refuse(*r, why || sparse_refusal() ? "" : "; the sparse solver (--solver sparse) fits");
-    return false;
+    if (const auto r = dense_refusal())
+      refuse(*r, !why_tree      ? "; the matrix-free solver (--solver tree) fits"
+                 : why || sparse_refusal() ? ""
+                                           : "; the sparse solver (--solver sparse) fits");
+    return Path::dense;
   }
   if (choice == SolverChoice::sparse) {
-    if (const auto r = sparse_refusal()) refuse(*r, "");
-    return true;
+    if (const auto r = sparse_refusal()) refuse(*r, why_tree ? "" : "; the matrix-free solver (--solver tree) fits");
+    return Path::sparse;
   }
+  if (choice == SolverChoice::tree) {
+    if (const auto r = tree_refusal()) refuse(*r, "");
+    return Path::tree;
+  }
+  const double n = sys.size();
+  if (!why_tree && sys.size() > large_system_coordinates && coupled_pairs(sys) > 64 * n && !tree_refusal())
+    return Path::tree;
   const bool prefer_sparse = !why && sys.size() > large_system_coordinates;
   const auto preferred = prefer_sparse ? sparse_refusal() : dense_refusal();
-  if (!preferred) return prefer_sparse;
+  if (!preferred) return prefer_sparse ? Path::sparse : Path::dense;
   const auto other = why ? preferred : prefer_sparse ? dense_refusal() : sparse_refusal();
-  if (!other) return !prefer_sparse;
+  if (!other) return prefer_sparse ? Path::dense : Path::sparse;
+  if (!why_tree && !tree_refusal()) return Path::tree;
   refuse(*preferred, why ? "" : fmt::format("; the {} path would need about {}", prefer_sparse ? "dense" : "sparse",
                                             format_bytes(prefer_sparse ? dense_analysis_memory(sys)
                                                                        : sparse_analysis_memory(sys))));
-  return false;
+  return Path::dense;
 }
 
 // Runs `work`, turning memory exhaustion into OutOfMemory with the estimate
@@ -249,6 +270,11 @@ double dense_analysis_memory(const System& system) {
 
 double sparse_analysis_memory(const System& system) { return 200 * coupled_pairs(system); }
 
+double tree_analysis_memory(const System& system, int modes) {
+  const double ncv = std::max(2.0 * std::max(modes, 10) + 1, 20.0);
+  return 1500.0 * static_cast<double>(system.bodies().size()) + 8 * ncv * system.size();
+}
+
 // --- the model -------------------------------------------------------------------------
 
 Model model_from_text(std::string text, const std::string& name, const std::vector<std::string>& set,
@@ -333,6 +359,7 @@ const char* to_string(SolverChoice choice) {
     case SolverChoice::automatic: return "auto";
     case SolverChoice::dense: return "dense";
     case SolverChoice::sparse: return "sparse";
+    case SolverChoice::tree: return "tree";
   }
   return "?";
 }
@@ -365,22 +392,39 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   lo.step_factor = options.step_factor;
   // An equilibrium accepted at a looser tolerance is accepted by the linearization too.
   lo.tolerance = std::max(lo.tolerance, options.equilibrium_tolerance);
-  const bool sparse = use_sparse(sys, options.solver, model.limits.memory);
-  if (sparse && options.derivatives != DerivativeMethod::exact)
-    throw InputError(std::string("--derivatives ") + to_string(options.derivatives) +
-                     ": the sparse path assembles K exactly from the elements' derivatives; differences apply to the "
-                     "dense path (--solver dense)");
-  if (!sparse && options.shift) throw InputError("--shift applies to the sparse solver (--solver sparse)");
-  const double estimate = sparse ? sparse_analysis_memory(sys) : dense_analysis_memory(sys);
-  return within_estimate(estimate, fmt::format("the {} analysis of {} coordinates", sparse ? "sparse" : "dense",
-                                               sys.size()), [&] {
+  const Path path = choose_path(sys, options.solver, model.limits.memory, options.modes);
+  const bool sparse = path == Path::sparse;
+  const char* path_name = path == Path::tree ? "matrix-free" : sparse ? "sparse" : "dense";
+  if (path != Path::dense && options.derivatives != DerivativeMethod::exact)
+    throw InputError(std::string("--derivatives ") + to_string(options.derivatives) + ": the " + path_name +
+                     " path assembles K exactly from the elements' derivatives; differences apply to the dense path "
+                     "(--solver dense)");
+  if (path == Path::dense && options.shift)
+    throw InputError("--shift applies to the sparse solver and the matrix-free one (--solver sparse or tree)");
+  const double estimate = path == Path::tree ? tree_analysis_memory(sys, options.modes)
+                          : sparse          ? sparse_analysis_memory(sys)
+                                            : dense_analysis_memory(sys);
+  return within_estimate(estimate, fmt::format("the {} analysis of {} coordinates", path_name, sys.size()), [&] {
 
   const Equilibrium eq = !options.at ? find_equilibrium(sys, sys.initial_configuration(), eo)
                                      : equilibrium_at(sys, *options.at, eo);
   a.timings.emplace_back("equilibrium", seconds_since(last));
   refuse_active_limits(model, eq);
   ModalResult result;
-  if (sparse) {
+  if (path == Path::tree) {
+    // K and M in their ordered form (O(bodies)); the equilibrium was found to
+    // the tolerance the linearization would check.
+    Workspace w(sys);
+    a.tree = tree_pencil(sys, w, eq.q);
+    a.timings.emplace_back("assembly", seconds_since(last));
+    SparseModalOptions so;
+    if (options.modes > 0) so.modes = options.modes;
+    so.shift = options.shift;
+    so.tolerance = options.tolerance;
+    so.inertia_scale = inertia_scale(sys, w, eq.q);
+    result = solve_tree_modes(*a.tree, so);
+    a.timings.emplace_back("eigen", seconds_since(last));
+  } else if (sparse) {
     a.sparse = linearize_sparse(sys, eq.q, lo);
     a.timings.emplace_back("assembly", seconds_since(last));
     const SparseLinearModel& lin = *a.sparse;
@@ -419,7 +463,15 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   }
   std::optional<EnergyDistribution> energy;
   if (options.energy) {
-    energy = a.sparse ? energy_distribution(sys, *a.sparse, result) : energy_distribution(sys, *a.linear, result);
+    if (a.linear) {
+      energy = energy_distribution(sys, *a.linear, result);
+    } else if (a.sparse) {
+      energy = energy_distribution(sys, *a.sparse, result);
+    } else {  // matrix-free: the distribution of a tree needs the equilibrium only
+      SparseLinearModel at;
+      at.q = eq.q;
+      energy = energy_distribution(sys, at, result);
+    }
     a.timings.emplace_back("energy", seconds_since(last));
   }
   std::optional<SceneDrawing> drawing;
@@ -637,6 +689,9 @@ void check_outputs(Command command, const Outputs& outputs, const std::string& s
 }
 
 void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
+  if (!o.matrices.empty() && a.tree)
+    throw InputError("--export-matrices: the matrix-free path (--solver tree) forms no matrices; a chain of this "
+                     "size has dense ones (--solver dense or sparse write them where they fit)");
   print_analysis(text, a.report);
   check_written(text, "standard output");
   if (!o.matrices.empty()) {

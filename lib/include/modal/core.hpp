@@ -665,6 +665,84 @@ VectorX canonical_coordinates(const System& s, const VectorX& q);
 // by the length scale, other coordinates by their difference).
 double configuration_distance(const System& s, const VectorX& a, const VectorX& b);
 
+// --- K and M of a tree without the matrices (docs/design.md, "Matrix-free path") ---
+//
+// In the coordinates of a tree, M and ∇∇V are dense wherever bodies lie on
+// one path (a chain of n links couples all n² pairs), yet both have an
+// ordered form of O(bodies) numbers: for a coordinate j at or above k (k of
+// body b, twists ξ about b's joint centre p_b)
+//   M_jk = ξ_jᵀ Ic_b ξ_k            Ic_b: b's composite spatial inertia
+//   K_jk = ξ_jᵀ A_b ξ_k,  A_b = [[P − tr(P) I, −F̂], [0, 0]]
+// with F and P the subtree sums of the potential's cotangents (header of
+// lib/core/derivatives.cpp), plus the joints' own terms on the diagonal
+// (springs in K, armatures in M). Products and an LDLᵀ factorization of
+// αK + βM + γI follow by recursions over the tree in O(bodies) time and
+// memory (tree_product, TreeFactor).
+//
+// Why tree_pencil cannot describe s, in words; nullopt when it can: a tree
+// (no map) of hinge, slide and fixed joints whose potential is gravity, dead
+// loads and joint springs, with no springs between points, constraints,
+// follower loads, dampers or rotating frame.
+std::optional<std::string> tree_pencil_unsupported(const System& s);
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+struct TreePencil {
+  std::vector<int> parent;      // per body: parent body, −1 the world (parents precede children)
+  std::vector<int> coordinate;  // per body: its coordinate (0 … n−1), −1 for a fixed joint
+  std::vector<Vec6> twist;      // per body: ξ of its coordinate about p_b (zero when fixed)
+  std::vector<Vec3> offset;     // per body: p_b − p_parent, m
+  std::vector<Mat6> K;          // per body: A_b above (units of K times m⁻² and m⁻¹ by block)
+  std::vector<Mat6> M;          // per body: Ic_b, kg·m², kg·m, kg by block
+  VectorX K_diagonal;           // n: joint springs added to K_kk (N·m/rad or N/m)
+  VectorX M_diagonal;           // n: armatures added to M_kk (kg·m² or kg)
+  int depth = 0;                // most bodies on one path (the recursions' length)
+  int size() const { return static_cast<int>(K_diagonal.size()); }
+};
+// The pencil at q. Throws std::invalid_argument when tree_pencil_unsupported(s).
+TreePencil tree_pencil(const System& s, Workspace& w, const VectorX& q);
+// y = (αK + βM) x in O(bodies). With `magnitude`, the same recursion over the
+// absolute values of every number (|α|, |β|, |x| and each matrix and twist
+// entrywise): an upper bound of Σ|terms| of each entry of the product, for
+// rounding bounds and norms (y ≥ |αK + βM| |x| entrywise).
+VectorX tree_product(const TreePencil& p, double alpha, double beta, const VectorX& x, bool magnitude = false);
+// y = (αK + βM) x for many x: the columns A_b ξ_b formed once, work vectors
+// kept (a Lanczos iteration takes hundreds of products with M). Holds a
+// reference to the pencil.
+class TreeProduct {
+ public:
+  TreeProduct(const TreePencil& p, double alpha, double beta);
+  void apply(const double* x, double* y) const;
+
+ private:
+  const TreePencil& p_;
+  std::vector<Vec6> u_;  // per body: A_b ξ_b
+  VectorX diagonal_;     // n: the joints' own terms
+  mutable std::vector<Vec6> z_, v_;
+};
+// The diagonal of αK + βM (n): ξ_kᵀ A_b ξ_k plus the joint's own term.
+VectorX tree_diagonal(const TreePencil& p, double alpha, double beta);
+// The LDLᵀ factorization of H = αK + βM + γI in elimination order (leaves
+// first, the articulated-body recursion): O(bodies) time and memory, one
+// 1×1 pivot per coordinate, no pivoting. By Sylvester's law the number of
+// negative pivots is the number of negative eigenvalues of H.
+class TreeFactor {
+ public:
+  TreeFactor() = default;
+  // False when a pivot is exactly zero or not finite (then nothing can be solved).
+  bool factor(const TreePencil& p, double alpha, double beta, double gamma = 0);
+  int negative_pivots() const { return negative_; }
+  // x = H⁻¹ b (n); requires a successful factor().
+  void solve(const double* b, double* x) const;
+  VectorX solve(const VectorX& b) const;
+
+ private:
+  const TreePencil* p_ = nullptr;
+  std::vector<Vec6> u_;  // per body: U_b = A_b ξ_b (articulated A_b)
+  VectorX d_;            // n pivots
+  int negative_ = 0;
+  mutable std::vector<Vec6> work_;
+};
+
 // --- memory, estimated before allocating (docs/design.md, "Memory policy") ---
 
 // What the machine can still give a process: MemAvailable of /proc/meminfo,

@@ -145,6 +145,18 @@ struct SparseModalOptions {
 // convergence, a factorization failure), std::invalid_argument (sizes, k).
 ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, const SparseModalOptions& options = {});
 
+// The same for a tree without forming K or M (the matrix-free path,
+// docs/design.md "Matrix-free path"; modal/core.hpp, TreePencil): every
+// factorization of K − σM and every product is a recursion over the tree,
+// O(n) time and memory, so a chain of 10⁵ links needs megabytes where its
+// dense K needs 80 GB. The same shift-invert Lanczos iteration, inertia
+// counts, options and result as solve_sparse_modes (n ≤ 200: the matrices
+// are formed and solve_sparse_modes answers). The rounding part of each
+// estimate is 4ε(1 + 2√depth)(|φ|ᵀ|K||φ| + |λ||φ|ᵀ|M||φ|), |·| the
+// magnitude recursion (tree_product), for sums along paths of `depth`
+// bodies. Throws as solve_sparse_modes.
+ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& options = {});
+
 // One mode of the symmetric pencil as solve_sparse_modes reports it (also the
 // distributed backend's): phi M-normalized, lambda = phiᵀK phi its Rayleigh
 // quotient, error = ‖K phi − lambda M phi‖ in the M⁻¹-norm, rounding = the

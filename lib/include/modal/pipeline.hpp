@@ -84,6 +84,10 @@ double parse_memory_size(const std::string& text);
 // factor is dense).
 double dense_analysis_memory(const System& system);
 double sparse_analysis_memory(const System& system);
+// The matrix-free path: 1.5 kB per body (the pencil, its factor and the
+// recursions' work vectors) and the Lanczos basis, 8·ncv bytes per
+// coordinate with ncv = max(2·modes + 1, 20).
+double tree_analysis_memory(const System& system, int modes);
 
 // The exit status for an exception thrown by any modal function (see above;
 // std::bad_alloc and anything unknown count as numerical failures).
@@ -139,8 +143,13 @@ VectorX parse_coordinates(const System& system, const std::string& option, const
 // when that path's memory estimate exceeds the limit (Model::limits.memory, or
 // the machine's available memory) the other if it fits, else InputError with
 // both estimates. A forced path that does not fit is refused the same way.
-enum class SolverChoice { automatic, dense, sparse };
-const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse"
+// tree: the matrix-free path (solve_tree_modes; docs/design.md, "Matrix-free
+// path"), which automatic takes above large_system_coordinates for a scene it
+// describes (tree_pencil_unsupported) whose tree couples more than
+// 64 coordinate pairs per coordinate (long chains, where the sparse matrices
+// fill in), or when neither matrix path fits.
+enum class SolverChoice { automatic, dense, sparse, tree };
+const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse", "tree"
 
 struct AnalysisOptions {
   int modes = -1;                // lowest modes to report; -1: all (dense), 10 (sparse)
@@ -175,6 +184,7 @@ struct Analysis {
   Report report;                              // report.equilibria has exactly one entry
   std::optional<LinearModel> linear;          // the dense path's model (M, K, D, G; constrained: projected)
   std::optional<SparseLinearModel> sparse;    // the sparse path's model (M, K)
+  std::optional<TreePencil> tree;             // the matrix-free path's K and M (no matrices formed)
   std::vector<std::pair<std::string, double>> timings;  // phase → seconds, in order (indented names:
                                                         // sub-phases of the phase that follows)
   const Equilibrium& equilibrium() const { return report.equilibria.front().equilibrium; }

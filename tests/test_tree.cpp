@@ -1,0 +1,258 @@
+// The matrix-free path for trees (docs/design.md, "Matrix-free path"): the
+// ordered form of K and M (modal::TreePencil), its O(bodies) products and
+// LDLᵀ factorization, and the modes solved through it.
+//
+// Generated families (fixed seeds): random trees of hinges, slides and fixed
+// joints with random axes, offsets, masses and inertias, joint springs,
+// armatures and dead loads, sizes 1 to 60 bodies, masses and lengths graded
+// over up to six decades. References:
+// - products and solves: the dense M(q) and ∇∇V(q), which are themselves
+//   checked against long double AD in test_graded; tolerance 1e-12 of the
+//   magnitude bound (Σ|terms|), well above the recursions' rounding (depth ≤ 60);
+// - the inertia: the eigenvalues of the dense αK + βM + γI;
+// - the modes: the long double reference of test_graded (AD of the templated
+//   kinematics and potential, solved by Eigen in long double);
+// - a hanging chain of 10⁵ links: ω² = (g/a)·x_k with x_k the zeros of the
+//   Laguerre polynomial L_N, counted by a Sturm sequence in long double.
+#include "modal/linearize.hpp"
+#include "modal/modes.hpp"
+#include "modal/pipeline.hpp"
+#include "program.hpp"
+#include "reference_ld.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace modal;
+
+Vec3 random_unit(std::mt19937_64& rng) {
+  std::normal_distribution<double> n;
+  Vec3 v(n(rng), n(rng), n(rng));
+  return v.normalized();
+}
+
+// A random tree of `bodies` bodies (hinges, slides, a few fixed joints),
+// each hanging from a random earlier body, masses and lengths log-uniform
+// over `decades`.
+System random_tree(std::mt19937_64& rng, int bodies, double decades, bool planar = false) {
+  SystemDescription d;
+  d.title = "random tree";
+  d.gravity = Vec3(0, 0, -9.81);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto graded = [&] { return std::pow(10.0, decades * (u(rng) - 0.5)); };
+  for (int b = 0; b < bodies; ++b) {
+    Body body;
+    body.name = "b" + std::to_string(b);
+    body.parent = b == 0 ? -1 : static_cast<int>(u(rng) * b);
+    const double r = u(rng);
+    body.joint = planar ? JointType::hinge : r < 0.65 ? JointType::hinge : r < 0.9 ? JointType::slide : JointType::fixed;
+    body.axis = planar ? Vec3::UnitY() : random_unit(rng);
+    const double l = graded();
+    body.origin = b == 0 ? Vec3::Zero() : Vec3(l * (u(rng) - 0.5), l * (u(rng) - 0.5), -l);
+    body.mass = graded();
+    body.com = l * Vec3(u(rng) - 0.5, u(rng) - 0.5, -u(rng));
+    const Vec3 principal(0.1 + u(rng), 0.1 + u(rng), 0.1 + u(rng));
+    body.inertia = body.mass * l * l * 0.05 * principal.asDiagonal().toDenseMatrix();
+    const int nq = body.joint == JointType::fixed ? 0 : 1;
+    body.rest = VectorX::Zero(nq);
+    body.initial = VectorX::Zero(nq);
+    if (nq > 0 && u(rng) < 0.3) body.stiffness = body.mass * 9.81 * l * graded();
+    if (nq > 0 && u(rng) < 0.3) body.armature = 0.1 * body.mass * l * l;
+    d.bodies.push_back(body);
+  }
+  for (int i = 0; i < bodies / 5; ++i) {
+    DeadLoad load;
+    load.at.body = static_cast<int>(u(rng) * bodies);
+    load.at.point = Vec3(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5);
+    load.force = random_unit(rng) * graded();
+    d.loads.push_back(load);
+  }
+  return System(d);
+}
+
+VectorX random_vector(std::mt19937_64& rng, int n) {
+  std::normal_distribution<double> g;
+  VectorX x(n);
+  for (int i = 0; i < n; ++i) x[i] = g(rng);
+  return x;
+}
+
+TEST(TreePencil, ProductsAndSolvesEqualTheDenseMatrices) {
+  std::mt19937_64 rng(20261125);
+  int cases = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int bodies = 1 + static_cast<int>(rng() % 60);
+    const System s = random_tree(rng, bodies, trial % 3 == 0 ? 6.0 : 1.0);
+    if (s.size() == 0) continue;
+    ASSERT_FALSE(tree_pencil_unsupported(s).has_value());
+    Workspace w(s);
+    const VectorX q = 0.3 * random_vector(rng, s.size());
+    const TreePencil p = tree_pencil(s, w, q);
+    const MatrixX M = mass_matrix(s, w, q);
+    const MatrixX K = potential_hessian(s, w, q);
+    const MatrixX E = potential_hessian_magnitude(s, w, q);
+    const VectorX x = random_vector(rng, s.size());
+    const double alpha = 0.7, beta = -1.3;
+    const VectorX y = tree_product(p, alpha, beta, x);
+    const VectorX bound = tree_product(p, alpha, beta, x, true);
+    const VectorX dense = alpha * K * x + beta * M * x;
+    const VectorX dense_bound = std::abs(alpha) * E * x.cwiseAbs() + std::abs(beta) * M.cwiseAbs() * x.cwiseAbs();
+    for (int i = 0; i < s.size(); ++i) {
+      EXPECT_NEAR(y[i], dense[i], 1e-12 * bound[i]) << "trial " << trial << " row " << i;
+      // The magnitude recursion bounds Σ|terms| of the product up to rounding.
+      EXPECT_GE(bound[i] * (1 + 1e-12), std::abs(dense[i])) << "trial " << trial << " row " << i;
+    }
+    (void)dense_bound;
+    // H = αK + βM + γI: the solve inverts it, and the negative pivots count its negative eigenvalues.
+    const double gamma = 0.1 * M.diagonal().mean();
+    const MatrixX H = alpha * K + beta * M + gamma * MatrixX::Identity(s.size(), s.size());
+    TreeFactor f;
+    ASSERT_TRUE(f.factor(p, alpha, beta, gamma)) << "trial " << trial;
+    const VectorX z = f.solve(y);
+    const MatrixX Hs = 0.5 * (H + H.transpose());
+    const Eigen::SelfAdjointEigenSolver<MatrixX> eig(Hs);
+    const double smallest = eig.eigenvalues().cwiseAbs().minCoeff(), largest = eig.eigenvalues().cwiseAbs().maxCoeff();
+    if (smallest > 1e-6 * largest) {  // well enough conditioned to compare solutions
+      const VectorX reference = Hs.ldlt().solve(y);
+      EXPECT_LE((z - reference).norm(), 1e-7 * reference.norm()) << "trial " << trial;
+      int negative = 0;
+      for (int i = 0; i < s.size(); ++i) negative += eig.eigenvalues()[i] < 0;
+      EXPECT_EQ(f.negative_pivots(), negative) << "trial " << trial;
+      ++cases;
+    }
+  }
+  EXPECT_GE(cases, 30);
+}
+
+// The lowest modes of random trees solved through the tree (Lanczos path:
+// more than 200 coordinates) against the long double reference at the same
+// q (not an equilibrium: the dead loads make K indefinite for some, which
+// takes the divergent branch). Each ω² within its error estimate and within
+// 1e-7 relative of the reference (the estimates are residual bounds of the
+// Lanczos tolerance 1e-10, about 1e-9 relative here).
+TEST(TreeModes, RandomTreesMatchTheLongDoubleReference) {
+  std::mt19937_64 rng(7);
+  int divergent = 0;
+  for (int trial = 0; trial < 2; ++trial) {
+    const int bodies = (trial == 0 ? 240 : 205) + static_cast<int>(rng() % 20);
+    const System s = random_tree(rng, bodies, trial == 0 ? 4.0 : 1.0, trial == 1);
+    ASSERT_GT(s.size(), 200) << "the Lanczos path starts above 200 coordinates";
+    Workspace w(s);
+    const VectorX q = trial == 1 ? VectorX(0.2 * random_vector(rng, s.size())) : VectorX::Zero(s.size());
+    SparseModalOptions options;
+    options.modes = 8;
+    options.inertia_scale = inertia_scale(s, w, q);
+    const ModalResult r = solve_tree_modes(tree_pencil(s, w, q), options);
+    ASSERT_EQ(r.modes.size(), 8u);
+    EXPECT_NE(r.solver.find("matrix-free"), std::string::npos) << r.solver;
+    const std::vector<LD> reference = reference_omega2(s, q);
+    // The Morse index counts the eigenvalues below −ζ, ζ = 1e-8 max K_ii/M_ii
+    // (solve_sparse_modes), and those in [−ζ, 0) among the returned modes.
+    const TreePencil p = tree_pencil(s, w, q);
+    const double zeta = 1e-8 * (tree_diagonal(p, 1, 0).array() / tree_diagonal(p, 0, 1).array()).maxCoeff();
+    int negative = 0, below = 0;
+    for (const LD l : reference) {
+      negative += l < 0;
+      below += l < -zeta;
+    }
+    divergent += negative > 0;
+    EXPECT_GE(r.morse_index, below) << "trial " << trial;
+    EXPECT_LE(r.morse_index, negative) << "trial " << trial;
+    for (std::size_t j = 0; j < r.modes.size(); ++j) {
+      const double truth = static_cast<double>(reference[j]);
+      const double error = std::abs(r.modes[j].omega2 - truth);
+      EXPECT_LE(error, r.modes[j].error_estimate) << "trial " << trial << " mode " << j + 1 << ": " << r.modes[j].omega2
+                                                  << " against " << truth;
+      EXPECT_LE(error, 1e-7 * std::abs(truth)) << "trial " << trial << " mode " << j + 1;
+    }
+  }
+  EXPECT_GE(divergent, 1);  // the family reaches the divergent branch
+}
+
+// Zeros of the Laguerre polynomial L_N: the eigenvalues of its Jacobi matrix
+// T (diagonal 2i + 1, off-diagonal i + 1), which is L D Lᵀ with unit lower
+// bidiagonal L (ones below the diagonal) and D = diag(1, 2, …, N), exactly.
+// The number below σ is that of negative pivots of LDLᵀ − σI by the
+// stationary qd transform, which is relatively accurate (Dhillon and Parlett,
+// 2004); bisection in long double then gives each zero to about N·ε_LD.
+LD laguerre_zero(int N, int k) {
+  auto below = [N](LD sigma) {
+    int count = 0;
+    LD s = -sigma;
+    for (int i = 0; i < N; ++i) {
+      const LD d = i + 1;
+      const LD plus = s + d;
+      count += plus < 0;
+      if (i + 1 < N) s = (plus == 0 ? d / std::numeric_limits<LD>::min() : d / plus) * s - sigma;  // L⁺_i l_i s_i − σ
+    }
+    return count;
+  };
+  LD lo = 0, hi = 1;
+  while (below(hi) < k) hi *= 2;
+  for (int it = 0; it < 200 && hi - lo > 1e-30L * hi; ++it) {
+    const LD mid = (lo + hi) / 2;
+    (below(mid) >= k ? hi : lo) = mid;
+  }
+  return (lo + hi) / 2;
+}
+
+// A hanging chain of 10⁵ point-mass links (models/hanging_chain.toml, the
+// stated maximum of links): `modal analyze` takes the matrix-free path by
+// itself and its ten lowest ω² are (g/a)·x_k within their estimates.
+TEST(TreeModes, AHundredThousandLinkChainMatchesTheLaguerreZeros) {
+  const int N = 100000;
+  const Model model = load_model(std::string(MODAL_SOURCE_DIR) + "/models/hanging_chain.toml", {"N=100000"});
+  AnalysisOptions options;
+  options.modes = 10;
+  const Analysis a = analyze(model, options);
+  ASSERT_TRUE(a.tree.has_value());
+  EXPECT_FALSE(a.linear.has_value() || a.sparse.has_value());
+  const ModalResult& r = a.result();
+  ASSERT_EQ(r.modes.size(), 10u);
+  EXPECT_EQ(r.stability, Stability::stable);
+  const LD g = 9.81L, length = 1.0L / N;
+  for (int k = 1; k <= 10; ++k) {
+    const double truth = static_cast<double>(g / length * laguerre_zero(N, k));
+    const Mode& m = r.modes[static_cast<std::size_t>(k - 1)];
+    EXPECT_LE(std::abs(m.omega2 - truth), m.error_estimate) << "mode " << k << ": " << m.omega2 << " against " << truth;
+    EXPECT_LE(std::abs(m.omega2 - truth), 1e-6 * truth) << "mode " << k;
+  }
+}
+
+// The path is chosen by the documented rule and refused in words where it
+// does not apply.
+TEST(TreeModes, TheSolverChoiceFollowsTheRule) {
+  const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
+  AnalysisOptions tree;
+  tree.solver = SolverChoice::tree;
+  tree.modes = 3;
+  // A short chain on request: the same modes as the dense path.
+  const Model chain = load_model(models + "hanging_chain.toml", {"N=300"});
+  const Analysis a = analyze(chain, tree);
+  ASSERT_TRUE(a.tree.has_value());
+  AnalysisOptions dense;
+  dense.solver = SolverChoice::dense;
+  dense.modes = 3;
+  const Analysis b = analyze(chain, dense);
+  for (std::size_t j = 0; j < 3; ++j)
+    EXPECT_NEAR(a.result().modes[j].omega2, b.result().modes[j].omega2,
+                a.result().modes[j].error_estimate + b.result().modes[j].error_estimate);
+  // Automatic: long chains go through the tree, a net of springs does not.
+  const Model long_chain = load_model(models + "hanging_chain.toml", {"N=3000"});
+  EXPECT_TRUE(analyze(long_chain, AnalysisOptions{}).tree.has_value());
+  try {
+    analyze(load_model(models + "net.toml"), tree);
+    ADD_FAILURE() << "--solver tree accepted a net of springs";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("springs between points"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
