@@ -11,14 +11,15 @@ Model, at one rank, n coordinates (least squares over the measured sizes):
   time    T(n) = t0 + d g(n)      g = n^1.5 (2-D factorization flops), n^2 (3-D)
 for the equilibrium and the eigen phase separately (each made of MUMPS
 factorizations: SNES's Newton steps, the inertia checks and shift-invert).
-Projection on P ranks: memory per rank M0 + c f(N) / P * imbalance, time
-d g(N) / (P * efficiency); the assumed imbalance and efficiency are printed.
+Projection on P ranks: memory per rank M0 + c f(N) / P * imbalance (the
+imbalance measured at two ranks: max per rank over half the one-rank
+figure), time d g(N) / (P * efficiency), the efficiency assumed; both printed.
 """
 import math
 import sys
 
 NODE_CORES, NODE_GIB = 64, 256
-IMBALANCE = 1.5      # max over ranks / mean of the factor's memory (MUMPS, assumed)
+IMBALANCE = 1.5      # max over ranks / mean of the memory; replaced by the measured two-rank figure when there is one
 EFFICIENCY = 0.3     # parallel efficiency of MUMPS factorization at 10^2-10^3 ranks (assumed)
 
 
@@ -58,18 +59,20 @@ def report(path, shape):
         for r in one:
             print("    n = %9d: measured %7.2f s, fit %7.2f s" % (r["coords"], r[phase], t0 + d * flops(r["coords"])))
     two = {r["coords"]: r for r in rows if r["ranks"] == 2}
+    imbalance = IMBALANCE
     for r in one:
         if r["coords"] in two:
             t = two[r["coords"]]
             print("  two ranks, n = %9d: per rank %5.0f / %5.0f MiB (max / min) against %5.0f at one rank (%.2f of it)"
                   % (r["coords"], t["mem_max"], t["mem_min"], r["mem_max"], t["mem_max"] / r["mem_max"]))
-    print("  projection (nodes of %d cores / %d GiB: %.1f GiB per rank; imbalance %.1f, efficiency %.1f assumed):"
-          % (NODE_CORES, NODE_GIB, NODE_GIB / NODE_CORES, IMBALANCE, EFFICIENCY))
+            imbalance = t["mem_max"] / (r["mem_max"] / 2)  # the largest size measured on both
+    print("  projection (nodes of %d cores / %d GiB: %.1f GiB per rank; imbalance %.2f (two ranks, largest size), "
+          "efficiency %.1f assumed):" % (NODE_CORES, NODE_GIB, NODE_GIB / NODE_CORES, imbalance, EFFICIENCY))
     for N in (1e7, 1e8):
         total = c * fill(N) / 1024  # GiB of the factor-dominated part
         for nodes in (1, 4, 16, 64):
             P = nodes * NODE_CORES
-            per_rank = (m0 + c * fill(N) / P * IMBALANCE) / 1024
+            per_rank = (m0 + c * fill(N) / P * imbalance) / 1024
             seconds = sum(d * flops(N) for _, d in phases.values()) / (P * EFFICIENCY)
             fits = "fits" if per_rank <= NODE_GIB / NODE_CORES else "does not fit"
             print("    N = %.0e: %7.0f GiB in all; %3d nodes (%5d ranks): %7.1f GiB per rank (%s), "

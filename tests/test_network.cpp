@@ -791,3 +791,22 @@ TEST(scene_parts, PartsTileTheWholeScene) {
     }
   }
 }
+
+// A scene read in parts needs every body on the world (the bodies' numbering
+// is then the file order); a body hanging from another is refused where its
+// parent is named, while the whole reading accepts it.
+TEST(scene_parts, BodiesMustHangFromTheWorld) {
+  const std::string text =
+      "[[body]]\nname = \"arm\"\njoint = \"hinge\"\nmass = 1\n"
+      "[[body]]\nname = \"hand\"\nparent = \"arm\"\njoint = \"hinge\"\nmass = 1\n";
+  EXPECT_NO_THROW(parse(text));
+  const modal::SceneWindow window{0, 2};
+  try {
+    (void)modal::parse_scene(text, "test.toml", {}, {}, &window);
+    FAIL() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().line, 6);
+    EXPECT_EQ(e.key(), "body[2].parent");
+    EXPECT_NE(e.reason().find("needs every body on the world"), std::string::npos) << e.reason();
+  }
+}
