@@ -805,7 +805,7 @@ TEST(scene_parts, BodiesMustHangFromTheWorld) {
     (void)modal::parse_scene(text, "test.toml", {}, {}, &window);
     FAIL() << "no error";
   } catch (const modal::SceneError& e) {
-    EXPECT_EQ(e.where().line, 6);
+    EXPECT_EQ(e.where().line, 7);  // parent = "arm"
     EXPECT_EQ(e.key(), "body[2].parent");
     EXPECT_NE(e.reason().find("needs every body on the world"), std::string::npos) << e.reason();
   }
