@@ -18,7 +18,10 @@
 #include <fstream>
 #include <iostream>
 #include <numbers>
+#include <numeric>
 #include <random>
+#include <set>
+#include <tuple>
 #include <string>
 #include <vector>
 
@@ -677,3 +680,133 @@ TEST(lattice, CallerLimits) {
 }
 
 }  // namespace
+
+// --- distributed generation: a scene read in parts (SceneWindow) ----------------
+
+namespace parts {
+
+// A spring by its ends' whole-scene indices and values, to compare as sets.
+using Key = std::tuple<long long, long long, double, double>;
+
+long long global(const modal::Scene& s, int b) {
+  return b < 0 ? -1 : s.global_bodies.empty() ? b : s.global_bodies[static_cast<std::size_t>(b)];
+}
+
+}  // namespace parts
+
+// Generated family: random lattices (2-D and 3-D, diagonals, fixed faces), a
+// random network (nodes in random order, random edges), [[particle]]s before
+// and after them, a [[spring]] and a [[load]] on generated particles; read
+// whole and in 1 to 5 parts. Reference: the whole reading, which the serial
+// path uses. Each part must hold bodies identical to the whole scene's at
+// their global indices; the owned ranges must tile the scene in order
+// (⌊N/p⌋ or one more); the springs owned by the parts (first end owned, the
+// second when the first is the world) must be the whole scene's springs, each
+// exactly once; loads as the whole scene's; and every held body that is not
+// owned must be a hand-written body, an end of an owned spring or named by a
+// table, so that no part holds more than its owned range and its halo.
+TEST(scene_parts, PartsTileTheWholeScene) {
+  std::mt19937 random(18);
+  const Directory dir;
+  for (int trial = 0; trial < 12; ++trial) {
+    std::uniform_int_distribution<int> side(1, 6);
+    const bool flat = trial % 2 == 0;
+    const int n1 = side(random) + 1, n2 = side(random), n3 = flat ? 1 : side(random) + 1;
+    const char* fixed[] = {"\"none\"", "\"boundary\"", "\"x-\"", "[\"x+\", \"y-\"]"};
+    const int nodes = std::uniform_int_distribution<int>(2, 15)(random);
+    std::string node_csv = "name,x,y,z,mass\n", edge_csv = "a,b\n";
+    std::vector<int> order(static_cast<std::size_t>(nodes));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), random);
+    for (const int v : order)
+      node_csv += "v" + std::to_string(v) + "," + std::to_string(v) + "," + std::to_string(v * v % 7) + ",0,1\n";
+    for (int e = 0; e < 2 * nodes; ++e) {
+      const int a = std::uniform_int_distribution<int>(0, nodes - 1)(random);
+      const int b = (a + 1 + std::uniform_int_distribution<int>(0, nodes - 2)(random)) % nodes;
+      edge_csv += "v" + std::to_string(a) + ",v" + std::to_string(b) + "\n";
+    }
+    dir.write("nodes.csv", node_csv);
+    dir.write("edges.csv", edge_csv);
+    const std::string grid = flat ? "net.1.0" : "net.1.0.0";
+    const std::string text =
+        "[[particle]]\nname = \"p\"\nposition = [0, 0, 5]\nmass = 1\n"
+        "[[lattice]]\nname = \"net\"\nsize = [" + std::to_string(n1) + ", " + std::to_string(n2) + ", " +
+        std::to_string(n3) + "]\nspacing = 0.5\nmass = 0.1\nstiffness = 10\ndiagonals = " +
+        (trial % 3 == 0 ? "true" : "false") + "\nfixed = " + fixed[trial % 4] + "\nprestrain = 0.01\n" +
+        "[[network]]\nname = \"truss\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nstiffness = 3\n" +
+        "[[particle]]\nname = \"q\"\nposition = [1, 0, 5]\nmass = 1\n"
+        "[[spring]]\na = \"q\"\nb = \"" + grid + "\"\nstiffness = 7\n"
+        "[[spring]]\na = \"world\"\nb = \"truss.v0\"\nstiffness = 2\nrest_length = 1\n"
+        "[[load]]\nbody = \"" + grid + "\"\nforce = [0, 0, -1]\n";
+    const std::string file = dir.write("scene.toml", text);
+    const modal::Scene whole = modal::load_scene(file);
+    const auto& all = whole.description;
+    const long long total = static_cast<long long>(all.bodies.size());
+    EXPECT_EQ(whole.total_bodies, total);
+    std::multiset<parts::Key> springs, owned_springs;
+    for (const modal::Spring& s : all.springs)
+      springs.insert({parts::global(whole, s.a.body), parts::global(whole, s.b.body), s.stiffness, s.rest_length});
+    for (int count = 1; count <= 5; ++count) {
+      SCOPED_TRACE("trial " + std::to_string(trial) + ", " + std::to_string(count) + " parts");
+      owned_springs.clear();
+      long long next = 0;
+      for (int p = 0; p < count; ++p) {
+        const modal::SceneWindow window{p, count};
+        const modal::Scene part = modal::load_scene(file, {}, {}, &window);
+        const auto& d = part.description;
+        EXPECT_EQ(part.total_bodies, total);
+        EXPECT_EQ(part.first_owned, next);
+        const long long size = part.end_owned - part.first_owned;
+        EXPECT_TRUE(size == total / count || size == total / count + 1);
+        next = part.end_owned;
+        ASSERT_EQ(part.global_bodies.size(), d.bodies.size());
+        EXPECT_TRUE(std::is_sorted(part.global_bodies.begin(), part.global_bodies.end()));
+        const auto owned = [&](long long g) { return g >= part.first_owned && g < part.end_owned; };
+        std::set<long long> explained;  // ends of owned springs and named bodies
+        for (const std::string& name : {std::string("p"), std::string("q"), grid, std::string("truss.v0")})
+          explained.insert(index_of(whole, name));
+        for (std::size_t b = 0; b < d.bodies.size(); ++b) {
+          const modal::Body& mine = d.bodies[b];
+          const modal::Body& reference = all.bodies[static_cast<std::size_t>(part.global_bodies[b])];
+          EXPECT_EQ(mine.name, reference.name);
+          EXPECT_EQ(mine.origin, reference.origin);
+          EXPECT_EQ(mine.mass, reference.mass);
+          EXPECT_EQ(mine.joint, reference.joint);
+          EXPECT_EQ(mine.particle_axes, reference.particle_axes);
+        }
+        for (const modal::Spring& s : d.springs) {
+          const long long a = parts::global(part, s.a.body), b = parts::global(part, s.b.body);
+          if (!owned(a >= 0 ? a : b)) continue;
+          owned_springs.insert({a, b, s.stiffness, s.rest_length});
+          explained.insert(a);
+          explained.insert(b);
+        }
+        for (const long long g : part.global_bodies)
+          EXPECT_TRUE(owned(g) || explained.count(g)) << "part " << p << " holds body " << g << " for no reason";
+        ASSERT_EQ(d.loads.size(), all.loads.size());
+        EXPECT_EQ(parts::global(part, d.loads[0].at.body), all.loads[0].at.body);
+      }
+      EXPECT_EQ(next, total);
+      EXPECT_EQ(owned_springs, springs);
+    }
+  }
+}
+
+// A scene read in parts needs every body on the world (the bodies' numbering
+// is then the file order); a body hanging from another is refused where its
+// parent is named, while the whole reading accepts it.
+TEST(scene_parts, BodiesMustHangFromTheWorld) {
+  const std::string text =
+      "[[body]]\nname = \"arm\"\njoint = \"hinge\"\nmass = 1\n"
+      "[[body]]\nname = \"hand\"\nparent = \"arm\"\njoint = \"hinge\"\nmass = 1\n";
+  EXPECT_NO_THROW(parse(text));
+  const modal::SceneWindow window{0, 2};
+  try {
+    (void)modal::parse_scene(text, "test.toml", {}, {}, &window);
+    FAIL() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_EQ(e.where().line, 7);  // parent = "arm"
+    EXPECT_EQ(e.key(), "body[2].parent");
+    EXPECT_NE(e.reason().find("needs every body on the world"), std::string::npos) << e.reason();
+  }
+}

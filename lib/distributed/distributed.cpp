@@ -124,39 +124,47 @@ std::optional<std::string> distributed_unsupported(const System& s) {
 
 // The part of the scene one rank assembles.
 struct Part {
-  int first_body = 0, end_body = 0;         // owned particles [first, end)
+  long long first_body = 0, end_body = 0;   // owned particles [first, end) of the whole scene
   PetscInt first_coordinate = 0, end_coordinate = 0;
   std::optional<System> system;             // owned particles, then ghosts
+  std::vector<int> held;                    // the rank's System's body of each body of `system`
+  int owned_count = 0;                      // the first owned_count of them are owned
   std::vector<PetscInt> global;             // local coordinate → global coordinate
   PetscInt max_row = 0;                     // entries in the fullest row of K (global bound)
 };
 
-Part partition(const System& s, int rank, int size) {
+// The local System from the part of the scene the rank has read (`s`, its
+// bodies at scene.global_bodies of the whole scene: distributed generation,
+// SceneWindow): the owned particles, the springs whose first end it owns,
+// their other ends as ghosts. Local (no communication); global_coordinates()
+// then numbers the coordinates.
+Part partition(const System& s, const Scene& scene) {
   Part p;
-  const int n_bodies = static_cast<int>(s.bodies().size());
-  const int base = n_bodies / size, extra = n_bodies % size;
-  p.first_body = rank * base + std::min(rank, extra);
-  p.end_body = p.first_body + base + (rank < extra ? 1 : 0);
-  const auto first_coordinate = [&](int body) { return body < n_bodies ? s.first_coordinate(body) : s.size(); };
-  p.first_coordinate = first_coordinate(p.first_body);
-  p.end_coordinate = first_coordinate(p.end_body);
-  const auto owned = [&](int body) { return body >= p.first_body && body < p.end_body; };
+  p.first_body = scene.first_owned;
+  p.end_body = scene.end_owned;
+  const int n_held = static_cast<int>(s.bodies().size());
+  const auto global = [&](int b) {
+    return scene.global_bodies.empty() ? static_cast<long long>(b) : scene.global_bodies[static_cast<std::size_t>(b)];
+  };
+  const auto owned = [&](int b) { return global(b) >= p.first_body && global(b) < p.end_body; };
 
   SystemDescription d;
   d.title = s.title();
   d.gravity = s.gravity();
-  std::vector<int> local(static_cast<std::size_t>(n_bodies), -1), bodies;
-  for (int b = p.first_body; b < p.end_body; ++b) {
-    local[static_cast<std::size_t>(b)] = static_cast<int>(bodies.size());
-    bodies.push_back(b);
-    d.bodies.push_back(s.bodies()[static_cast<std::size_t>(b)]);
-  }
+  std::vector<int> local(static_cast<std::size_t>(n_held), -1);
+  for (int b = 0; b < n_held; ++b)
+    if (owned(b)) {
+      local[static_cast<std::size_t>(b)] = static_cast<int>(p.held.size());
+      p.held.push_back(b);
+      d.bodies.push_back(s.bodies()[static_cast<std::size_t>(b)]);
+    }
+  p.owned_count = static_cast<int>(p.held.size());
   const auto local_body = [&](int body) {
     if (body < 0) return -1;
     int& l = local[static_cast<std::size_t>(body)];
     if (l < 0) {  // a ghost
-      l = static_cast<int>(bodies.size());
-      bodies.push_back(body);
+      l = static_cast<int>(p.held.size());
+      p.held.push_back(body);
       Body ghost = s.bodies()[static_cast<std::size_t>(body)];
       ghost.mass = 0;
       ghost.inertia.setZero();
@@ -167,7 +175,10 @@ Part partition(const System& s, int rank, int size) {
     }
     return l;
   };
-  std::vector<int> degree(static_cast<std::size_t>(n_bodies), 0);
+  // The springs' count at a particle, over the springs this rank has read
+  // (each lattice or network particle inside the owned range sees all of its
+  // own; the maximum over the ranks bounds a row of K).
+  std::vector<int> degree(static_cast<std::size_t>(n_held), 0);
   for (const Spring& spring : s.springs()) {
     for (int end : {spring.a.body, spring.b.body})
       if (end >= 0) ++degree[static_cast<std::size_t>(end)];
@@ -185,13 +196,97 @@ Part partition(const System& s, int rank, int size) {
       d.loads.push_back(mine);
     }
   p.system.emplace(std::move(d));
-  for (std::size_t l = 0; l < bodies.size(); ++l) {
-    const int g = bodies[l];
-    for (int k = 0; k < s.joint_size(g); ++k) p.global.push_back(s.first_coordinate(g) + k);
-  }
   const int widest = degree.empty() ? 0 : *std::max_element(degree.begin(), degree.end());
-  p.max_row = std::min<PetscInt>(3 * (widest + 1), s.size());
+  p.max_row = 3 * (widest + 1);
   return p;
+}
+
+// Collective: the global coordinates of the part's bodies. The owned ones
+// follow the coordinates of the lower ranks (an exclusive prefix sum); each
+// ghost's come from its owner, through a vector of the whole scene's bodies
+// holding each body's first coordinate. Returns the scene's coordinate count.
+PetscInt global_coordinates(Part& p, const System& s, const Scene& scene) {
+  const System& part = *p.system;
+  PetscInt mine = 0;
+  for (int l = 0; l < p.owned_count; ++l) mine += part.joint_size(l);
+  PetscInt offset = 0, n = mine;
+  MPI_Exscan(&mine, &offset, 1, MPIU_INT, MPI_SUM, MPI_COMM_WORLD);
+  if (world_rank() == 0) offset = 0;
+  MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPIU_INT, MPI_SUM, MPI_COMM_WORLD);
+  p.first_coordinate = offset;
+  p.end_coordinate = offset + mine;
+  MPI_Allreduce(MPI_IN_PLACE, &p.max_row, 1, MPIU_INT, MPI_MAX, MPI_COMM_WORLD);
+  p.max_row = std::min(p.max_row, std::max<PetscInt>(n, 1));
+
+  const auto global = [&](int b) {
+    return static_cast<PetscInt>(scene.global_bodies.empty() ? b : scene.global_bodies[static_cast<std::size_t>(b)]);
+  };
+  Vec starts = nullptr, ghosts = nullptr;
+  MODAL_PETSC(VecCreateMPI(PETSC_COMM_WORLD, static_cast<PetscInt>(p.end_body - p.first_body),
+                           static_cast<PetscInt>(scene.total_bodies), &starts));
+  std::vector<PetscInt> first(p.held.size(), 0);
+  for (int l = 0, next = static_cast<int>(offset); l < p.owned_count; ++l) {
+    first[static_cast<std::size_t>(l)] = next;
+    MODAL_PETSC(VecSetValue(starts, global(p.held[static_cast<std::size_t>(l)]), next, INSERT_VALUES));
+    next += part.joint_size(l);
+  }
+  MODAL_PETSC(VecAssemblyBegin(starts));
+  MODAL_PETSC(VecAssemblyEnd(starts));
+  std::vector<PetscInt> wanted;
+  for (std::size_t l = static_cast<std::size_t>(p.owned_count); l < p.held.size(); ++l) wanted.push_back(global(p.held[l]));
+  IS from = nullptr;
+  VecScatter scatter = nullptr;
+  MODAL_PETSC(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(wanted.size()), wanted.data(), PETSC_COPY_VALUES, &from));
+  MODAL_PETSC(VecCreateSeq(PETSC_COMM_SELF, static_cast<PetscInt>(wanted.size()), &ghosts));
+  MODAL_PETSC(VecScatterCreate(starts, from, ghosts, nullptr, &scatter));
+  MODAL_PETSC(VecScatterBegin(scatter, starts, ghosts, INSERT_VALUES, SCATTER_FORWARD));
+  MODAL_PETSC(VecScatterEnd(scatter, starts, ghosts, INSERT_VALUES, SCATTER_FORWARD));
+  const PetscScalar* values = nullptr;
+  MODAL_PETSC(VecGetArrayRead(ghosts, &values));
+  for (std::size_t g = 0; g < wanted.size(); ++g)
+    first[static_cast<std::size_t>(p.owned_count) + g] = static_cast<PetscInt>(std::llround(values[g]));
+  MODAL_PETSC(VecRestoreArrayRead(ghosts, &values));
+  MODAL_PETSC(VecScatterDestroy(&scatter));
+  MODAL_PETSC(ISDestroy(&from));
+  MODAL_PETSC(VecDestroy(&ghosts));
+  MODAL_PETSC(VecDestroy(&starts));
+  p.global.clear();
+  for (std::size_t l = 0; l < p.held.size(); ++l)
+    for (int k = 0; k < s.joint_size(p.held[l]); ++k) p.global.push_back(first[l] + k);
+  return n;
+}
+
+// The names and kinds of the whole scene's coordinates, on rank 0 (each rank
+// sends its owned ones', in rank order): what the report names its values by.
+void gather_coordinate_names(const Part& p, std::vector<std::string>& names, std::vector<CoordinateKind>& kinds) {
+  std::string text;
+  std::vector<int> mine;
+  const auto& coordinates = p.system->coordinates();
+  for (PetscInt c = 0; c < p.end_coordinate - p.first_coordinate; ++c) {
+    text += coordinates[static_cast<std::size_t>(c)].name;
+    text += '\0';
+    mine.push_back(static_cast<int>(coordinates[static_cast<std::size_t>(c)].kind));
+  }
+  const int size = world_size(), root = world_rank() == 0;
+  std::vector<int> lengths(static_cast<std::size_t>(size)), counts(static_cast<std::size_t>(size));
+  const int length = static_cast<int>(text.size()), count = static_cast<int>(mine.size());
+  MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+  MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+  std::vector<int> at(static_cast<std::size_t>(size), 0), kind_at(static_cast<std::size_t>(size), 0);
+  for (std::size_t r = 1; r < at.size(); ++r) {
+    at[r] = at[r - 1] + lengths[r - 1];
+    kind_at[r] = kind_at[r - 1] + counts[r - 1];
+  }
+  std::string all(root ? static_cast<std::size_t>(at.back() + lengths.back()) : 0, '\0');
+  std::vector<int> all_kinds(root ? static_cast<std::size_t>(kind_at.back() + counts.back()) : 0);
+  MPI_Gatherv(text.data(), length, MPI_CHAR, all.data(), lengths.data(), at.data(), MPI_CHAR, 0, MPI_COMM_WORLD);
+  MPI_Gatherv(mine.data(), count, MPI_INT, all_kinds.data(), counts.data(), kind_at.data(), MPI_INT, 0, MPI_COMM_WORLD);
+  for (std::size_t i = 0, begin = 0; i < all.size(); ++i)
+    if (all[i] == '\0') {
+      names.emplace_back(all, begin, i - begin);
+      begin = i + 1;
+    }
+  for (const int k : all_kinds) kinds.push_back(static_cast<CoordinateKind>(k));
 }
 
 // ---------------------------------------------------------------- assembly
@@ -385,7 +480,8 @@ DistributedSession::~DistributedSession() { SlepcFinalize(); }
 int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err) {
   const int rank = world_rank(), size = world_size();
   Timings timings;
-  std::optional<Model> model;
+  std::optional<Scene> scene;
+  std::optional<System> held;  // the part of the scene this rank has read and built
   Part part;
   std::optional<Workspace> ws;
   Assembly assembly;
@@ -407,18 +503,38 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       if (options.derivatives != DerivativeMethod::exact)
         throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
       if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
-      model.emplace(load_model(request.scene_file, request.sets, request.limits, request.format));
-      if (const auto why = distributed_unsupported(model->system))
+      // Distributed generation: each rank reads and builds its part of the
+      // scene only (SceneWindow), never the whole.
+      std::vector<ParameterOverride> overrides;
+      for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
+      const std::string text = read_scene_file(request.scene_file);
+      if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
+        throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
+                         "serial backend");
+      const SceneWindow window{rank, size};
+      scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
+      held.emplace(build_system(*scene));
+      if (const auto why = distributed_unsupported(*held))
         throw InputError("--backend petsc does not apply to this scene: " + *why);
     });
     timings.mark("parse+build");
-    const System& sys = model->system;
-    const PetscInt n = sys.size();
+    PetscInt n = 0;
 
     phase([&] {
-      part = partition(sys, rank, size);
+      part = partition(*held, *scene);
       ws.emplace(*part.system);
     });
+    n = global_coordinates(part, *held, *scene);
+    if (request.timing) {  // what each rank holds: its part of the scene, never the whole
+      long long counts[3] = {part.end_body - part.first_body, static_cast<long long>(held->bodies().size()),
+                             static_cast<long long>(part.held.size())};
+      std::vector<long long> all(3 * static_cast<std::size_t>(size));
+      MPI_Gather(counts, 3, MPI_LONG_LONG, all.data(), 3, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
+      for (int r = 0; r < size && rank == 0; ++r)
+        err << fmt::format("distribution: rank {} of {} owns {} of the scene's {} bodies, built {}, assembles {}\n", r,
+                           size, all[3 * static_cast<std::size_t>(r)], scene->total_bodies,
+                           all[3 * static_cast<std::size_t>(r) + 1], all[3 * static_cast<std::size_t>(r) + 2]);
+    }
     phase([&] {  // collective from here on: nothing rank-local throws before the PETSc calls
       assembly.part = &part;
       assembly.ws = &*ws;
@@ -430,9 +546,9 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
                                   PETSC_COPY_VALUES, &from));
       MODAL_PETSC(VecScatterCreate(x, from, assembly.local, nullptr, &assembly.gather));
       MODAL_PETSC(ISDestroy(&from));
-      const VectorX q0 = sys.initial_configuration();
+      const VectorX q0 = part.system->initial_configuration();  // the owned coordinates first
       for (PetscInt i = part.first_coordinate; i < part.end_coordinate; ++i)
-        MODAL_PETSC(VecSetValue(x, i, q0(i), INSERT_VALUES));
+        MODAL_PETSC(VecSetValue(x, i, q0(i - part.first_coordinate), INSERT_VALUES));
       MODAL_PETSC(VecAssemblyBegin(x));
       MODAL_PETSC(VecAssemblyEnd(x));
       J = create_matrix(part, n);
@@ -687,12 +803,17 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
 
     // ---- one report, by rank 0
     const VectorX q = gather_to_root(x);
+    Report names;
+    gather_coordinate_names(part, names.coordinates, names.kinds);
     bool unstable = false;
     phase([&] {
       if (rank != 0) return;
       eq.q = q;
       Analysis a;
-      a.report = make_report(sys, model->scene.file, model->scene.parameters);
+      a.report = std::move(names);
+      a.report.scene_file = scene->file;
+      a.report.title = held->title();
+      a.report.parameters = scene->parameters;
       a.report.equilibria.push_back({eq, std::move(result), std::nullopt, std::nullopt});
       write_analysis(out, a, request.outputs);
       unstable = a.unstable();

@@ -107,7 +107,8 @@ void read_fixed_value(const Reader& reader, const toml::node& node, const std::s
 
 }  // namespace
 
-Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index, LatticePass pass) {
+Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index, LatticePass pass,
+                       const GeneratorWindow& window) {
   const Section s(reader, table, index_key("lattice", index), "[[lattice]]");
   s.check_keys({"name", "size", "spacing", "origin", "mass", "stiffness", "damping", "diagonals", "fixed", "prestrain",
                 "plane"});
@@ -143,6 +144,7 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
                                           std::to_string(max_particles) + " are supported");
   if (pass == LatticePass::count) {
     reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, 0);
+    g.count = static_cast<long long>(total);
     return g;
   }
   const bool net = n[2] == 1;
@@ -214,8 +216,50 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
   }
   reader.add_to_scene(*size_node, size_key, "the lattice", 0, 0, springs);  // its particles: counted before
 
-  // Particles, the last index fastest: index = (i n2 + j) n3 + k.
-  g.bodies.reserve(static_cast<std::size_t>(total));
+  // Particles, the last index fastest: index = (i n2 + j) n3 + k. Read in
+  // parts, a process owns a range of this index: whole layers of i and a
+  // part of one, its ghosts in the next layer.
+  g.count = static_cast<long long>(total);
+  const long long first = window.first, end = window.end < 0 ? g.count : std::min(window.end, g.count);
+  const auto flat = [&](long long i, long long j, long long k) { return static_cast<int>((i * n[1] + j) * n[2] + k); };
+  // The springs of the owned particles, ends as block-local indices.
+  const double share = window.whole(g.count) ? 1.0 : static_cast<double>(std::max(0LL, end - first)) / total;
+  g.springs.reserve(static_cast<std::size_t>(share * springs));
+  for (long long f = first; f < end; ++f) {
+    const long long i = f / (n[1] * n[2]), j = f / n[2] % n[1], k = f % n[2];
+    for (std::size_t o = 0; o < offsets.size(); ++o) {
+      const long long i2 = i + offsets[o][0], j2 = j + offsets[o][1], k2 = k + offsets[o][2];
+      if (i2 >= n[0] || j2 < 0 || j2 >= n[1] || k2 < 0 || k2 >= n[2]) continue;
+      Spring& spring = g.springs.emplace_back();
+      spring.a.body = flat(i, j, k);
+      spring.b.body = flat(i2, j2, k2);
+      spring.stiffness = stiffness;
+      spring.rest_length = rest[o];
+      spring.damping = damping;
+    }
+  }
+  // Particles named by the scene's tables: "<name>.<i>.<j>[.<k>]".
+  std::vector<long long> named;
+  if (window.named != nullptr && !window.whole(g.count))
+    for (const std::string& full : *window.named) {
+      if (!full.starts_with(g.name + ".")) continue;
+      std::string_view rest = std::string_view(full).substr(g.name.size() + 1);
+      std::array<long long, 3> at{0, 0, 0};
+      bool valid = true;
+      for (std::size_t d = 0; d < (net ? 2u : 3u) && valid; ++d) {
+        const auto [ptr, error] = std::from_chars(rest.data(), rest.data() + rest.size(), at[d]);
+        valid = error == std::errc() && at[d] >= 0 && at[d] < n[d];
+        rest.remove_prefix(static_cast<std::size_t>(ptr - rest.data()));
+        if (valid && !rest.empty()) {
+          valid = rest.front() == '.' && d + 1 < (net ? 2u : 3u);
+          rest.remove_prefix(1);
+        }
+      }
+      if (valid && rest.empty()) named.push_back(flat(at[0], at[1], at[2]));
+    }
+  hold_window(window, g, std::move(named));
+
+  g.bodies.reserve(window.whole(g.count) ? static_cast<std::size_t>(total) : g.held.size());
   // One index as ".<digits>", written where the name is built (no temporary strings).
   struct Index {
     std::array<char, 24> digits{};
@@ -226,39 +270,45 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
                                       digits.data());
     }
   };
-  for (long long i = 0; i < n[0]; ++i)
-    for (long long j = 0; j < n[1]; ++j)
-      for (long long k = 0; k < n[2]; ++k) {
-        const Index a(i), b(j), c(k);
-        std::string name;
-        name.reserve(g.name.size() + a.size + b.size + (net ? 0 : c.size));  // exact: short names stay inline
-        name.append(g.name).append(a.digits.data(), a.size).append(b.digits.data(), b.size);
-        if (!net) name.append(c.digits.data(), c.size);
-        const std::array<long long, 3> at{i, j, k};
-        bool fixed = false;
-        for (std::size_t d = 0; d < 3; ++d)
-          fixed = fixed || (at[d] == 0 && ends.low[d]) || (at[d] == n[d] - 1 && ends.high[d]);
-        const Vec3 position = origin + static_cast<double>(i) * step[0] + static_cast<double>(j) * step[1] +
-                              static_cast<double>(k) * step[2];
-        add_particle(g.bodies, std::move(name), position, mass, {fixed, fixed, fixed});
-      }
-
-  g.springs.reserve(static_cast<std::size_t>(springs));
-  const auto flat = [&](long long i, long long j, long long k) { return static_cast<int>((i * n[1] + j) * n[2] + k); };
-  for (long long i = 0; i < n[0]; ++i)
-    for (long long j = 0; j < n[1]; ++j)
-      for (long long k = 0; k < n[2]; ++k)
-        for (std::size_t o = 0; o < offsets.size(); ++o) {
-          const long long i2 = i + offsets[o][0], j2 = j + offsets[o][1], k2 = k + offsets[o][2];
-          if (i2 >= n[0] || j2 < 0 || j2 >= n[1] || k2 < 0 || k2 >= n[2]) continue;
-          Spring& spring = g.springs.emplace_back();
-          spring.a.body = flat(i, j, k);
-          spring.b.body = flat(i2, j2, k2);
-          spring.stiffness = stiffness;
-          spring.rest_length = rest[o];
-          spring.damping = damping;
-        }
+  const auto particle = [&](long long f) {
+    const long long i = f / (n[1] * n[2]), j = f / n[2] % n[1], k = f % n[2];
+    const Index a(i), b(j), c(k);
+    std::string name;
+    name.reserve(g.name.size() + a.size + b.size + (net ? 0 : c.size));  // exact: short names stay inline
+    name.append(g.name).append(a.digits.data(), a.size).append(b.digits.data(), b.size);
+    if (!net) name.append(c.digits.data(), c.size);
+    const std::array<long long, 3> at{i, j, k};
+    bool fixed = false;
+    for (std::size_t d = 0; d < 3; ++d)
+      fixed = fixed || (at[d] == 0 && ends.low[d]) || (at[d] == n[d] - 1 && ends.high[d]);
+    const Vec3 position = origin + static_cast<double>(i) * step[0] + static_cast<double>(j) * step[1] +
+                          static_cast<double>(k) * step[2];
+    add_particle(g.bodies, std::move(name), position, mass, {fixed, fixed, fixed});
+  };
+  if (window.whole(g.count))
+    for (long long f = 0; f < g.count; ++f) particle(f);
+  else
+    for (const long long f : g.held) particle(f);
   return g;
+}
+
+void hold_window(const GeneratorWindow& window, Generated& g, std::vector<long long> named) {
+  if (window.whole(g.count)) return;
+  const long long first = window.first, end = std::min(window.end, g.count);
+  std::vector<long long>& held = g.held;
+  held = std::move(named);
+  std::erase(held, -1);
+  for (long long f = first; f < end; ++f) held.push_back(f);
+  for (const Spring& spring : g.springs) held.push_back(spring.b.body);  // a is owned
+  std::sort(held.begin(), held.end());
+  held.erase(std::unique(held.begin(), held.end()), held.end());
+  const auto local = [&](int f) {
+    return static_cast<int>(std::lower_bound(held.begin(), held.end(), static_cast<long long>(f)) - held.begin());
+  };
+  for (Spring& spring : g.springs) {
+    spring.a.body = local(spring.a.body);
+    spring.b.body = local(spring.b.body);
+  }
 }
 
 // --- [[network]] ---------------------------------------------------------------
@@ -493,7 +543,8 @@ std::optional<std::array<bool, 3>> parse_fixed(std::string_view text) {
 
 }  // namespace
 
-Generated read_network(const Reader& reader, const toml::table& table, std::size_t index) {
+Generated read_network(const Reader& reader, const toml::table& table, std::size_t index, LatticePass pass,
+                       const GeneratorWindow& window) {
   const Section s(reader, table, index_key("network", index), "[[network]]");
   s.check_keys({"name", "nodes", "edges", "mass", "stiffness", "damping", "prestrain"});
   Generated g;
@@ -514,13 +565,23 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   if (nodes.rows.empty()) nodes.fail(nodes.header.line, 1, "", "the nodes file has a header but no nodes");
   if (node_index[mass_column] < 0 && !has_mass)
     s.fail("mass", "the nodes file '" + nodes.path + "' has no mass column, so [[network]] needs a default 'mass'");
+  g.count = static_cast<long long>(nodes.rows.size());
+  if (pass == LatticePass::count) return g;
 
   reader.add_to_scene(*s.find("nodes"), s.key("nodes"), "the network's nodes",
                       static_cast<double>(nodes.rows.size()), 0, 0);
-  std::unordered_map<std::string_view, int> by_name;  // node name → index in g.bodies
+  // Every node is read and checked (by every process when the scene is read
+  // in parts); the particles are made for the held ones only, at the end.
+  struct Node {
+    std::string_view name;
+    Vec3 position;
+    double mass = 0;
+    std::array<bool, 3> fixed{};
+  };
+  std::vector<Node> read;
+  std::unordered_map<std::string_view, int> by_name;  // node name → its row index
   by_name.reserve(nodes.rows.size());
-  g.bodies.reserve(nodes.rows.size());
-  g.lines.reserve(nodes.rows.size());
+  read.reserve(nodes.rows.size());
   g.csv = nodes.path;
   for (const CsvRow& row : nodes.rows) {
     const RowReader r(nodes, node_schema, node_index, row);
@@ -528,16 +589,17 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
     if (!is_printable(name))
       r.fail(name_column, "the node name \"" + printable(name) + "\" contains control characters or bytes that are "
                           "not UTF-8 (shown escaped); node names must be printable text");
-    const auto [it, inserted] = by_name.emplace(name, static_cast<int>(g.bodies.size()));
+    const auto [it, inserted] = by_name.emplace(name, static_cast<int>(read.size()));
     if (!inserted)
       r.fail(name_column, "duplicate node name '" + std::string(name) + "': already used on line " +
-                              std::to_string(g.lines[static_cast<std::size_t>(it->second)]));
-    const Vec3 position(r.number(x_column, Range::any), r.number(y_column, Range::any), r.number(z_column, Range::any));
-    double m = 0;
+                              std::to_string(nodes.rows[static_cast<std::size_t>(it->second)].line));
+    Node& node = read.emplace_back();
+    node.name = name;
+    node.position = Vec3(r.number(x_column, Range::any), r.number(y_column, Range::any), r.number(z_column, Range::any));
     if (r.has(mass_column)) {
-      m = r.number(mass_column, Range::nonnegative);
+      node.mass = r.number(mass_column, Range::nonnegative);
     } else if (has_mass) {
-      m = mass;
+      node.mass = mass;
     } else {
       r.fail(mass_column, "no mass for node '" + std::string(name) +
                               "': fill in the mass column or give [[network]] a default 'mass'");
@@ -546,11 +608,7 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
     if (!fixed)
       r.fail(fixed_column, "expected 0, 1, true, false or the fixed axes as letters (\"z\", \"xy\", \"xyz\"), got '" +
                                std::string(r.text(fixed_column)) + "'");
-    std::string full;
-    full.reserve(g.name.size() + 1 + name.size());
-    full.append(g.name).append(".").append(name);
-    add_particle(g.bodies, std::move(full), position, m, *fixed);
-    g.lines.push_back(row.line);
+    node.fixed = *fixed;
   }
 
   // Edges: a,b[,stiffness][,rest_length][,damping].
@@ -564,22 +622,22 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
            "the edges file '" + edges.path + "' has no stiffness column, so [[network]] needs a default 'stiffness'");
   reader.add_to_scene(*s.find("edges"), s.key("edges"), "the network's edges", 0, 0,
                       static_cast<double>(edges.rows.size()));
-  g.springs.reserve(edges.rows.size());
-  const std::size_t prefix = g.name.size() + 1;
+  const long long first = window.first, end = window.end < 0 ? g.count : window.end;
+  if (window.whole(g.count)) g.springs.reserve(edges.rows.size());
   const auto node = [&](const RowReader& r, std::size_t c) {
     const std::string_view name = r.required_text(c);
     const auto it = by_name.find(name);
     if (it != by_name.end()) return it->second;
     std::vector<std::string> candidates;
-    candidates.reserve(g.bodies.size());
-    for (const Body& b : g.bodies) candidates.push_back(b.name.substr(prefix));
+    candidates.reserve(read.size());
+    for (const Node& n : read) candidates.emplace_back(n.name);
     r.fail(c, "unknown node '" + std::string(name) + "'" + did_you_mean(name, candidates) +
                   "; an edge joins two nodes of the nodes file '" + nodes.path + "'" +
                   (name == "world" ? " (to tie a node to the world, fix it: fixed = 1)" : ""));
   };
   for (const CsvRow& row : edges.rows) {
     const RowReader r(edges, edge_schema, edge_index, row);
-    Spring& spring = g.springs.emplace_back();
+    Spring spring;
     spring.a.body = node(r, a_column);
     spring.b.body = node(r, b_column);
     if (spring.a.body == spring.b.body)
@@ -597,8 +655,8 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
     if (r.has(rest_column)) {
       spring.rest_length = r.number(rest_column, Range::nonnegative);
     } else {
-      const Vec3& xa = g.bodies[static_cast<std::size_t>(spring.a.body)].origin;
-      const Vec3& xb = g.bodies[static_cast<std::size_t>(spring.b.body)].origin;
+      const Vec3& xa = read[static_cast<std::size_t>(spring.a.body)].position;
+      const Vec3& xb = read[static_cast<std::size_t>(spring.b.body)].position;
       const double length = (xa - xb).norm();
       if (!std::isfinite(length))
         r.fail(rest_column, "the distance between the nodes '" + std::string(r.text(a_column)) + "' and '" +
@@ -608,7 +666,32 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
                                 "' are at the same place, so the edge's rest length would be 0; give a rest_length");
       spring.rest_length = (1 - prestrain) * length;
     }
+    if (spring.a.body >= first && spring.a.body < end) g.springs.push_back(spring);  // the owner's
   }
+
+  // The held nodes' particles ("<name>.<node>"): all, or the window's.
+  std::vector<long long> named;
+  if (window.named != nullptr && !window.whole(g.count))
+    for (const std::string& full : *window.named)
+      if (full.starts_with(g.name + "."))
+        if (const auto it = by_name.find(std::string_view(full).substr(g.name.size() + 1)); it != by_name.end())
+          named.push_back(it->second);
+  hold_window(window, g, std::move(named));
+  const auto particle = [&](std::size_t l) {
+    const Node& n = read[l];
+    std::string full;
+    full.reserve(g.name.size() + 1 + n.name.size());
+    full.append(g.name).append(".").append(n.name);
+    add_particle(g.bodies, std::move(full), n.position, n.mass, n.fixed);
+    g.lines.push_back(nodes.rows[l].line);
+  };
+  const std::size_t held = window.whole(g.count) ? read.size() : g.held.size();
+  g.bodies.reserve(held);
+  g.lines.reserve(held);
+  if (window.whole(g.count))
+    for (std::size_t l = 0; l < read.size(); ++l) particle(l);
+  else
+    for (const long long l : g.held) particle(static_cast<std::size_t>(l));
   return g;
 }
 

@@ -152,6 +152,24 @@ struct Generated {
   std::vector<Spring> springs;
   std::string csv;                        // network: the nodes file as resolved
   std::vector<int> lines;                 // network: each node's line in `csv`
+  long long count = 0;                    // the block's particles in the whole scene
+  // Read in parts (a GeneratorWindow): the block-local index of each body,
+  // ascending; empty when the block holds all `count` particles in order.
+  std::vector<long long> held;
+};
+
+// The part of a generator's particles one process builds (distributed
+// generation, docs/design.md "Distributed backend"). The serial path gives
+// the whole range. Held are the owned particles [first, end), the other end
+// particles of the springs whose first end is owned (ghosts: every spring
+// belongs to its first end's owner), and the particles `named` by
+// [[spring]], [[load]] or [[constraint]] tables (by their full names). Only
+// the owned particles' springs are made. Every row and value is still read
+// and checked, so the errors are those of the serial path.
+struct GeneratorWindow {
+  long long first = 0, end = -1;  // end < 0: the whole block
+  const std::vector<std::string>* named = nullptr;
+  bool whole(long long count) const { return first == 0 && (end < 0 || end >= count); }
 };
 // A lattice is read twice: first `count` (its size only, its particles added
 // to the scene's totals, nothing generated), once for every lattice before
@@ -159,8 +177,18 @@ struct Generated {
 // memory is spent on the others; then `generate`.
 enum class LatticePass { count, generate };
 Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index,
-                       LatticePass pass = LatticePass::generate);
-Generated read_network(const Reader& reader, const toml::table& table, std::size_t index);
+                       LatticePass pass = LatticePass::generate, const GeneratorWindow& window = {});
+// A network counted only (`count`: the nodes file read, its rows counted,
+// nothing made) or generated.
+Generated read_network(const Reader& reader, const toml::table& table, std::size_t index,
+                       LatticePass pass = LatticePass::generate, const GeneratorWindow& window = {});
+
+// Held particles of a window (GeneratorWindow): the owned range, the ends
+// `others` of the owned springs and the `named` ones (block-local indices,
+// −1 for none), ascending and unique; and the springs' ends turned from
+// block-local indices into indices of the held list. Nothing is done for the
+// whole block.
+void hold_window(const GeneratorWindow& window, Generated& g, std::vector<long long> named);
 
 // Resolves [parameters] (may be null) with the command-line overrides:
 // definitions in any order, expressions over other parameters, cycles and

@@ -34,6 +34,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <numeric>
 #include <queue>
 #include <sstream>
 #include <tuple>
@@ -392,16 +393,20 @@ std::string describe_user(const std::vector<BodyEntry>& entries, const std::vect
 // file comes next), and resolves parent names to indices. Names must be unique
 // across entries and blocks (one hash table, no per-body string work beyond
 // hashing). Fills the scene's bodies and their locations, `particle` (whether
-// each body is a particle) and the first body index of each block.
+// each body is a particle) and the first body index of each block. A block
+// read in parts (Generated::held) takes its whole count of places; its held
+// bodies are kept, and scene.global_bodies says where each body is.
 void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, std::vector<Generated>& blocks,
                   Scene& scene, std::vector<bool>& particle, std::vector<int>& block_start) {
   std::vector<Unit> units;
   units.reserve(entries.size() + blocks.size());
   std::size_t total = entries.size();
   for (std::size_t i = 0; i < entries.size(); ++i) units.push_back({false, i, entries[i].order});
+  bool parts = false;
   for (std::size_t i = 0; i < blocks.size(); ++i) {
     units.push_back({true, i, {blocks[i].location.line, blocks[i].location.column, 0}});
     total += blocks[i].bodies.size();
+    parts = parts || static_cast<long long>(blocks[i].bodies.size()) != blocks[i].count;
   }
   std::stable_sort(units.begin(), units.end(), [](const Unit& x, const Unit& y) { return x.order < y.order; });
 
@@ -471,7 +476,7 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, std::ve
     const std::size_t u = ready.top();
     ready.pop();
     start[u] = placed;
-    placed += units[u].block ? static_cast<int>(blocks[units[u].index].bodies.size()) : 1;
+    placed += units[u].block ? static_cast<int>(blocks[units[u].index].count) : 1;
     sequence.push_back(u);
     for (const std::size_t c : children[u]) ready.push(c);
   }
@@ -508,9 +513,11 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, std::ve
   scene.body_locations.reserve(total);
   particle.reserve(total);
   block_start.assign(blocks.size(), 0);
+  if (parts) scene.global_bodies.reserve(total);
   for (const std::size_t u : sequence) {
     if (!units[u].block) {
       BodyEntry& e = entries[units[u].index];
+      if (parts) scene.global_bodies.push_back(start[u]);  // every body on the world (parse_scene)
       e.body.parent = parent[u].unit == world ? -1 : start[parent[u].unit] + parent[u].local;
       description.bodies.push_back(std::move(e.body));
       scene.body_locations.push_back(e.location);
@@ -518,7 +525,9 @@ void order_bodies(const Reader& reader, std::vector<BodyEntry>& entries, std::ve
       continue;
     }
     Generated& g = blocks[units[u].index];
-    block_start[units[u].index] = start[u];
+    block_start[units[u].index] = static_cast<int>(description.bodies.size());
+    for (std::size_t l = 0; l < g.bodies.size() && parts; ++l)
+      scene.global_bodies.push_back(start[u] + (g.held.empty() ? static_cast<long long>(l) : g.held[l]));
     for (std::size_t l = 0; l < g.bodies.size(); ++l) {
       description.bodies.push_back(std::move(g.bodies[l]));
       scene.body_locations.push_back(g.csv.empty() ? g.location : SourceLocation{g.csv, g.lines[l], 1});
@@ -786,10 +795,77 @@ std::vector<const toml::table*> tables_of(const Reader& reader, const toml::tabl
   return node != nullptr ? reader.tables(*node, std::string(key)) : std::vector<const toml::table*>{};
 }
 
+// Read in parts: the owned range of the whole scene's bodies (into `scene`)
+// and each generator's window in it. The bodies are placed as order_bodies
+// places them when all hang from the world (as the distributed backend
+// needs): in file order, a generator's particles together.
+std::vector<scene_detail::GeneratorWindow> part_windows(const Reader& reader, const SceneWindow& window,
+                                                         const std::vector<BodyEntry>& entries,
+                                                         const std::vector<const toml::table*>& lattices,
+                                                         const std::vector<const toml::table*>& networks,
+                                                         const std::vector<long long>& counts, Scene& scene) {
+  for (const BodyEntry& e : entries)
+    if (e.parent != "world")
+      fail_entry(reader, e, e.parent_node, e.parent_key,
+                 "the scene is read in parts (the distributed backend), which needs every body on the world; '" +
+                     e.body.name + "' hangs from '" + e.parent + "'");
+  struct Placed {
+    std::tuple<int, int, int> order;
+    long long count;
+    long long block;  // −1: an entry
+  };
+  std::vector<Placed> placed;
+  for (const BodyEntry& e : entries) placed.push_back({e.order, 1, -1});
+  std::size_t b = 0;
+  for (const auto* tables : {&lattices, &networks})
+    for (const toml::table* table : *tables) {
+      const SourceLocation where = reader.location(*table);
+      placed.push_back({{where.line, where.column, 0}, counts[b], static_cast<long long>(b)});
+      ++b;
+    }
+  std::stable_sort(placed.begin(), placed.end(), [](const Placed& x, const Placed& y) { return x.order < y.order; });
+  long long total = 0;
+  for (const Placed& p : placed) total += p.count;
+  const long long parts = std::max(window.parts, 1), part = std::clamp<long long>(window.part, 0, parts - 1);
+  const long long base = total / parts, extra = total % parts;
+  scene.total_bodies = total;
+  scene.first_owned = part * base + std::min(part, extra);
+  scene.end_owned = scene.first_owned + base + (part < extra ? 1 : 0);
+  std::vector<scene_detail::GeneratorWindow> windows(counts.size());
+  long long start = 0;
+  for (const Placed& p : placed) {
+    if (p.block >= 0) {
+      auto& w = windows[static_cast<std::size_t>(p.block)];
+      w.first = std::clamp(scene.first_owned - start, 0LL, p.count);
+      w.end = std::clamp(scene.end_owned - start, 0LL, p.count);
+    }
+    start += p.count;
+  }
+  return windows;
+}
+
+// The body names that [[spring]], [[load]] and [[constraint]] tables give
+// (as strings; anything else is left to their readers to report).
+std::vector<std::string> table_names(const toml::table& root) {
+  std::vector<std::string> names;
+  for (const auto& [array, keys] : {std::pair{"spring", std::vector<const char*>{"a", "b"}},
+                                    std::pair{"load", std::vector<const char*>{"body"}},
+                                    std::pair{"constraint", std::vector<const char*>{"a", "b"}}}) {
+    const toml::array* tables = root.get(array) != nullptr ? root.get(array)->as_array() : nullptr;
+    if (tables == nullptr) continue;
+    for (const toml::node& node : *tables)
+      if (const toml::table* table = node.as_table())
+        for (const char* key : keys)
+          if (const toml::node* value = table->get(key); value != nullptr && value->is_string())
+            names.push_back(value->as_string()->get());
+  }
+  return names;
+}
+
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& file_name, const std::vector<ParameterOverride>& overrides,
-                  const SceneLimits& limits) {
+                  const SceneLimits& limits, const SceneWindow* window) {
   toml::table root;
   try {
     root = toml::parse(text, std::string_view(file_name));
@@ -854,10 +930,23 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   const auto lattices = tables_of(reader, root, "lattice");
   const auto networks = tables_of(reader, root, "network");
   check_generator_names(reader, lattices, networks);
+  std::vector<long long> counts;  // the generators' particles
   for (std::size_t i = 0; i < lattices.size(); ++i)
-    (void)scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::count);
-  for (std::size_t i = 0; i < lattices.size(); ++i) blocks.push_back(scene_detail::read_lattice(reader, *lattices[i], i));
-  for (std::size_t i = 0; i < networks.size(); ++i) blocks.push_back(scene_detail::read_network(reader, *networks[i], i));
+    counts.push_back(scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::count).count);
+  std::vector<scene_detail::GeneratorWindow> windows(lattices.size() + networks.size());
+  std::vector<std::string> named;  // read in parts: the names the tables use
+  if (window != nullptr) {
+    for (std::size_t i = 0; i < networks.size(); ++i)
+      counts.push_back(scene_detail::read_network(reader, *networks[i], i, scene_detail::LatticePass::count).count);
+    windows = part_windows(reader, *window, entries, lattices, networks, counts, scene);
+    named = table_names(root);
+    for (auto& w : windows) w.named = &named;
+  }
+  for (std::size_t i = 0; i < lattices.size(); ++i)
+    blocks.push_back(scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::generate, windows[i]));
+  for (std::size_t i = 0; i < networks.size(); ++i)
+    blocks.push_back(scene_detail::read_network(reader, *networks[i], i, scene_detail::LatticePass::generate,
+                                                windows[lattices.size() + i]));
   if (entries.empty() && blocks.empty())
     throw SceneError(reader.location(root), "", "the scene has no bodies: add a [[body]], a [[chain]], a [[particle]], a "
                                                 "[[lattice]] or a [[network]] (or write it as a kinematic map: "
@@ -867,6 +956,12 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   std::vector<bool> particle;   // by body index
   std::vector<int> block_start;  // first body index of each block
   order_bodies(reader, entries, blocks, scene, particle, block_start);
+  if (window == nullptr) {
+    scene.total_bodies = scene.end_owned = static_cast<long long>(d.bodies.size());
+  } else if (scene.global_bodies.empty()) {  // every block whole: the bodies in order
+    scene.global_bodies.resize(d.bodies.size());
+    std::iota(scene.global_bodies.begin(), scene.global_bodies.end(), 0LL);
+  }
 
   const BodyNames names(d.bodies, chain_tips, std::move(particle));
   const std::vector<Pose> frames = frame_poses(d.bodies);
@@ -928,8 +1023,9 @@ std::string read_scene_file(const std::string& path) {
   return text;
 }
 
-Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides, const SceneLimits& limits) {
-  return parse_scene(read_scene_file(path), path, overrides, limits);
+Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides, const SceneLimits& limits,
+                 const SceneWindow* window) {
+  return parse_scene(read_scene_file(path), path, overrides, limits, window);
 }
 
 System build_system(const Scene& scene) { return System(scene.description); }

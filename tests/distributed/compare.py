@@ -12,6 +12,12 @@ Tolerance: both equilibria are converged to the rounding level of the
 residual (relative 1e-14 here), so they differ by about cond(K)·1e-14; the
 eigenvalues are Rayleigh quotients with residual bounds far below 1e-10.
 
+With `--halo H` among the options, the ranks' reports of what they hold
+(`distribution:` lines of --timing) must show distributed generation: the
+owned body counts add up to the scene's, and with two ranks or more no rank
+has built the whole scene, each at most H bodies beyond its own (its ghosts:
+the other ends of its springs, a layer of a lattice).
+
 Usage: compare.py MODAL NP --fails STATUS SCENE [options...]: the backend
 must end every rank with exit status STATUS and exactly one message line,
 within a timeout, without output on stdout. zero_length_spring.toml fails on
@@ -55,6 +61,11 @@ def main():
             sys.exit("FAIL: output on stdout: " + r.stdout)
         return
     scene, options = args[0], args[1:]
+    halo = None
+    if "--halo" in options:
+        at = options.index("--halo")
+        halo = int(options[at + 1])
+        del options[at:at + 2]
     with tempfile.TemporaryDirectory() as tmp:
         serial_json, petsc_json = os.path.join(tmp, "serial.json"), os.path.join(tmp, "petsc.json")
         r = run([modal, "analyze", scene, "--solver", "sparse", "--json", serial_json] + options)
@@ -68,6 +79,18 @@ def main():
             sys.exit("FAIL: the text was written more than once")
         s, p = json.load(open(serial_json)), json.load(open(petsc_json))
     failures = []
+    parts = [l.split() for l in r.stderr.splitlines() if l.startswith("distribution:")]
+    # "distribution: rank R of P owns O of the scene's N bodies, built B, assembles A"
+    owned = [int(f[6]) for f in parts]
+    built = [int(f[13].rstrip(",")) for f in parts]
+    total = int(parts[0][10]) if parts else 0
+    if len(parts) != int(np_) or sum(owned) != total:
+        failures.append("the ranks' owned bodies (%s) do not add up to the scene's %d" % (owned, total))
+    if halo is not None and int(np_) > 1:
+        for rank, (o, b) in enumerate(zip(owned, built)):
+            if b >= total or b - o > halo:
+                failures.append("rank %d built %d bodies owning %d of %d (halo at most %d)" % (rank, b, o, total, halo))
+    print("distribution: owned %s, built %s of %d" % (owned, built, total))
     qs, qp = s["equilibrium"]["coordinates"], p["equilibrium"]["coordinates"]
     vs, vp = [qs[name] for name in qs], [qp.get(name, float("nan")) for name in qs]
     if len(vs) != len(vp):

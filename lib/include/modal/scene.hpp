@@ -65,6 +65,29 @@ struct Scene {
   SystemDescription description;                          // validated, generators expanded
   std::vector<std::pair<std::string, double>> parameters; // final values, file order
   std::vector<SourceLocation> body_locations;             // parallel to description.bodies
+  // Read in parts (a SceneWindow): the index in the whole scene of each body
+  // of `description` (ascending; empty: the whole scene, in order), the
+  // whole scene's body count, and the bodies this part owns [first, end).
+  std::vector<long long> global_bodies;
+  long long total_bodies = 0, first_owned = 0, end_owned = 0;
+};
+
+// One part of a scene, for one of `parts` processes (the distributed backend:
+// distributed generation, docs/design.md "Distributed backend"). The bodies
+// of the whole scene, numbered as the serial path numbers them, are split
+// into `parts` contiguous ranges (part p owns ⌊N/parts⌋ or one more); the
+// part's description holds its owned bodies, the other end bodies of the
+// springs it owns (a spring belongs to the owner of its first end, or of its
+// second when the first is the world: ghosts), every hand-written body and
+// every particle a [[spring]], [[load]] or [[constraint]] names. A
+// [[lattice]] makes only those particles and the owned ones' springs; a
+// [[network]]'s CSV files are read and checked whole, and only those kept.
+// Every body must hang from the world (particles), and the names of
+// generated particles are checked for clashes only among what the part
+// holds. The springs and loads of `description` are those whose ends it
+// holds.
+struct SceneWindow {
+  int part = 0, parts = 1;
 };
 
 // Upper bounds on what the generators may expand to. The defaults are what
@@ -103,9 +126,11 @@ double scene_memory(double particles, double bodies, double springs);
 std::string read_scene_file(const std::string& path);
 // read_scene_file + parse_scene.
 Scene load_scene(const std::string& path, const std::vector<ParameterOverride>& overrides = {},
-                 const SceneLimits& limits = {});
+                 const SceneLimits& limits = {}, const SceneWindow* window = nullptr);
+// Without a window the whole scene; with one, its part (SceneWindow).
 Scene parse_scene(std::string_view text, const std::string& file_name,
-                  const std::vector<ParameterOverride>& overrides = {}, const SceneLimits& limits = {});
+                  const std::vector<ParameterOverride>& overrides = {}, const SceneLimits& limits = {},
+                  const SceneWindow* window = nullptr);
 System build_system(const Scene& scene);
 
 }  // namespace modal
