@@ -119,6 +119,14 @@ modal::Model load(const SceneArgs& s) {
   return modal::load_model(s.file, s.sets, limits, *modal::parse_scene_format(s.format));
 }
 
+void add_backend_option(CLI::App* cmd, std::string& backend, const std::string& command) {
+  cmd->add_option("--backend", backend,
+                  "serial (this process), or petsc: the distributed backend for scenes of particles and springs, "
+                  "over the ranks of mpirun (mpirun -np N modal " + command + " SCENE --backend petsc)")
+      ->check(CLI::IsMember({"serial", "petsc"}))
+      ->capture_default_str();
+}
+
 template <class Enum>
 Enum choose(const std::string& word, std::initializer_list<Enum> values) {
   for (Enum v : values)
@@ -134,8 +142,20 @@ double since(std::chrono::steady_clock::time_point& last) {
   return s;
 }
 
+#if defined(MODAL_DISTRIBUTED)
+// The scene of a distributed request as the command line gives it.
+template <class Request>
+void set_scene(Request& request, const SceneArgs& s) {
+  request.scene_file = s.file;
+  request.sets = s.sets;
+  request.limits.allow_outside_data = s.allow_outside_data;
+  if (!s.max_memory.empty()) request.limits.memory = modal::parse_memory_size(s.max_memory);
+  request.format = *modal::parse_scene_format(s.format);
+}
+#endif
+
 #if !defined(MODAL_DISTRIBUTED)
-// `analyze --backend petsc` in the program `modal`: replaced (execv, same
+// `analyze --backend petsc` (and sweep, equilibria) in the program `modal`: replaced (execv, same
 // process, same arguments and environment, so an mpirun rank stays one) by the
 // program modal-mpi beside it, which carries MPI, PETSc and SLEPc; `modal`
 // itself loads none of them. Returns only when that fails: the exit status.
@@ -218,12 +238,7 @@ int main(int argc, char** argv) {
                        "map, tree there for long chains")
       ->check(CLI::IsMember({"auto", "dense", "sparse", "tree"}))
       ->capture_default_str();
-  analyze
-      ->add_option("--backend", backend,
-                   "serial (this process), or petsc: the distributed backend for scenes of particles and springs, "
-                   "over the ranks of mpirun (mpirun -np N modal analyze SCENE --backend petsc)")
-      ->check(CLI::IsMember({"serial", "petsc"}))
-      ->capture_default_str();
+  add_backend_option(analyze, backend, "analyze");
   CLI::Option* shift_option = analyze->add_option(
       "--shift", shift, "sparse solver: find the modes with ω² nearest this shift (rad²/s²; default: the lowest)");
   analyze->add_option("--tol", ao.tolerance, "sparse solver: relative convergence tolerance")
@@ -273,6 +288,8 @@ int main(int argc, char** argv) {
       ->add_option("--starts", eo.starts,
                    "number of deterministic search starts (default: 64 up to 30 coordinates, then 64·(30/n)², at least 2)")
       ->check(at_least(0));
+  std::string equilibria_backend = "serial";
+  add_backend_option(equilibria, equilibria_backend, "equilibria");
   equilibria->add_option("--csv", equilibria_out.csv, "write the equilibria table as CSV")->type_name("FILE");
   equilibria->add_option("--json", equilibria_out.json, "write all equilibria and their modes as JSON")
       ->type_name("FILE");
@@ -297,6 +314,8 @@ int main(int argc, char** argv) {
       ->type_name("N=FROM:TO:COUNT|N=V1,V2,...")
       ->required()
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  std::string sweep_backend = "serial";
+  add_backend_option(sweep, sweep_backend, "sweep");
   sweep
       ->add_option("--csv", sweep_out.csv,
                    "one --vary: one row per point and mode, critical values to FILE_critical.csv; two: one row per "
@@ -413,14 +432,30 @@ int main(int argc, char** argv) {
 
   try {
     auto clock = std::chrono::steady_clock::now();
-    if (*analyze && backend == "petsc") {
+    if ((*analyze && backend == "petsc") || (*equilibria && equilibria_backend == "petsc") ||
+        (*sweep && sweep_backend == "petsc")) {
 #if defined(MODAL_DISTRIBUTED)
+      if (*equilibria) {
+        // docs/cluster.md: the survey analyzes every equilibrium it finds
+        // with all its modes (dense), which does not fit a scene for the
+        // distributed backend.
+        if (session.rank() == 0)
+          std::cerr << "modal: equilibria --backend petsc: the survey of equilibria solves every equilibrium it "
+                       "finds for all its modes with dense matrices, which scenes for the distributed backend do "
+                       "not fit; use analyze --backend petsc from a chosen configuration (--set), or sweep "
+                       "--backend petsc along a parameter\n";
+        return static_cast<int>(modal::ExitStatus::bad_input);
+      }
+      if (*sweep) {
+        modal::DistributedSweepRequest request;
+        set_scene(request, sweep_scene);
+        request.varies = varies;
+        request.options = sweep_options;
+        request.outputs = sweep_out;
+        return modal::sweep_distributed(request, std::cout, std::cerr);
+      }
       modal::DistributedRequest request;
-      request.scene_file = analyze_scene.file;
-      request.sets = analyze_scene.sets;
-      request.limits.allow_outside_data = analyze_scene.allow_outside_data;
-      if (!analyze_scene.max_memory.empty()) request.limits.memory = modal::parse_memory_size(analyze_scene.max_memory);
-      request.format = *modal::parse_scene_format(analyze_scene.format);
+      set_scene(request, analyze_scene);
       if (shift_option->count()) ao.shift = shift;
       request.options = ao;
       request.outputs = analyze_out;

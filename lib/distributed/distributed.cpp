@@ -32,6 +32,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
@@ -53,6 +54,7 @@ void check(PetscErrorCode code, const char* what) {
 struct Failure {
   int status = 0;
   std::string message;
+  std::string cause;  // the exception's own text, without the prefix of `message`
 };
 // Thrown on every rank once the ranks agree that one of them failed.
 struct Agreed {
@@ -82,6 +84,10 @@ Failure agree(const Failure& mine) {
   MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
   f.message.resize(static_cast<std::size_t>(length));
   MPI_Bcast(f.message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
+  length = static_cast<int>(f.cause.size());
+  MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
+  f.cause.resize(static_cast<std::size_t>(length));
+  MPI_Bcast(f.cause.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
   return f;
 }
 
@@ -95,9 +101,9 @@ void phase(Work&& work) {
   } catch (const Agreed&) {
     throw;
   } catch (const std::exception& e) {
-    mine = {static_cast<int>(exit_status(e)), error_message(e)};
+    mine = {static_cast<int>(exit_status(e)), error_message(e), e.what()};
   } catch (...) {
-    mine = {static_cast<int>(ExitStatus::numerical), "modal: failure: unknown error"};
+    mine = {static_cast<int>(ExitStatus::numerical), "modal: failure: unknown error", "unknown error"};
   }
   if (Failure f = agree(mine); f.status != 0) throw Agreed{f};
 }
@@ -373,11 +379,12 @@ PetscErrorCode form_hessian(SNES, Vec x, Mat J, Mat, void* context) {
   return MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY);
 }
 
-// The whole of a distributed vector on rank 0 (empty elsewhere).
-VectorX gather_to_root(Vec v) {
+// The whole of a distributed vector on rank 0 (empty elsewhere), or on every
+// rank with `everywhere`.
+VectorX gather_to_root(Vec v, bool everywhere = false) {
   VecScatter to_zero = nullptr;
   Vec all = nullptr;
-  MODAL_PETSC(VecScatterCreateToZero(v, &to_zero, &all));
+  MODAL_PETSC(everywhere ? VecScatterCreateToAll(v, &to_zero, &all) : VecScatterCreateToZero(v, &to_zero, &all));
   MODAL_PETSC(VecScatterBegin(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
   MODAL_PETSC(VecScatterEnd(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
   PetscInt n = 0;
@@ -399,6 +406,95 @@ PC direct_mumps(KSP ksp, PCType type) {
   MODAL_PETSC(PCSetType(pc, type));
   MODAL_PETSC(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   return pc;
+}
+
+// Newton steps with a reused factorization (after the serial truncated
+// Newton, lib/equilibrium/large.cpp): ∇∇V d = −∇V by conjugate gradients
+// preconditioned with the MUMPS Cholesky factor of an earlier Hessian, to a
+// relative residual η = min(0.1, ‖∇V‖/‖∇V₀‖) (at least 1e-10, below which
+// rounding decides), at most 40 iterations. The factor is renewed (SNES's
+// lagged preconditioner, rebuilt at the next step) after a step whose solve
+// failed (breakdown on an indefinite Hessian or factor, or 40 iterations),
+// and after a step whose iterations took longer than half a factorization: both
+// are measured (the wall time of each KSPSolve, a renewing one holding its
+// factorization), since their ratio depends on the solver and the size (MUMPS
+// at 117 612 coordinates: a numeric factorization costs about 6 solves). The
+// ranks agree on the decision (the largest vote), so they factor together.
+struct Lagging {
+  double g0 = 0;           // ‖∇V‖ at the start of the first run
+  int factorizations = 0;  // fresh factors asked for
+  bool renew_next = true;  // the next step factors afresh
+  double target = 0;       // the accepted ‖∇V‖
+  double previous = 0;     // ‖∇V‖ before the last step
+  bool renewed_last = false;      // the last step factored afresh
+  Clock::time_point solve_started;
+  double solve_seconds = 0;       // the last KSPSolve (with its factorization when it renewed)
+  double iteration_seconds = 0;   // one iteration with the factor, as last measured
+  double factor_seconds = 0;      // one factorization, as last measured
+};
+
+constexpr PetscInt lagged_max_iterations = 40;
+
+PetscErrorCode lagged_solve_starts(KSP, Vec, Vec, void* context) {
+  static_cast<Lagging*>(context)->solve_started = Clock::now();
+  return 0;
+}
+PetscErrorCode lagged_solve_ends(KSP, Vec, Vec, void* context) {
+  auto& lag = *static_cast<Lagging*>(context);
+  lag.solve_seconds = std::chrono::duration<double>(Clock::now() - lag.solve_started).count();
+  return 0;
+}
+
+PetscErrorCode lagged_step(SNES snes, PetscInt step) {
+  void* context = nullptr;
+  PetscErrorCode code = SNESGetApplicationContext(snes, &context);
+  if (code) return code;
+  auto& lag = *static_cast<Lagging*>(context);
+  KSP ksp = nullptr;
+  if ((code = SNESGetKSP(snes, &ksp))) return code;
+  if (step > 0) {
+    PetscInt iterations = 0;
+    KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
+    if ((code = KSPGetIterationNumber(ksp, &iterations))) return code;
+    if ((code = KSPGetConvergedReason(ksp, &reason))) return code;
+    int renew = reason < 0 ? 1 : 0;
+    if (lag.renewed_last) {
+      lag.factor_seconds = std::max(0.0, lag.solve_seconds - static_cast<double>(iterations) * lag.iteration_seconds);
+    } else {
+      if (iterations > 0) lag.iteration_seconds = lag.solve_seconds / static_cast<double>(iterations);
+      // The next steps on this factor need at least as many iterations (it
+      // only gets staler): two more such steps cost more than a factorization.
+      if (2 * lag.solve_seconds > lag.factor_seconds) renew = 1;
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &renew, 1, MPI_INT, MPI_MAX, PetscObjectComm(reinterpret_cast<PetscObject>(snes)));
+    if (renew) lag.renew_next = true;
+  }
+  PetscReal norm = 0;
+  if ((code = SNESGetFunctionNorm(snes, &norm))) return code;
+  if (lag.g0 == 0) lag.g0 = norm;
+  const double eta = std::max(1e-10, std::min(0.1, lag.g0 > 0 ? norm / lag.g0 : 0.1));
+  if ((code = KSPSetTolerances(ksp, eta, 0.0, PETSC_DEFAULT, lagged_max_iterations))) return code;
+  lag.renewed_last = lag.renew_next;
+  if (lag.renew_next) {
+    lag.renew_next = false;
+    ++lag.factorizations;
+    return SNESSetLagPreconditioner(snes, -2);  // factor at this step, then keep the factor
+  }
+  return SNESSetLagPreconditioner(snes, -1);
+}
+
+// SNES's own test, and a stop once ‖∇V‖ is accepted and a step no longer
+// halves it: the inexact directions at the rounding level would otherwise
+// keep the line search stepping in the noise.
+PetscErrorCode lagged_converged(SNES snes, PetscInt step, PetscReal xnorm, PetscReal snorm, PetscReal fnorm,
+                                SNESConvergedReason* reason, void* context) {
+  auto& lag = *static_cast<Lagging*>(context);
+  const PetscErrorCode code = SNESConvergedDefault(snes, step, xnorm, snorm, fnorm, reason, nullptr);
+  if (code) return code;
+  if (*reason == SNES_CONVERGED_ITERATING && step > 0 && fnorm <= lag.target && fnorm > 0.5 * lag.previous)
+    *reason = SNES_CONVERGED_FNORM_ABS;
+  lag.previous = fnorm;
+  return 0;
 }
 
 // ---------------------------------------------------------------- inertia
@@ -434,11 +530,12 @@ std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
   return result;
 }
 
-// The inertia at σ, moved by 1e-6·max(|σ|, s) while a pivot is null.
-PetscInt inertia_near(Mat K, Mat M, double& sigma, double s) {
+// The inertia at σ, moved by 1e-6·max(|σ|, s) while a pivot is null
+// (down, or up with direction +1).
+PetscInt inertia_near(Mat K, Mat M, double& sigma, double s, int direction = -1) {
   for (int attempt = 0; attempt < 8; ++attempt) {
     if (const auto below = inertia_below(K, M, sigma)) return *below;
-    sigma -= 1e-6 * std::max(std::abs(sigma), s);
+    sigma += direction * 1e-6 * std::max(std::abs(sigma), s);
   }
   throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
 }
@@ -477,11 +574,10 @@ DistributedSession::~DistributedSession() { SlepcFinalize(); }
 
 // ---------------------------------------------------------------- analysis
 
-int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err) {
-  const int rank = world_rank(), size = world_size();
-  Timings timings;
-  std::optional<Scene> scene;
-  std::optional<System> held;  // the part of the scene this rank has read and built
+namespace {
+
+// The PETSc and SLEPc objects of one point, released with it.
+struct PointSolver {
   Part part;
   std::optional<Workspace> ws;
   Assembly assembly;
@@ -489,52 +585,54 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
   Mat J = nullptr, K = nullptr, M = nullptr;
   SNES snes = nullptr;
   EPS eps_solver = nullptr;
-  const AnalysisOptions& options = request.options;
-  int status = 0;
-  try {
-    phase([&] {
-      const Outputs& o = request.outputs;
-      if (o.energy || !o.report.empty() || !o.matrices.empty())
-        throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
-                         "need the serial backend");
-      if (options.at) throw InputError("--at: the petsc backend starts from the scene's configuration only");
-      if (options.solver == SolverChoice::dense)
-        throw InputError("--solver dense does not go with --backend petsc, which solves the sparse problem");
-      if (options.derivatives != DerivativeMethod::exact)
-        throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
-      if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
-      // Distributed generation: each rank reads and builds its part of the
-      // scene only (SceneWindow), never the whole.
-      std::vector<ParameterOverride> overrides;
-      for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
-      const std::string text = read_scene_file(request.scene_file);
-      if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
-        throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
-                         "serial backend");
-      const SceneWindow window{rank, size};
-      scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
-      held.emplace(build_system(*scene));
-      if (const auto why = distributed_unsupported(*held))
-        throw InputError("--backend petsc does not apply to this scene: " + *why);
-    });
-    timings.mark("parse+build");
-    PetscInt n = 0;
+  PointSolver() = default;
+  PointSolver(const PointSolver&) = delete;
+  PointSolver& operator=(const PointSolver&) = delete;
+  ~PointSolver() {
+    if (assembly.gather) VecScatterDestroy(&assembly.gather);
+    for (Vec* v : {&assembly.local, &x, &f})
+      if (*v) VecDestroy(v);
+    for (Mat* A : {&J, &K, &M})
+      if (*A) MatDestroy(A);
+    if (snes) SNESDestroy(&snes);
+    if (eps_solver) EPSDestroy(&eps_solver);
+  }
+};
+
+struct Point {
+  Equilibrium eq;
+  ModalResult result;
+};
+
+// The equilibrium and lowest modes of the scene whose part this rank holds
+// (`held`, read from `scene`: distributed generation), over the ranks
+// (collective; a failure on any rank throws Agreed on all), from `start`: the
+// whole scene's configuration (n, the sweep's previous point) or empty (the
+// scene's initial configuration). `numbered` is called on every rank once the
+// coordinates are numbered (collective work such as gathering names may go
+// there). eq.q on rank 0 only, or on every rank with `q_everywhere`; the
+// modes' numbers, Morse index, zero modes and class on every rank, their
+// shapes on rank 0.
+Point solve_point(const System& held, const Scene& scene, const VectorX& start, const AnalysisOptions& options,
+                  bool q_everywhere, Timings& timings, const std::function<void(const Part&)>& numbered = {}) {
+  const int rank = world_rank(), size = world_size();
+  PetscInt n = 0;
+  PointSolver solver;
+  Part& part = solver.part;
+  std::optional<Workspace>& ws = solver.ws;
+  Assembly& assembly = solver.assembly;
+  Vec &x = solver.x, &f = solver.f;
+  Mat &J = solver.J, &K = solver.K, &M = solver.M;
+  SNES& snes = solver.snes;
+  EPS& eps_solver = solver.eps_solver;
+  {  // the phases, in order; each agreed on by the ranks
 
     phase([&] {
-      part = partition(*held, *scene);
+      part = partition(held, scene);
       ws.emplace(*part.system);
     });
-    n = global_coordinates(part, *held, *scene);
-    if (request.timing) {  // what each rank holds: its part of the scene, never the whole
-      long long counts[3] = {part.end_body - part.first_body, static_cast<long long>(held->bodies().size()),
-                             static_cast<long long>(part.held.size())};
-      std::vector<long long> all(3 * static_cast<std::size_t>(size));
-      MPI_Gather(counts, 3, MPI_LONG_LONG, all.data(), 3, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
-      for (int r = 0; r < size && rank == 0; ++r)
-        err << fmt::format("distribution: rank {} of {} owns {} of the scene's {} bodies, built {}, assembles {}\n", r,
-                           size, all[3 * static_cast<std::size_t>(r)], scene->total_bodies,
-                           all[3 * static_cast<std::size_t>(r) + 1], all[3 * static_cast<std::size_t>(r) + 2]);
-    }
+    n = global_coordinates(part, held, scene);
+    if (numbered) numbered(part);
     phase([&] {  // collective from here on: nothing rank-local throws before the PETSc calls
       assembly.part = &part;
       assembly.ws = &*ws;
@@ -546,7 +644,9 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
                                   PETSC_COPY_VALUES, &from));
       MODAL_PETSC(VecScatterCreate(x, from, assembly.local, nullptr, &assembly.gather));
       MODAL_PETSC(ISDestroy(&from));
-      const VectorX q0 = part.system->initial_configuration();  // the owned coordinates first
+      const VectorX q0 = start.size() > 0 ? VectorX(start.segment(part.first_coordinate,
+                                                                  part.end_coordinate - part.first_coordinate))
+                                          : part.system->initial_configuration();  // the owned coordinates first
       for (PetscInt i = part.first_coordinate; i < part.end_coordinate; ++i)
         MODAL_PETSC(VecSetValue(x, i, q0(i - part.first_coordinate), INSERT_VALUES));
       MODAL_PETSC(VecAssemblyBegin(x));
@@ -568,17 +668,37 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       MODAL_PETSC(VecCopy(x, start));
       PetscReal norm = std::numeric_limits<double>::infinity();
       PetscInt iterations = 0;
+      Lagging lag;
+      lag.target = target;
+      KSP reused = nullptr;  // the lagged runs' KSP, whose factor the polish keeps
       // One Newton run from x: SNES `type`, line search `search` (line-search
       // Newton only); ‖∇V‖ after it in `norm`, its steps added to `iterations`.
-      const auto newton = [&](SNESType type, SNESLineSearchType search, PetscInt max_steps) {
+      // `lagged`: conjugate gradients with a reused factor (Lagging), else a
+      // fresh MUMPS LU at every step.
+      const auto newton = [&](SNESType type, SNESLineSearchType search, PetscInt max_steps, bool lagged) {
         MODAL_PETSC(SNESCreate(PETSC_COMM_WORLD, &snes));
         MODAL_PETSC(SNESSetType(snes, type));
         MODAL_PETSC(SNESSetFunction(snes, f, form_gradient, &assembly));
         MODAL_PETSC(SNESSetJacobian(snes, J, J, form_hessian, &assembly));
         MODAL_PETSC(SNESSetTolerances(snes, 1e-3 * eps * scale, 0.0, 0.0, max_steps, 100000));
-        KSP ksp = nullptr;
-        MODAL_PETSC(SNESGetKSP(snes, &ksp));
-        direct_mumps(ksp, PCLU);
+        if (lagged) {
+          if (!reused) {
+            MODAL_PETSC(KSPCreate(PETSC_COMM_WORLD, &reused));
+            direct_mumps(reused, PCCHOLESKY);
+            MODAL_PETSC(KSPSetType(reused, KSPCG));
+            MODAL_PETSC(KSPSetPreSolve(reused, lagged_solve_starts, &lag));
+            MODAL_PETSC(KSPSetPostSolve(reused, lagged_solve_ends, &lag));
+          }
+          MODAL_PETSC(SNESSetKSP(snes, reused));
+          MODAL_PETSC(SNESSetApplicationContext(snes, &lag));
+          MODAL_PETSC(SNESSetUpdate(snes, lagged_step));
+          MODAL_PETSC(SNESSetMaxLinearSolveFailures(snes, max_steps));  // a failed solve renews the factor
+          MODAL_PETSC(SNESSetConvergenceTest(snes, lagged_converged, &lag, nullptr));
+        } else {
+          KSP ksp = nullptr;
+          MODAL_PETSC(SNESGetKSP(snes, &ksp));
+          direct_mumps(ksp, PCLU);
+        }
         if (search) {
           SNESLineSearch line = nullptr;
           MODAL_PETSC(SNESGetLineSearch(snes, &line));
@@ -593,27 +713,45 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
         MODAL_PETSC(form_gradient(nullptr, x, f, &assembly));
         MODAL_PETSC(VecNorm(f, NORM_2, &norm));
       };
+      const auto converged = [&] { return std::isfinite(norm) && norm <= target; };
       // ∇V is a gradient: the critical-point line search (the step along the
       // Newton direction d where ∇V·d vanishes, by secants) shortens the first
       // steps from a flat or slack start without the many short steps of
       // backtracking on ‖∇V‖ (a 10 092-coordinate sagging net: 5 Newton steps
       // against 23). It may stop short of the rounding level, so a polish with
       // backtracking follows, which takes full steps there and stops when a
-      // step no longer decreases ‖∇V‖ (as the serial polish), at most 3. If the first
-      // run fails, a trust region from the same start.
-      std::string method = "line search";
-      newton(SNESNEWTONLS, SNESLINESEARCHCP, 100);
-      if (!(std::isfinite(norm) && norm <= target)) {
+      // step no longer decreases ‖∇V‖ (as the serial polish), at most 3. The
+      // steps reuse a factorization (Lagging); if that run fails, the same
+      // with a fresh LU at every step from the same start, then a trust region.
+      MODAL_PETSC(MatSetOption(J, MAT_SYMMETRIC, PETSC_TRUE));
+      MODAL_PETSC(MatSetOption(J, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
+      std::string method = "line search", solves;
+      newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, true);
+      bool lagged = converged();
+      if (!lagged) {
+        const std::string cause = assembly.failure;
+        assembly.failure.clear();
         MODAL_PETSC(VecCopy(start, x));
         iterations = 0;
-        newton(SNESNEWTONTR, nullptr, 100);
-        method = "trust region";
+        newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, false);
+        if (!converged()) {
+          MODAL_PETSC(VecCopy(start, x));
+          iterations = 0;
+          newton(SNESNEWTONTR, nullptr, 100, false);
+          method = "trust region";
+        }
+        if (!converged() && assembly.failure.empty()) assembly.failure = cause;
       }
       // Newton from an accepted point reaches the rounding level in one or two steps.
-      if (std::isfinite(norm) && norm <= target) newton(SNESNEWTONLS, SNESLINESEARCHBT, 3);
+      if (converged()) newton(SNESNEWTONLS, SNESLINESEARCHBT, 3, lagged);
+      if (reused) MODAL_PETSC(KSPDestroy(&reused));
+      solves = lagged ? fmt::format("conjugate gradients preconditioned by a reused MUMPS Cholesky factor, {} "
+                                    "factorization{}",
+                                    lag.factorizations, lag.factorizations == 1 ? "" : "s")
+                      : std::string("MUMPS LU");
       MODAL_PETSC(VecDestroy(&start));
       eq.iterations = static_cast<int>(iterations);
-      eq.method = fmt::format("Newton with a {} (PETSc SNES, MUMPS LU) over {} rank{}", method, size,
+      eq.method = fmt::format("Newton with a {} (PETSc SNES, {}) over {} rank{}", method, solves, size,
                               size == 1 ? "" : "s");
       eq.residual_norm = norm;
       // The cause first: an evaluation that failed on some rank (the others
@@ -766,18 +904,24 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       }
       for (Vec* v : {&phi, &Kphi, &Mphi, &r, &dk, &dm}) MODAL_PETSC(VecDestroy(v));
       MODAL_PETSC(EPSDestroy(&eps_solver));
-      if (rank == 0) {
-        for (std::size_t i = 0; i < shapes.size(); ++i)
-          result.modes.push_back(sparse_mode(std::move(shapes[i]), numbers[i][0], numbers[i][1], numbers[i][2]));
-        std::stable_sort(result.modes.begin(), result.modes.end(),
-                         [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
-        PetscInt resolved_small_negative = 0;
-        for (const Mode& mode : result.modes) {
-          if (mode.kind == ModeKind::zero) ++result.zero_modes;
-          if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
-        }
-        result.morse_index = static_cast<int>(m + resolved_small_negative);
-        result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
+      // The modes on every rank (the numbers come from collective reductions,
+      // so every rank decides alike; the shapes only on rank 0), then the
+      // inertia's account of those not returned: Morse index, zero modes and
+      // class over the whole spectrum (collective factorizations).
+      for (std::size_t i = 0; i < numbers.size(); ++i)
+        result.modes.push_back(sparse_mode(rank == 0 ? std::move(shapes[i]) : VectorX::Zero(1), numbers[i][0],
+                                           numbers[i][1], numbers[i][2]));
+      std::stable_sort(result.modes.begin(), result.modes.end(),
+                       [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+      InertiaAccount account;
+      account.below_s0 = static_cast<long>(m);
+      account.s0 = s0;
+      account.zeta = zeta;
+      account.shift = options.shift;
+      count_by_inertia(result, account, [&](double& sigma, const char*, bool) {
+        return static_cast<long>(inertia_near(K, M, sigma, s, +1));
+      });
+      {  // on every rank: the same numbers, the same decision
         if (!options.shift && m > 0 && k >= m) {
           const auto below = std::count_if(result.modes.begin(), result.modes.end(),
                                            [&](const Mode& mode) { return mode.omega2 < s0; });
@@ -800,21 +944,74 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       }
     });
     timings.mark("eigen");
+    const VectorX q = gather_to_root(x, q_everywhere);
+    eq.q = q;
+    return {std::move(eq), std::move(result)};
+  }
+}
+
+}  // namespace
+
+int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err) {
+  const int rank = world_rank(), size = world_size();
+  Timings timings;
+  std::optional<Scene> scene;
+  std::optional<System> held;  // the part of the scene this rank has read and built
+  const AnalysisOptions& options = request.options;
+  int status = 0;
+  try {
+    phase([&] {
+      const Outputs& o = request.outputs;
+      if (o.energy || !o.report.empty() || !o.matrices.empty())
+        throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
+                         "need the serial backend");
+      if (options.at) throw InputError("--at: the petsc backend starts from the scene's configuration only");
+      if (options.solver == SolverChoice::dense)
+        throw InputError("--solver dense does not go with --backend petsc, which solves the sparse problem");
+      if (options.derivatives != DerivativeMethod::exact)
+        throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
+      if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
+      // Distributed generation: each rank reads and builds its part of the
+      // scene only (SceneWindow), never the whole.
+      std::vector<ParameterOverride> overrides;
+      for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
+      const std::string text = read_scene_file(request.scene_file);
+      if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
+        throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
+                         "serial backend");
+      const SceneWindow window{rank, size};
+      scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
+      held.emplace(build_system(*scene));
+      if (const auto why = distributed_unsupported(*held))
+        throw InputError("--backend petsc does not apply to this scene: " + *why);
+    });
+    timings.mark("parse+build");
+    Report names;
+    const auto numbered = [&](const Part& part) {
+      if (request.timing) {  // what each rank holds: its part of the scene, never the whole
+        long long counts[3] = {part.end_body - part.first_body, static_cast<long long>(held->bodies().size()),
+                               static_cast<long long>(part.held.size())};
+        std::vector<long long> all(3 * static_cast<std::size_t>(size));
+        MPI_Gather(counts, 3, MPI_LONG_LONG, all.data(), 3, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
+        for (int r = 0; r < size && rank == 0; ++r)
+          err << fmt::format("distribution: rank {} of {} owns {} of the scene's {} bodies, built {}, assembles {}\n",
+                             r, size, all[3 * static_cast<std::size_t>(r)], scene->total_bodies,
+                             all[3 * static_cast<std::size_t>(r) + 1], all[3 * static_cast<std::size_t>(r) + 2]);
+      }
+      gather_coordinate_names(part, names.coordinates, names.kinds);
+    };
+    Point point = solve_point(*held, *scene, VectorX(), options, false, timings, numbered);
 
     // ---- one report, by rank 0
-    const VectorX q = gather_to_root(x);
-    Report names;
-    gather_coordinate_names(part, names.coordinates, names.kinds);
     bool unstable = false;
     phase([&] {
       if (rank != 0) return;
-      eq.q = q;
       Analysis a;
       a.report = std::move(names);
       a.report.scene_file = scene->file;
       a.report.title = held->title();
       a.report.parameters = scene->parameters;
-      a.report.equilibria.push_back({eq, std::move(result), std::nullopt, std::nullopt});
+      a.report.equilibria.push_back({std::move(point.eq), std::move(point.result), std::nullopt, std::nullopt});
       write_analysis(out, a, request.outputs);
       unstable = a.unstable();
     });
@@ -844,13 +1041,56 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
     if (rank == 0) err << a.failure.message << '\n';
     status = a.failure.status;
   }
-  if (assembly.gather) VecScatterDestroy(&assembly.gather);
-  for (Vec* v : {&assembly.local, &x, &f})
-    if (*v) VecDestroy(v);
-  for (Mat* A : {&J, &K, &M})
-    if (*A) MatDestroy(A);
-  if (snes) SNESDestroy(&snes);
-  if (eps_solver) EPSDestroy(&eps_solver);
+  return status;
+}
+
+int sweep_distributed(const DistributedSweepRequest& request, std::ostream& out, std::ostream& err) {
+  const int rank = world_rank();
+  std::optional<Model> model;
+  std::optional<SweepStudy> study;
+  std::vector<SweepAxis> axes;
+  int status = 0;
+  try {
+    phase([&] {
+      for (const std::string& v : request.varies) axes.push_back(parse_vary(v));
+      if (rank == 0) check_outputs(Command::sweep, request.outputs, request.scene_file, request.options.extrapolate);
+      model.emplace(load_model(request.scene_file, request.sets, request.limits, request.format));
+      if (const auto why = distributed_unsupported(model->system))
+        throw InputError("--backend petsc does not apply to this scene: " + *why);
+    });
+    SweepStudyOptions options = request.options;
+    AnalysisOptions analysis = request.analysis;
+    analysis.modes = options.modes > 0 ? options.modes : 10;
+    // Each point is solve_point on every rank; a failure agreed on by the
+    // ranks becomes the same exception on all of them, so the sweep (which
+    // runs on every rank in step) fails that point everywhere alike.
+    options.sweep.analyze_point = [&](const System& sys, const VectorX& start) {
+      if (const auto why = distributed_unsupported(sys))
+        throw InputError("--backend petsc does not apply to the scene at this point: " + *why);
+      Timings timings;
+      try {
+        // The sweep's scene is read whole on every rank: each takes its
+        // contiguous range of the bodies, as a SceneWindow would give it.
+        Scene ownership;
+        const long long bodies = static_cast<long long>(sys.bodies().size()), ranks = world_size(), r = rank;
+        ownership.total_bodies = bodies;
+        ownership.first_owned = r * (bodies / ranks) + std::min(r, bodies % ranks);
+        ownership.end_owned = ownership.first_owned + bodies / ranks + (r < bodies % ranks ? 1 : 0);
+        Point p = solve_point(sys, ownership, start, analysis, true, timings);
+        return std::pair{std::move(p.eq), std::move(p.result)};
+      } catch (const Agreed& a) {
+        if (a.failure.status == static_cast<int>(ExitStatus::bad_input)) throw InputError(a.failure.cause);
+        throw NumericalError(a.failure.cause);
+      }
+    };
+    phase([&] { study.emplace(sweep(*model, axes, options)); });
+    phase([&] {
+      if (rank == 0) write_sweep(out, *study, request.outputs);
+    });
+  } catch (const Agreed& a) {
+    if (rank == 0) err << a.failure.message << '\n';
+    status = a.failure.status;
+  }
   return status;
 }
 

@@ -788,6 +788,53 @@ Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, doub
   return mode;
 }
 
+void count_by_inertia(ModalResult& result, const InertiaAccount& account,
+                      const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below) {
+  const auto format = [&](double sigma, int digits) { return detail::format_number(account.unit * sigma, digits); };
+  const double s0 = account.s0;
+  long resolved_small_negative = 0;
+  result.zero_modes = 0;
+  for (const Mode& mode : result.modes) {
+    if (mode.kind == ModeKind::zero) ++result.zero_modes;
+    if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
+  }
+  result.morse_index = static_cast<int>(account.below_s0 + resolved_small_negative);
+  // Zero modes beyond the k returned: when the highest returned mode is
+  // itself a zero mode, more may follow (a free body has 6, --modes 3 returns
+  // 3). The inertia at t, the largest error estimate of a returned zero mode,
+  // counts the eigenvalues in [σ₀, t): every one of them is a zero mode at
+  // that accuracy, returned or not.
+  if (!account.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::zero) {
+    double t = 0;
+    for (const Mode& mode : result.modes)
+      if (mode.kind == ModeKind::zero) t = std::max(t, mode.error_estimate);
+    t = std::max(t, std::nextafter(result.modes.back().omega2, std::numeric_limits<double>::infinity()));
+    const long near_zero = count_below(t, "zero-mode count", true) - account.below_s0 - resolved_small_negative;
+    if (near_zero > result.zero_modes) {
+      result.notes.push_back("the inertia of K − σM at σ = " + format(t, 3) + " counts " +
+                             plural(near_zero, "eigenvalue", "eigenvalues") +
+                             " within the zero modes' error estimates of zero, " + std::to_string(result.zero_modes) +
+                             " of them returned (--modes): " + std::to_string(near_zero) + " zero modes in all");
+      result.zero_modes = static_cast<int>(near_zero);
+    }
+  }
+  result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
+  // With a shift, zero modes among the eigenvalues not returned: the count in [−ζ, ζ).
+  if (account.shift && result.morse_index == 0 && result.zero_modes == 0) {
+    double plus = account.zeta;
+    const long below_plus = count_below(plus, "zero-mode check", false);
+    const auto returned_near_zero = std::count_if(result.modes.begin(), result.modes.end(), [&](const Mode& mode) {
+      return mode.omega2 >= s0 && mode.omega2 < plus;
+    });
+    if (below_plus - account.below_s0 > returned_near_zero) {
+      result.stability = Stability::marginal;
+      result.notes.push_back(plural(below_plus - account.below_s0 - returned_near_zero, "eigenvalue", "eigenvalues") +
+                             " within ζ = " + format(account.zeta, 3) +
+                             " of zero (a zero mode) lie outside the returned modes; stability is marginal");
+    }
+  }
+}
+
 ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_in, const SparseModalOptions& options) {
   // ---- validation
   if (K_in.rows() != K_in.cols() || M_in.rows() != M_in.cols() || K_in.rows() != M_in.rows())
@@ -1064,33 +1111,6 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                            detail::format_number(worst_relative_residual, 2) +
                            ", far above the Lanczos tolerance (ill-conditioned M or K − σM); trust its error estimate");
 
-  Index resolved_small_negative = 0;
-  for (const Mode& mode : result.modes) {
-    if (mode.kind == ModeKind::zero) ++result.zero_modes;
-    if (mode.kind == ModeKind::divergent && mode.omega2 >= s0) ++resolved_small_negative;
-  }
-  result.morse_index = static_cast<int>(m + resolved_small_negative);
-  // Zero modes beyond the k returned: when the highest returned mode is
-  // itself a zero mode, more may follow (a free body has 6, --modes 3 returns
-  // 3). The inertia at t, the largest error estimate of a returned zero mode,
-  // counts the eigenvalues in [σ₀, t): every one of them is a zero mode at
-  // that accuracy, returned or not.
-  if (!options.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::zero) {
-    double t = 0;
-    for (const Mode& mode : result.modes)
-      if (mode.kind == ModeKind::zero) t = std::max(t, mode.error_estimate);
-    t = std::max(t, std::nextafter(result.modes.back().omega2, std::numeric_limits<double>::infinity()));
-    const Index near_zero = factor_at(t, "zero-mode count", true) - m - resolved_small_negative;
-    if (near_zero > result.zero_modes) {
-      result.notes.push_back("the inertia of K − σM at σ = " + units(t, 3) + " counts " +
-                             plural(near_zero, "eigenvalue", "eigenvalues") +
-                             " within the zero modes' error estimates of zero, " + std::to_string(result.zero_modes) +
-                             " of them returned (--modes): " + std::to_string(near_zero) + " zero modes in all");
-      result.zero_modes = static_cast<int>(near_zero);
-    }
-  }
-
-  result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
   if (options.shift) {
     const auto returned_below = std::count_if(result.modes.begin(), result.modes.end(),
                                               [&](const Mode& mode) { return mode.omega2 < user_sigma; });
@@ -1102,21 +1122,16 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       result.notes.push_back("inconsistent: " + std::to_string(returned_below) +
                              " returned eigenvalues lie below σ but the inertia counts " +
                              std::to_string(below_user_shift) + "; the LDLᵀ factorization may be inaccurate");
-    // Zero modes among the eigenvalues not returned: the count in [−ζ, ζ).
-    if (result.morse_index == 0 && result.zero_modes == 0) {
-      double plus = zeta;
-      const Index below_plus = factor_at(plus, "zero-mode check");
-      const auto returned_near_zero = std::count_if(result.modes.begin(), result.modes.end(), [&](const Mode& mode) {
-        return mode.omega2 >= s0 && mode.omega2 < plus;
-      });
-      if (below_plus - m > returned_near_zero) {
-        result.stability = Stability::marginal;
-        result.notes.push_back(plural(below_plus - m - returned_near_zero, "eigenvalue", "eigenvalues") +
-                               " within ζ = " + units(zeta, 3) +
-                               " of zero (a zero mode) lie outside the returned modes; stability is marginal");
-      }
-    }
   }
+  InertiaAccount account;
+  account.below_s0 = m;
+  account.s0 = s0;
+  account.zeta = zeta;
+  if (options.shift) account.shift = user_sigma;
+  account.unit = units.lambda;
+  count_by_inertia(result, account, [&](double& sigma, const char* what, bool expect_indefinite) {
+    return static_cast<long>(factor_at(sigma, what, expect_indefinite));
+  });
   result.solver = "sparse shift-invert Lanczos (Spectra SymGEigsShiftSolver; ";
   for (std::size_t i = 0; i < runs.size(); ++i) result.solver += (i ? "; then " : "") + runs[i];
   result.solver += "; inertia of K − σM at σ₀ = −ζ = " + units(s0, 3) + ": " +

@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <limits>
 #include <optional>
+#include <tuple>
 #include <utility>
 
 namespace modal {
@@ -88,12 +89,13 @@ struct Spectrum {
   std::vector<std::complex<double>> complex;
 };
 
-Spectrum stiffness_spectrum(const LinearModel& lin, const ModalResult& r) {
+// `lin` null: a symmetric problem solved elsewhere (SweepOptions::analyze_point).
+Spectrum stiffness_spectrum(const LinearModel* lin, const ModalResult& r) {
   Spectrum sp;
-  if (lin.symmetric()) {  // the modes are the eigenvalues λ of (K, M)
+  if (lin == nullptr || lin->symmetric()) {  // the modes are the eigenvalues λ of (K, M)
     for (const Mode& m : r.modes) sp.real.push_back(m.omega2);
   } else {
-    const MatrixX MinvK = Eigen::LLT<MatrixX>(0.5 * (lin.M + lin.M.transpose())).solve(lin.K);
+    const MatrixX MinvK = Eigen::LLT<MatrixX>(0.5 * (lin->M + lin->M.transpose())).solve(lin->K);
     Eigen::EigenSolver<MatrixX> eig(MinvK, false);
     if (eig.info() != Eigen::Success) return sp;
     for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
@@ -113,10 +115,14 @@ double pair_frequency(double product, double sum) {
   return product > 0 && sum > 0 ? std::sqrt(std::sqrt(product)) : nan;
 }
 
-void compute_indicator(Indicator ind, const LinearModel& lin, Evaluation& e) {
+// `lin` null: the symmetric problem's lowest modes only (SweepOptions::
+// analyze_point); the real eigenvalue nearest 0 is then known only when the
+// modes hold every negative eigenvalue and one more.
+void compute_indicator(Indicator ind, const LinearModel* lin, Evaluation& e) {
   switch (ind) {
     case Indicator::none: return;
     case Indicator::real_eigenvalue: {
+      if (lin == nullptr && !(e.result.modes.size() > static_cast<std::size_t>(e.result.morse_index))) return;
       const Spectrum sp = stiffness_spectrum(lin, e.result);
       if (sp.real.empty()) return;
       double nearest = std::numeric_limits<double>::infinity();
@@ -130,6 +136,7 @@ void compute_indicator(Indicator ind, const LinearModel& lin, Evaluation& e) {
       return;
     }
     case Indicator::discriminant: {
+      if (lin == nullptr) return;  // a symmetric problem has no merging pair, and not all modes are known
       const Spectrum sp = stiffness_spectrum(lin, e.result);
       double best = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i + 1 < sp.real.size(); ++i) {
@@ -189,16 +196,23 @@ class Evaluator {
     std::string stage = "no equilibrium";
     try {
       const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
-      e.equilibrium = find_equilibrium(*sys, q0, options_.equilibrium);
-      stage = "at a joint limit";
-      if (const std::string why = active_limit(*sys, e.equilibrium); !why.empty()) throw std::runtime_error(why);
-      stage = "linearization failed";
-      const LinearModel lin = linearize(*sys, e.equilibrium.q);
-      stage = "eigen-solution failed";
-      e.result = solve_modes(lin);
-      e.coordinates = lin.coordinates;
-      e.symmetric = lin.symmetric();
-      e.velocity_terms = lin.has_damping || lin.has_gyroscopic;
+      std::optional<LinearModel> lin;
+      if (options_.analyze_point) {
+        stage = "the analysis failed";
+        std::tie(e.equilibrium, e.result) = options_.analyze_point(*sys, q0);
+        e.coordinates = sys->coordinate_names();
+      } else {
+        e.equilibrium = find_equilibrium(*sys, q0, options_.equilibrium);
+        stage = "at a joint limit";
+        if (const std::string why = active_limit(*sys, e.equilibrium); !why.empty()) throw std::runtime_error(why);
+        stage = "linearization failed";
+        lin.emplace(linearize(*sys, e.equilibrium.q));
+        stage = "eigen-solution failed";
+        e.result = solve_modes(*lin);
+        e.coordinates = lin->coordinates;
+        e.symmetric = lin->symmetric();
+        e.velocity_terms = lin->has_damping || lin->has_gyroscopic;
+      }
       e.max_growth_rate = e.result.modes.empty() ? 0.0 : -std::numeric_limits<double>::infinity();
       e.min_omega2 = e.result.modes.empty() ? 0.0 : std::numeric_limits<double>::infinity();
       for (const Mode& m : e.result.modes) {
@@ -206,7 +220,7 @@ class Evaluator {
         const double w2 = std::isfinite(m.omega2) ? m.omega2 : (-(m.s * m.s)).real();
         e.min_omega2 = std::min(e.min_omega2, w2);
       }
-      compute_indicator(ind, lin, e);
+      compute_indicator(ind, lin ? &*lin : nullptr, e);
       e.ok = true;
     } catch (const std::exception& ex) {
       e.failure = stage + ": " + ex.what();

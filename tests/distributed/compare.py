@@ -5,7 +5,9 @@ Usage: compare.py MODAL NP SCENE [modal analyze options...]
 Runs `modal analyze SCENE --solver sparse --json` (serial) and
 `mpirun -np NP modal analyze SCENE --backend petsc --json` (which executes
 modal-mpi), and requires the same equilibrium and eigenvalues to 1e-10
-relative, the same stability class, Morse index and mode kinds. The serial
+relative, the same stability class, Morse index, number of zero modes
+(counted over the whole spectrum by the inertia, not only among the modes
+returned) and mode kinds. The serial
 path is an independent computation of the same quantities (CHOLMOD, MUMPS
 sequential, Spectra's Lanczos; its own Newton) rather than past output.
 Tolerance: both equilibria are converged to the rounding level of the
@@ -18,12 +20,19 @@ owned body counts add up to the scene's, and with two ranks or more no rank
 has built the whole scene, each at most H bodies beyond its own (its ghosts:
 the other ends of its springs, a layer of a lattice).
 
+Usage: compare.py MODAL NP --sweep SCENE [modal sweep options...]: the
+sweep with --backend petsc against the serial sweep (compare_sweep).
+
+Usage: compare.py MODAL NP --refused COMMAND SCENE [options...]: a command
+the backend refuses (equilibria) ends with status 2 and one message.
+
 Usage: compare.py MODAL NP --fails STATUS SCENE [options...]: the backend
 must end every rank with exit status STATUS and exactly one message line,
 within a timeout, without output on stdout. zero_length_spring.toml fails on
 one rank only (the one that owns the spring of zero length): the message
 must be that rank's (the spring's), not the other ranks' stopped Newton.
 """
+import csv
 import json
 import os
 import subprocess
@@ -38,9 +47,78 @@ def run(cmd):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
 
 
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def relative(a, b):
+    return abs(a - b) / max(abs(a), 1e-300)
+
+
+def compare_sweep(modal, np_, scene, options):
+    """`sweep --backend petsc` against the serial sweep: per point and mode the
+    same ω² to 1e-10 relative and the same kind; the same critical values
+    (kind, classes on either side), their values within the sum of the two
+    reported error bounds (each the half width of its final bracket, which
+    contains the change of class) plus 1e-10 relative."""
+    with tempfile.TemporaryDirectory() as tmp:
+        serial, petsc = os.path.join(tmp, "serial.csv"), os.path.join(tmp, "petsc.csv")
+        r = run([modal, "sweep", scene, "--csv", serial] + options)
+        if r.returncode != 0:
+            sys.exit("FAIL: serial sweep: %d %s" % (r.returncode, r.stderr))
+        serial_text = r.stdout
+        r = run(MPIRUN + [np_, modal, "sweep", scene, "--backend", "petsc", "--csv", petsc] + options)
+        print(r.stdout)
+        print(r.stderr)
+        if r.returncode != 0:
+            sys.exit("FAIL: petsc sweep: %d %s" % (r.returncode, r.stderr))
+        if r.stdout.count("Critical values") + r.stdout.count("No change of stability") != 1:
+            sys.exit("FAIL: the text was not written exactly once")
+        if serial_text.count("failed") or r.stdout.count("failed"):
+            sys.exit("FAIL: a point failed")
+        s, p = read_csv(serial), read_csv(petsc)
+        sc, pc = read_csv(serial[:-4] + "_critical.csv"), read_csv(petsc[:-4] + "_critical.csv")
+    failures = []
+    if len(s) != len(p):
+        failures.append("row counts differ: %d, %d" % (len(s), len(p)))
+    worst = 0.0
+    for a, b in zip(s, p):
+        worst = max(worst, relative(float(a["omega2"]), float(b["omega2"])))
+        if a["stability"] != b["stability"] or a["mode"] != b["mode"] or float(list(a.values())[0]) != float(list(b.values())[0]):
+            failures.append("row differs: %s / %s" % (dict(a), dict(b)))
+    if worst > 1e-10:
+        failures.append("eigenvalues differ by %.3g relative" % worst)
+    if len(sc) != len(pc):
+        failures.append("critical values differ in number: %d, %d" % (len(sc), len(pc)))
+    for a, b in zip(sc, pc):
+        for key in ("kind", "before", "after"):
+            if a[key] != b[key]:
+                failures.append("critical %s differs: %s, %s" % (key, a[key], b[key]))
+        va, vb = float(a["value"]), float(b["value"])
+        if abs(va - vb) > float(a["error"]) + float(b["error"]) + 1e-10 * abs(va):
+            failures.append("critical values differ: %r ± %s, %r ± %s" % (va, a["error"], vb, b["error"]))
+    print("np %s: %d rows, eigenvalues within %.2g relative; critical values %s" %
+          (np_, len(s), worst, [(c["value"], c["error"], c["kind"]) for c in pc]))
+    if failures:
+        sys.exit("FAIL: " + "; ".join(failures))
+
+
 def main():
     modal, np_ = sys.argv[1], sys.argv[2]
     args = sys.argv[3:]
+    if args[0] == "--sweep":
+        compare_sweep(modal, np_, args[1], args[2:])
+        return
+    if args[0] == "--refused":
+        # a command the backend refuses: exit status 2 and one message line, nothing on stdout
+        r = run(MPIRUN + [np_, modal] + args[1:])
+        print(r.stderr)
+        lines = [l for l in r.stderr.splitlines() if l.strip()]
+        if r.returncode != 2 or len(lines) != 1 or r.stdout.strip():
+            sys.exit("FAIL: expected exit status 2 and one message line, got %d and %d lines" %
+                     (r.returncode, len(lines)))
+        return
     if args[0] == "--fails":
         status, scene, options = int(args[1]), args[2], args[3:]
         try:
@@ -104,16 +182,27 @@ def main():
     if len(ls) != len(lp):
         failures.append("mode counts differ: %d, %d" % (len(ls), len(lp)))
     top = max(abs(v) for v in ls)
-    worst_l = max(abs(a - b) / max(abs(a), 1e-300) for a, b in zip(ls, lp))
+    # A zero mode's λ is rounding (zero within its error estimate) on both
+    # paths: those are compared within the sum of the two estimates, the
+    # others to 1e-10 relative.
+    worst_l = 0.0
+    for ms, mp in zip(s["modes"], p["modes"]):
+        a, b = ms["omega2"], mp["omega2"]
+        if ms["kind"] == "zero" and mp["kind"] == "zero":
+            if abs(a - b) > ms["error_estimate"] + mp["error_estimate"]:
+                failures.append("zero modes' eigenvalues %.3g, %.3g differ beyond their error estimates" % (a, b))
+            continue
+        worst_l = max(worst_l, abs(a - b) / max(abs(a), 1e-300))
     if worst_l > 1e-10:
         failures.append("eigenvalues differ by %.3g relative: %s vs %s" % (worst_l, ls, lp))
-    for key in ("stability", "morse_index"):
+    for key in ("stability", "morse_index", "zero_modes"):
         if s[key] != p[key]:
             failures.append("%s differs: %s, %s" % (key, s[key], p[key]))
     if [m["kind"] for m in s["modes"]] != [m["kind"] for m in p["modes"]]:
         failures.append("mode kinds differ")
     print("np %s: %d coordinates, equilibrium within %.2g, eigenvalues within %.2g relative (largest |λ| %.4g), %s, "
-          "Morse index %s" % (np_, len(vs), worst_q, worst_l, top, p["stability"], p["morse_index"]))
+          "Morse index %s, %s zero modes" % (np_, len(vs), worst_q, worst_l, top, p["stability"], p["morse_index"],
+                                            p["zero_modes"]))
     if failures:
         sys.exit("FAIL: " + "; ".join(failures))
 

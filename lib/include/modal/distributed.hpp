@@ -60,4 +60,24 @@ struct DistributedRequest {
 // step, so the ranks end together with one message.
 int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err);
 
+// One `sweep --backend petsc`: the serial sweep (modal::sweep, its critical
+// values and its reporting) with every point analyzed by the backend
+// (SweepOptions::analyze_point): the equilibrium from the previous point's,
+// the lowest `options.modes` modes (default 10) and the class from the
+// inertia. Every rank parses the scene at every point; rank 0 writes.
+struct DistributedSweepRequest {
+  std::string scene_file;
+  std::vector<std::string> sets;
+  SceneLimits limits;
+  SceneFormat format = SceneFormat::automatic;
+  std::vector<std::string> varies;     // --vary texts (parse_vary, agreed on by the ranks)
+  SweepStudyOptions options;           // modes, extrapolate, the refinement's tolerance
+  AnalysisOptions analysis;            // tolerance, equilibrium_tolerance (modes: options.modes)
+  Outputs outputs;                     // csv, report
+};
+
+// Collective as analyze_distributed; exit status 0, or that of the failure
+// (a point that fails is reported in the sweep, as on the serial path).
+int sweep_distributed(const DistributedSweepRequest& request, std::ostream& out, std::ostream& err);
+
 }  // namespace modal

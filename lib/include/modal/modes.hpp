@@ -14,6 +14,7 @@
 #include "modal/linearize.hpp"
 
 #include <complex>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -165,6 +166,27 @@ ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& option
 // when |lambda| is within error + systematic or within rounding, divergent
 // when negative beyond both; the shape's largest component made positive.
 Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic = 0);
+
+// What the inertia of K − σM says about the modes a shift-invert solver did
+// not return (solve_sparse_modes and the distributed backend share it).
+struct InertiaAccount {
+  long below_s0 = 0;             // eigenvalues below σ₀ = −ζ (the Morse index before the returned modes)
+  double s0 = 0;                 // σ₀
+  double zeta = 0;               // ζ = 1e-8·s
+  std::optional<double> shift;   // the user's shift, when the modes are those nearest it
+  double unit = 1;               // the factor that turns the solver's λ into rad²/s² in notes
+};
+// Sets result.morse_index (below_s0 plus the returned modes in [σ₀, 0) that
+// are negative beyond their error estimate), result.zero_modes (the returned
+// zero modes; when the highest returned mode is a zero mode, the inertia at
+// the largest zero-mode error estimate counts all of them, with a note) and
+// result.stability, from result.modes (ascending) and count_below(σ, what,
+// expect_indefinite): the number of eigenvalues below σ, which may move σ
+// off a singular point. With a shift and no divergent or zero mode returned,
+// zero eigenvalues outside the returned modes (inertia at ζ) make the class
+// marginal, with a note.
+void count_by_inertia(ModalResult& result, const InertiaAccount& account,
+                      const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below);
 
 // Stability class (docs/design.md, "Mode kinds and stability classes") of a
 // complete set of modes, from their kinds: divergence if any mode is

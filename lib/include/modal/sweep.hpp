@@ -94,6 +94,15 @@ struct SweepOptions {
   // Called after every point of the grid (and every evaluation of a refinement)
   // with the points done and the points of the grid in all; may be empty.
   std::function<void(int done, int total)> progress;
+  // The analysis of one point in place of the serial one (find_equilibrium,
+  // linearize, solve_modes with all modes), as the distributed backend's sweep
+  // does it: the equilibrium of `system` from `start` and its lowest modes,
+  // with morse_index, zero_modes and stability over the whole spectrum (the
+  // inertia). The problem is then the symmetric one, K φ = λ M φ. It may throw
+  // as the serial stages do (the point fails with the message). Every call
+  // must give the same classes wherever it is made (the distributed sweep runs
+  // this function on every rank in step). Empty: the serial analysis.
+  std::function<std::pair<Equilibrium, ModalResult>(const System& system, const VectorX& start)> analyze_point;
 };
 
 // One value of the parameter.
