@@ -19,6 +19,7 @@
 // rank, the same message and exit status on all ranks before the next
 // collective call, so no rank waits for a peer that has given up.
 #include "modal/distributed.hpp"
+#include "modal/equilibrium.hpp"
 
 #include <fmt/format.h>
 #include <mpi.h>
@@ -502,13 +503,19 @@ PetscErrorCode lagged_converged(SNES snes, PetscInt step, PetscReal xnorm, Petsc
 // The number of eigenvalues of (K, M) below σ: the negative pivots of a MUMPS
 // LDLᵀ of K − σM (ICNTL(13) = 1: no ScaLAPACK root, so every pivot is seen;
 // ICNTL(24) = 1: null pivots detected). Nothing when a pivot is null.
-std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
-  Mat A = nullptr;
+// A MUMPS Cholesky (LDLᵀ, with its inertia) of A = K − σM, or of K + σI
+// when M is null; `factored` false when MUMPS met a problem (a null pivot).
+// The caller destroys the KSP and A.
+KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored) {
   MODAL_PETSC(MatDuplicate(K, MAT_COPY_VALUES, &A));
-  MODAL_PETSC(MatAXPY(A, -sigma, M, DIFFERENT_NONZERO_PATTERN));
+  if (M) {
+    MODAL_PETSC(MatAXPY(A, -sigma, M, DIFFERENT_NONZERO_PATTERN));
+  } else {
+    MODAL_PETSC(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+    MODAL_PETSC(MatShift(A, sigma));
+  }
   MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
   KSP ksp = nullptr;
-  Mat F = nullptr;
   MODAL_PETSC(KSPCreate(PETSC_COMM_WORLD, &ksp));
   MODAL_PETSC(KSPSetOperators(ksp, A, A));
   PC pc = direct_mumps(ksp, PCCHOLESKY);
@@ -516,12 +523,21 @@ std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
   MODAL_PETSC(PCFactorGetMatrix(pc, &F));
   MODAL_PETSC(MatMumpsSetIcntl(F, 13, 1));
   MODAL_PETSC(MatMumpsSetIcntl(F, 24, 1));
+  MODAL_PETSC(KSPSetErrorIfNotConverged(ksp, PETSC_FALSE));
   MODAL_PETSC(KSPSetUp(ksp));
-  PetscInt negative = 0, zero = 0, positive = 0;
   MatFactorError error = MAT_FACTOR_NOERROR;
   MODAL_PETSC(MatFactorGetError(F, &error));
+  factored = error == MAT_FACTOR_NOERROR;
+  return ksp;
+}
+
+std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
+  Mat A = nullptr, F = nullptr;
+  bool factored = false;
+  KSP ksp = mumps_cholesky(K, M, sigma, A, F, factored);
   std::optional<PetscInt> result;
-  if (error == MAT_FACTOR_NOERROR) {
+  if (factored) {
+    PetscInt negative = 0, zero = 0, positive = 0;
     MODAL_PETSC(MatGetInertia(F, &negative, &zero, &positive));
     if (zero == 0) result = negative;
   }
@@ -538,6 +554,32 @@ PetscInt inertia_near(Mat K, Mat M, double& sigma, double s, int direction = -1)
     sigma += direction * 1e-6 * std::max(std::abs(sigma), s);
   }
   throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
+}
+
+// d = −(H + shift·I)⁻¹ r when H + shift·I is positive definite (a MUMPS
+// Cholesky with no negative or zero pivot and a converged solve); false
+// otherwise (collective, the same answer on every rank).
+bool solve_shifted_positive(Mat H, double shift, Vec r, Vec d) {
+  Mat A = nullptr, F = nullptr;
+  bool factored = false;
+  KSP ksp = mumps_cholesky(H, nullptr, shift, A, F, factored);
+  bool ok = false;
+  if (factored) {
+    PetscInt negative = 0, zero = 0, positive = 0;
+    MODAL_PETSC(MatGetInertia(F, &negative, &zero, &positive));
+    if (negative == 0 && zero == 0) {
+      MODAL_PETSC(KSPSolve(ksp, r, d));
+      KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
+      MODAL_PETSC(KSPGetConvergedReason(ksp, &reason));
+      PetscReal norm = 0;
+      MODAL_PETSC(VecNorm(d, NORM_2, &norm));
+      ok = reason >= 0 && std::isfinite(norm);
+      MODAL_PETSC(VecScale(d, -1.0));
+    }
+  }
+  MODAL_PETSC(KSPDestroy(&ksp));
+  MODAL_PETSC(MatDestroy(&A));
+  return ok;
 }
 
 // The peak resident memory of this process, bytes (Linux VmHWM; 0 elsewhere).
@@ -725,6 +767,86 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // with a fresh LU at every step from the same start, then a trust region.
       MODAL_PETSC(MatSetOption(J, MAT_SYMMETRIC, PETSC_TRUE));
       MODAL_PETSC(MatSetOption(J, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
+      // Damped Newton (Levenberg–Marquardt on V) from x, as the serial large
+      // equilibrium's (lib/equilibrium/large.cpp, docs/design.md "Equilibria
+      // of large scenes"): for degenerate starts, where ∇∇V is singular or
+      // indefinite (a slack net's flat start has no stiffness out of its
+      // plane) and a Newton step overshoots. Each step solves
+      // (∇∇V + μhI) d = −∇V by a MUMPS Cholesky that must be positive
+      // definite (h: the mean |diagonal| of ∇∇V), takes it when V falls by
+      // more than 10⁻⁴ of the decrease the quadratic model predicts, and
+      // moves μ by Nielsen's rule; it hands over to Newton once μ < 10⁻³ and
+      // ‖∇V‖ has fallen 10³-fold.
+      int damped_steps = 0;
+      const auto damped = [&] {
+        const auto energy = [&](Vec at) {
+          const VectorX q = assembly.local_configuration(at);
+          return sum_over_ranks([&] { return potential(*part.system, *ws, q); });
+        };
+        double length = part.system->length_scale();
+        MPI_Allreduce(MPI_IN_PLACE, &length, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        Vec d = nullptr, trial = nullptr, g = nullptr, diagonal = nullptr;
+        MODAL_PETSC(VecDuplicate(x, &d));
+        MODAL_PETSC(VecDuplicate(x, &trial));
+        MODAL_PETSC(VecDuplicate(x, &g));
+        MODAL_PETSC(VecDuplicate(x, &diagonal));
+        MODAL_PETSC(form_gradient(nullptr, x, f, &assembly));
+        PetscReal rnorm = 0;
+        MODAL_PETSC(VecNorm(f, NORM_2, &rnorm));
+        const double r0 = rnorm;
+        double v = energy(x);
+        NielsenDamping damping;
+        double& mu = damping.mu;
+        for (int it = 0; it < 200 && std::isfinite(rnorm) && rnorm > target; ++it) {
+          if (mu >= 0 && mu < 1e-3 && rnorm < 1e-3 * r0) break;  // Newton's region
+          MODAL_PETSC(form_hessian(nullptr, x, J, J, &assembly));
+          MODAL_PETSC(MatGetDiagonal(J, diagonal));
+          MODAL_PETSC(VecAbs(diagonal));
+          PetscScalar sum = 0;
+          MODAL_PETSC(VecSum(diagonal, &sum));
+          const double h = std::max(static_cast<double>(sum) / static_cast<double>(n), std::numeric_limits<double>::min());
+          if (mu < 0) {
+            PetscReal largest = 0;
+            MODAL_PETSC(VecNorm(f, NORM_INFINITY, &largest));
+            mu = std::max(largest / (h * 1e-3 * length), 1e-10);
+          }
+          bool solved = false;
+          for (int tries = 0; tries < 60 && !solved; ++tries) {
+            solved = solve_shifted_positive(J, mu * h, f, d);
+            if (!solved) mu = std::max(4 * mu, 1e-10);
+          }
+          if (!solved) break;
+          ++damped_steps;
+          PetscScalar rd = 0, dd = 0;
+          MODAL_PETSC(VecDot(f, d, &rd));
+          MODAL_PETSC(VecDot(d, d, &dd));
+          // −(rᵀd + ½dᵀ∇∇V d), with (∇∇V + μhI)d = −r
+          const double predicted = -0.5 * rd + 0.5 * mu * h * dd;
+          MODAL_PETSC(VecWAXPY(trial, 1.0, d, x));
+          double vt = std::numeric_limits<double>::infinity();
+          try {
+            vt = energy(trial);
+          } catch (const Agreed&) {  // every rank: a configuration some element cannot take
+          }
+          double rho = predicted > 0 && std::isfinite(vt) ? (v - vt) / predicted : -1;
+          if (NielsenDamping::taken(rho)) {
+            MODAL_PETSC(form_gradient(nullptr, trial, g, &assembly));
+            PetscReal gnorm = 0;
+            MODAL_PETSC(VecNorm(g, NORM_2, &gnorm));
+            if (std::isfinite(gnorm)) {
+              MODAL_PETSC(VecCopy(trial, x));
+              MODAL_PETSC(VecCopy(g, f));
+              rnorm = gnorm;
+              v = vt;
+            } else {
+              rho = -1;
+            }
+          }
+          damping.update(rho);
+        }
+        assembly.failure.clear();  // failed trial points were refused above
+        for (Vec* w : {&d, &trial, &g, &diagonal}) MODAL_PETSC(VecDestroy(w));
+      };
       std::string method = "line search", solves;
       newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, true);
       bool lagged = converged();
@@ -733,7 +855,14 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         assembly.failure.clear();
         MODAL_PETSC(VecCopy(start, x));
         iterations = 0;
+        damped();  // a degenerate start: damped steps first, then Newton
         newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, false);
+        if (!converged() && damped_steps > 0) {  // from the start, undamped
+          MODAL_PETSC(VecCopy(start, x));
+          iterations = 0;
+          damped_steps = 0;
+          newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, false);
+        }
         if (!converged()) {
           MODAL_PETSC(VecCopy(start, x));
           iterations = 0;
@@ -751,8 +880,9 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                       : std::string("MUMPS LU");
       MODAL_PETSC(VecDestroy(&start));
       eq.iterations = static_cast<int>(iterations);
-      eq.method = fmt::format("Newton with a {} (PETSc SNES, {}) over {} rank{}", method, solves, size,
-                              size == 1 ? "" : "s");
+      eq.method = fmt::format("{}Newton with a {} (PETSc SNES, {}) over {} rank{}",
+                              damped_steps > 0 ? fmt::format("damped Newton ({} steps), then ", damped_steps) : "",
+                              method, solves, size, size == 1 ? "" : "s");
       eq.residual_norm = norm;
       // The cause first: an evaluation that failed on some rank (the others
       // only saw a NaN residual).

@@ -75,6 +75,18 @@ struct EquilibriumOptions {
 // which makes 2 starts rather than spend minutes on 64.
 int default_equilibrium_starts(const System& system);
 
+// The damping μ of the damped Newton (Levenberg–Marquardt) steps on V that
+// large scenes start with from degenerate configurations, here and in the
+// distributed backend (docs/design.md, "Equilibria of large scenes"):
+// Nielsen's rule. A step whose ratio ρ of V's actual to predicted decrease
+// exceeds 10⁻⁴ is taken and μ shrinks by up to 3× as ρ nears 1 (below 10⁻¹⁰
+// it becomes 0, Newton); after a refused step μ grows 2×, 4×, 8×, … in a row.
+struct NielsenDamping {
+  double mu = -1;  // dimensionless; negative until the first step sets it
+  double growth = 2;
+  static bool taken(double rho) { return rho > 1e-4; }
+  void update(double rho);
+};
 // A limited joint (Body::lower, Body::upper) at a configuration. The limit is
 // active when the coordinate is not strictly inside its range: the stop then
 // pushes, and the system has no linear model there.
