@@ -12,6 +12,13 @@
 #include <stdexcept>
 
 namespace modal {
+
+double dense_analysis_memory(const System& system) {
+  const bool first_order = system.has_damping() || system.has_frame_coupling() || system.has_follower_loads();
+  const double n = (first_order ? 2.0 : 1.0) * system.size();
+  return 224 * n * n;
+}
+
 namespace {
 
 constexpr double eps = std::numeric_limits<double>::epsilon();

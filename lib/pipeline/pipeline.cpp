@@ -96,10 +96,6 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
                                nearest));
 }
 
-bool first_order(const System& sys) {
-  return sys.has_damping() || sys.has_frame_coupling() || sys.has_follower_loads();
-}
-
 // The documented rule (SolverChoice): sparse for more than
 // large_system_coordinates coordinates when the sparse model describes the
 // scene, else dense; the matrix-free path for large trees it describes whose
@@ -263,9 +259,8 @@ double parse_memory_size(const std::string& text) {
   return value * factor;
 }
 
-double dense_analysis_memory(const System& system) {
-  const double n = (first_order(system) ? 2.0 : 1.0) * system.size();
-  return 224 * n * n;
+double simulation_memory(const System& system, double samples) {
+  return dense_analysis_memory(system) + 32 * samples * (2.0 * system.size() + 4);
 }
 
 double sparse_analysis_memory(const System& system) { return 200 * coupled_pairs(system); }
@@ -492,6 +487,11 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
   EquilibriumSurvey survey;
   survey.report = make_report(sys, model.scene.file, model.scene.parameters);
   const auto names = sys.coordinate_names();
+  if (!sys.has_constraints() && sys.size() > large_system_coordinates)  // a documented limit, not a numerical failure
+    throw InputError(fmt::format("equilibria: the multi-start search for all equilibria is for scenes of at most {} "
+                                 "coordinates (its Newton steps are dense); this one has {}: `modal analyze` finds "
+                                 "the equilibrium nearest the initial configuration with sparse or matrix-free steps",
+                                 large_system_coordinates, sys.size()));
   const std::vector<Equilibrium> found = find_equilibria(sys, options);
   std::optional<SceneError> first_refusal;  // an equilibrium at a limit or in contact
   for (const Equilibrium& e : found) {
@@ -530,6 +530,12 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
                                  "scene.toml` writes it as a TOML scene in which numbers can be made [parameters]",
                                  model.scene.file, model.format == SceneFormat::urdf ? "URDF" : "MJCF",
                                  model.scene.file));
+  if (!options.sweep.analyze_point)  // every point a dense analysis; a point that grows the scene is checked itself
+    if (const auto r = memory_refusal(dense_analysis_memory(model.system),
+                                      fmt::format("each point of the sweep (the dense analysis of {} coordinates)",
+                                                  model.system.size()),
+                                      model.limits.memory))
+      throw InputError("this sweep cannot run here: " + *r);
   SweepStudy study;
   study.scene_file = model.scene.file;
   study.axes = axes;
@@ -573,6 +579,15 @@ Simulation simulate(const Model& model, const SimulationRequest& request) {
     if (*given && (*given)->size() != sys.size())
       throw InputError(fmt::format("{} expects {} values ({}), got {}", option, sys.size(),
                                    join_names(sys.coordinate_names()), (*given)->size()));
+  {
+    const double interval = request.interval.value_or(request.duration / 1000);
+    const double samples = std::floor(request.duration / interval) + 2;
+    if (const auto r = memory_refusal(simulation_memory(sys, samples),
+                                      fmt::format("the simulation of {} coordinates over {:.3g} samples", sys.size(),
+                                                  samples),
+                                      model.limits.memory))
+      throw InputError("this simulation cannot run here: " + *r);
+  }
   VectorX q0 = request.at ? *request.at : sys.initial_configuration();
   if (!request.at && sys.has_constraints()) {
     // The scene's initial values are a guess for searches; a motion must start on the constraints.

@@ -5,6 +5,7 @@
 #include "modal/sweep.hpp"
 
 #include "modal/linearize.hpp"
+#include "modal/modes.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -202,6 +203,13 @@ class Evaluator {
         std::tie(e.equilibrium, e.result) = options_.analyze_point(*sys, q0);
         e.coordinates = sys->coordinate_names();
       } else {
+        // A point whose scene the parameter has grown past what fits (--vary N=…).
+        stage = "not analyzed";
+        if (const auto r = memory_refusal(dense_analysis_memory(*sys),
+                                          "the dense analysis of " + std::to_string(sys->size()) + " coordinates",
+                                          options_.scene_limits.memory))
+          throw std::runtime_error(*r);
+        stage = "no equilibrium";
         e.equilibrium = find_equilibrium(*sys, q0, options_.equilibrium);
         stage = "at a joint limit";
         if (const std::string why = active_limit(*sys, e.equilibrium); !why.empty()) throw std::runtime_error(why);

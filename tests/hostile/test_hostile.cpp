@@ -408,6 +408,37 @@ TEST_F(Hostile, ChainsThatDoNotFitAreRefusedWithTheEstimate) {
   EXPECT_EQ(run({"check", longest}).status, 0);
 }
 
+// The other commands estimate before allocating too (issue 20 part 3): a
+// sweep (every point a dense analysis), a simulation (the dense matrices and
+// the trajectory) and the survey of equilibria (dense Newton steps, at most
+// 1000 coordinates) are refused up front in words (exit 2), and a sweep
+// whose parameter grows the scene past what fits fails that point with the
+// estimate instead of running out of memory.
+TEST_F(Hostile, SweepsSimulationsAndSurveysThatDoNotFitAreRefused) {
+  for (int links : {3000, 20000}) {
+    const std::string scene = write("chain" + std::to_string(links) + ".toml", chain_scene(links));
+    for (const std::vector<std::string>& command :
+         {std::vector<std::string>{"sweep", scene, "--vary", "g=1:2:3"},
+          std::vector<std::string>{"simulate", scene, "--duration", "1"}}) {
+      std::vector<std::string> args = command;
+      args.insert(args.end(), {"--max-memory", "100M"});
+      const Outcome r = run(args);
+      EXPECT_EQ(r.status, 2) << command[0] << " " << links << ": " << r.err;
+      EXPECT_NE(r.err.find("would need about"), std::string::npos) << r.err;
+      EXPECT_NE(r.err.find("more than the 100 MB allowed (--max-memory)"), std::string::npos) << r.err;
+      EXPECT_TRUE(r.out.empty()) << r.out.substr(0, 200);
+    }
+    const Outcome survey = run({"equilibria", scene});
+    EXPECT_EQ(survey.status, 2) << survey.err;
+    EXPECT_NE(survey.err.find("at most 1000 coordinates"), std::string::npos) << survey.err;
+    EXPECT_EQ(survey.err.find("numerical failure"), std::string::npos) << survey.err;
+  }
+  const Outcome r = run({"sweep", std::string(MODAL_SOURCE_DIR) + "/models/hanging_chain.toml", "--vary", "N=10,20,5000",
+                         "--max-memory", "100M"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("failed: not analyzed: it would need about"), std::string::npos) << r.out;
+}
+
 // The automatic choice takes the path that fits: the bundled lattice (540
 // coordinates, dense by default) goes sparse under a limit the dense path
 // exceeds; forcing the dense path is refused with a pointer to the other.

@@ -101,6 +101,14 @@ struct ModalOptions {
   DenseSolver dense_solver = DenseSolver::automatic;  // symmetric problems
 };
 
+// Memory the dense analysis of `system` needs (docs/design.md, "Memory
+// policy"): M, K, the eigenvectors and the solvers' workspaces, 224 bytes per
+// coordinate pair (measured: 896 MB for a 2000-link chain); problems solved in
+// first order (dampers, gyroscopic terms, follower loads) as for 2n
+// coordinates. Estimated before anything is allocated: analyze, every point
+// of a sweep, simulate.
+double dense_analysis_memory(const System& system);
+
 // Eigen-solution of the linear model (sizes from model.M, n×n; model.q and
 // model.coordinates may be empty, the latter then named q1 … qn; empty D or G
 // mean zero). Symmetric problems use the dense symmetric-definite solver,

@@ -77,13 +77,15 @@ class OutOfMemory : public std::bad_alloc {
 double parse_memory_size(const std::string& text);
 
 // What a command on `model` would need, estimated before allocating
-// (docs/design.md, "Memory policy"): the dense path of analyze (M, K, the
-// eigenvectors and the solvers' workspaces: 224 bytes per coordinate pair,
-// measured; first-order problems as for 2n coordinates), and the sparse path
-// (200 bytes per coordinate pair the tree couples, coupled_pairs: a chain's
-// factor is dense).
-double dense_analysis_memory(const System& system);
+// (docs/design.md, "Memory policy"): the dense path of analyze
+// (dense_analysis_memory, modal/modes.hpp; also each point of a sweep), and
+// the sparse path (200 bytes per coordinate pair the tree couples,
+// coupled_pairs: a chain's factor is dense).
 double sparse_analysis_memory(const System& system);
+// simulate: the dense path's matrices (M and its factor at every step, as
+// dense_analysis_memory) and the trajectory, kept as numbers and as CSV text
+// until it is written: 32 bytes per value, 2n + 4 values per sample.
+double simulation_memory(const System& system, double samples);
 // The matrix-free path: 1.5 kB per body (the pencil, its factor and the
 // recursions' work vectors) and the Lanczos basis, 8·ncv bytes per
 // coordinate with ncv = max(2·modes + 1, 20).
