@@ -810,3 +810,50 @@ TEST(scene_parts, BodiesMustHangFromTheWorld) {
     EXPECT_NE(e.reason().find("needs every body on the world"), std::string::npos) << e.reason();
   }
 }
+
+// A scene read in parts is bounded per part: SceneLimits apply to what the
+// part builds (its particles, its springs, their memory), the whole only by
+// what 32-bit indices number (max_particles_in_parts). Reference: the counts
+// of the lattice, by hand (40 × 50 particles; 39·50 + 40·49 = 3910 springs).
+TEST(scene_parts, LimitsBoundEachPart) {
+  const std::string text =
+      "[[lattice]]\nname = \"net\"\nsize = [40, 50, 1]\nspacing = 0.1\nmass = 0.1\nstiffness = 10\n"
+      "fixed = \"boundary\"\n";
+  for (const bool particles : {true, false}) {
+    SCOPED_TRACE(particles ? "particle limit 1200" : "spring limit 2400");
+    modal::SceneLimits limits;
+    if (particles) limits.particles = 1200;
+    else limits.springs = 2400;
+    EXPECT_THROW((void)modal::parse_scene(text, "t.toml", {}, limits), modal::SceneError);  // 2000, 3910 whole
+    const modal::SceneWindow one{0, 1};
+    EXPECT_THROW((void)modal::parse_scene(text, "t.toml", {}, limits, &one), modal::SceneError);
+    for (const int count : {2, 3, 4})  // 1000 particles and about 1955 springs or fewer a part
+      for (int p = 0; p < count; ++p) {
+        const modal::SceneWindow window{p, count};
+        const modal::Scene part = modal::parse_scene(text, "t.toml", {}, limits, &window);
+        EXPECT_EQ(part.total_bodies, 2000);
+        EXPECT_LE(part.end_owned - part.first_owned, 1000);
+      }
+  }
+  // 10⁸ particles, beyond the default limit of a whole scene (5·10⁶), read in
+  // 10⁴ parts: each builds its 10⁴ particles and a row of ghosts.
+  const std::string huge =
+      "[[lattice]]\nname = \"net\"\nsize = [10000, 10000, 1]\nspacing = 0.1\nmass = 0.1\nstiffness = 10\n"
+      "fixed = \"boundary\"\n";
+  EXPECT_THROW((void)modal::parse_scene(huge, "t.toml"), modal::SceneError);
+  const modal::SceneWindow window{1234, 10000};
+  const modal::Scene part = modal::parse_scene(huge, "t.toml", {}, {}, &window);
+  EXPECT_EQ(part.total_bodies, 100'000'000);
+  EXPECT_EQ(part.first_owned, 12'340'000);
+  EXPECT_EQ(part.end_owned, 12'350'000);
+  EXPECT_LE(part.description.bodies.size(), 20'000u);
+  // 10⁹ particles cannot be numbered, in any number of parts.
+  const std::string beyond =
+      "[[lattice]]\nname = \"net\"\nsize = [1000, 1000, 1000]\nspacing = 0.1\nmass = 0.1\nstiffness = 10\n";
+  try {
+    (void)modal::parse_scene(beyond, "t.toml", {}, {}, &window);
+    FAIL() << "no error";
+  } catch (const modal::SceneError& e) {
+    EXPECT_NE(e.reason().find("can be numbered in a scene read in parts"), std::string::npos) << e.reason();
+  }
+}

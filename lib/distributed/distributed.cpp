@@ -216,6 +216,14 @@ PetscInt global_coordinates(Part& p, const System& s, const Scene& scene) {
   const System& part = *p.system;
   PetscInt mine = 0;
   for (int l = 0; l < p.owned_count; ++l) mine += part.joint_size(l);
+  long long whole = mine;  // counted wide first: PETSc's indices may be 32-bit
+  MPI_Allreduce(MPI_IN_PLACE, &whole, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  phase([&] {
+    if (whole > static_cast<long long>(PETSC_MAX_INT))
+      throw InputError(fmt::format("the scene has {} coordinates; this PETSc numbers them with {}-bit integers (at most "
+                                   "{}): a PETSc configured with --with-64-bit-indices is needed",
+                                   whole, 8 * sizeof(PetscInt), static_cast<long long>(PETSC_MAX_INT)));
+  });
   PetscInt offset = 0, n = mine;
   MPI_Exscan(&mine, &offset, 1, MPIU_INT, MPI_SUM, MPI_COMM_WORLD);
   if (world_rank() == 0) offset = 0;
@@ -380,12 +388,11 @@ PetscErrorCode form_hessian(SNES, Vec x, Mat J, Mat, void* context) {
   return MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY);
 }
 
-// The whole of a distributed vector on rank 0 (empty elsewhere), or on every
-// rank with `everywhere`.
-VectorX gather_to_root(Vec v, bool everywhere = false) {
+// The whole of a distributed vector on rank 0 (empty elsewhere).
+VectorX gather_to_root(Vec v) {
   VecScatter to_zero = nullptr;
   Vec all = nullptr;
-  MODAL_PETSC(everywhere ? VecScatterCreateToAll(v, &to_zero, &all) : VecScatterCreateToZero(v, &to_zero, &all));
+  MODAL_PETSC(VecScatterCreateToZero(v, &to_zero, &all));
   MODAL_PETSC(VecScatterBegin(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
   MODAL_PETSC(VecScatterEnd(to_zero, v, all, INSERT_VALUES, SCATTER_FORWARD));
   PetscInt n = 0;
@@ -644,19 +651,27 @@ struct PointSolver {
 struct Point {
   Equilibrium eq;
   ModalResult result;
+  long long coordinates = 0;  // of the whole scene
 };
+
+// Where solve_point leaves the equilibrium and the shapes: the whole on rank 0
+// (a report), or each rank's owned coordinates of q and no shapes (a sweep,
+// whose next point starts from q and which reports no shapes: no rank holds
+// the whole).
+enum class Gathered { root, owned };
 
 // The equilibrium and lowest modes of the scene whose part this rank holds
 // (`held`, read from `scene`: distributed generation), over the ranks
-// (collective; a failure on any rank throws Agreed on all), from `start`: the
-// whole scene's configuration (n, the sweep's previous point) or empty (the
-// scene's initial configuration). `numbered` is called on every rank once the
-// coordinates are numbered (collective work such as gathering names may go
-// there). eq.q on rank 0 only, or on every rank with `q_everywhere`; the
-// modes' numbers, Morse index, zero modes and class on every rank, their
-// shapes on rank 0.
+// (collective; a failure on any rank throws Agreed on all), from `start`:
+// this rank's owned coordinates of a configuration (the sweep's previous
+// point, as Gathered::owned left it) or empty (the scene's initial
+// configuration, also taken on every rank when the start does not fit on
+// some rank: the scene's size changed). `numbered` is called on every rank
+// once the coordinates are numbered (collective work such as gathering names
+// may go there). eq.q and the shapes as `gathered` says; the modes' numbers,
+// Morse index, zero modes and class on every rank.
 Point solve_point(const System& held, const Scene& scene, const VectorX& start, const AnalysisOptions& options,
-                  bool q_everywhere, Timings& timings, const std::function<void(const Part&)>& numbered = {}) {
+                  Gathered gathered, Timings& timings, const std::function<void(const Part&)>& numbered = {}) {
   const int rank = world_rank(), size = world_size();
   PetscInt n = 0;
   PointSolver solver;
@@ -675,6 +690,8 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
     });
     n = global_coordinates(part, held, scene);
     if (numbered) numbered(part);
+    int fits = start.size() > 0 && start.size() == part.end_coordinate - part.first_coordinate;
+    MPI_Allreduce(MPI_IN_PLACE, &fits, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
     phase([&] {  // collective from here on: nothing rank-local throws before the PETSc calls
       assembly.part = &part;
       assembly.ws = &*ws;
@@ -686,9 +703,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                                   PETSC_COPY_VALUES, &from));
       MODAL_PETSC(VecScatterCreate(x, from, assembly.local, nullptr, &assembly.gather));
       MODAL_PETSC(ISDestroy(&from));
-      const VectorX q0 = start.size() > 0 ? VectorX(start.segment(part.first_coordinate,
-                                                                  part.end_coordinate - part.first_coordinate))
-                                          : part.system->initial_configuration();  // the owned coordinates first
+      const VectorX q0 = fits ? start : part.system->initial_configuration();  // the owned coordinates first
       for (PetscInt i = part.first_coordinate; i < part.end_coordinate; ++i)
         MODAL_PETSC(VecSetValue(x, i, q0(i - part.first_coordinate), INSERT_VALUES));
       MODAL_PETSC(VecAssemblyBegin(x));
@@ -980,60 +995,114 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         where = "a shift below the spectrum";
       }
       const auto factored = Clock::now();
-      MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
-      MODAL_PETSC(EPSSetOperators(eps_solver, K, M));
-      MODAL_PETSC(EPSSetProblemType(eps_solver, EPS_GHEP));
-      MODAL_PETSC(EPSSetType(eps_solver, EPSKRYLOVSCHUR));
-      MODAL_PETSC(EPSSetDimensions(eps_solver, k, PETSC_DEFAULT, PETSC_DEFAULT));
-      MODAL_PETSC(EPSSetTolerances(eps_solver, options.tolerance, 1000));
-      MODAL_PETSC(EPSSetTarget(eps_solver, target));
-      MODAL_PETSC(EPSSetWhichEigenpairs(eps_solver, EPS_TARGET_MAGNITUDE));
-      ST st = nullptr;
-      KSP ksp = nullptr;
-      MODAL_PETSC(EPSGetST(eps_solver, &st));
-      MODAL_PETSC(STSetType(st, STSINVERT));
-      MODAL_PETSC(STGetKSP(st, &ksp));
-      direct_mumps(ksp, PCCHOLESKY);
-      MODAL_PETSC(EPSSetFromOptions(eps_solver));
-      MODAL_PETSC(EPSSolve(eps_solver));
-      PetscInt converged = 0;
-      MODAL_PETSC(EPSGetConverged(eps_solver, &converged));
-      if (converged < k)
-        throw NumericalError(fmt::format("--backend petsc: SLEPc's Krylov–Schur iteration converged {} of the {} "
-                                         "modes asked for; try a larger --tol",
-                                         converged, k));
-      PetscReal K1 = 0, M1 = 0;
-      MODAL_PETSC(MatNorm(K, NORM_1, &K1));
-      MODAL_PETSC(MatNorm(M, NORM_1, &M1));
-      Vec phi = nullptr, Kphi = nullptr, Mphi = nullptr, r = nullptr;
-      MODAL_PETSC(MatCreateVecs(K, &phi, nullptr));
-      for (Vec* v : {&Kphi, &Mphi, &r}) MODAL_PETSC(VecDuplicate(phi, v));
-      for (PetscInt i = 0; i < k; ++i) {
-        PetscScalar value = 0;
-        MODAL_PETSC(EPSGetEigenpair(eps_solver, i, &value, nullptr, phi, nullptr));
-        // φ M-normalized, λ its Rayleigh quotient, e = ‖Kφ − λMφ‖ in the M⁻¹-norm (M diagonal).
-        MODAL_PETSC(MatMult(M, phi, Mphi));
-        PetscScalar mm = 0;
-        MODAL_PETSC(VecDot(phi, Mphi, &mm));
-        const double unit = 1.0 / std::sqrt(mm);
-        MODAL_PETSC(VecScale(phi, unit));
-        MODAL_PETSC(VecScale(Mphi, unit));
-        MODAL_PETSC(MatMult(K, phi, Kphi));
-        PetscScalar lambda = 0;
-        MODAL_PETSC(VecDot(phi, Kphi, &lambda));
-        MODAL_PETSC(VecWAXPY(r, -lambda, Mphi, Kphi));
-        MODAL_PETSC(VecPointwiseMult(Kphi, r, r));
-        MODAL_PETSC(VecPointwiseDivide(Kphi, Kphi, dm));
-        PetscScalar e2 = 0;
-        MODAL_PETSC(VecSum(Kphi, &e2));
-        PetscReal x2 = 0;
-        MODAL_PETSC(VecNorm(phi, NORM_2, &x2));
-        x2 *= x2;
-        numbers.push_back({lambda, std::sqrt(std::max(0.0, e2)), 4 * eps * (K1 + std::abs(lambda) * M1) * x2});
-        shapes.push_back(gather_to_root(phi));
+      // One Krylov–Schur run for the `nev` eigenpairs nearest the target:
+      // their numbers and (as `gathered` says) shapes.
+      const auto solve_nearest = [&](PetscInt nev) {
+        numbers.clear();
+        shapes.clear();
+        MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+        MODAL_PETSC(EPSSetOperators(eps_solver, K, M));
+        MODAL_PETSC(EPSSetProblemType(eps_solver, EPS_GHEP));
+        MODAL_PETSC(EPSSetType(eps_solver, EPSKRYLOVSCHUR));
+        MODAL_PETSC(EPSSetDimensions(eps_solver, nev, PETSC_DEFAULT, PETSC_DEFAULT));
+        MODAL_PETSC(EPSSetTolerances(eps_solver, options.tolerance, 1000));
+        MODAL_PETSC(EPSSetTarget(eps_solver, target));
+        MODAL_PETSC(EPSSetWhichEigenpairs(eps_solver, EPS_TARGET_MAGNITUDE));
+        ST st = nullptr;
+        KSP ksp = nullptr;
+        MODAL_PETSC(EPSGetST(eps_solver, &st));
+        MODAL_PETSC(STSetType(st, STSINVERT));
+        MODAL_PETSC(STGetKSP(st, &ksp));
+        direct_mumps(ksp, PCCHOLESKY);
+        MODAL_PETSC(EPSSetFromOptions(eps_solver));
+        MODAL_PETSC(EPSSolve(eps_solver));
+        PetscInt converged = 0;
+        MODAL_PETSC(EPSGetConverged(eps_solver, &converged));
+        if (converged < nev)
+          throw NumericalError(fmt::format("--backend petsc: SLEPc's Krylov–Schur iteration converged {} of the {} "
+                                           "modes asked for; try a larger --tol",
+                                           converged, nev));
+        PetscReal K1 = 0, M1 = 0;
+        MODAL_PETSC(MatNorm(K, NORM_1, &K1));
+        MODAL_PETSC(MatNorm(M, NORM_1, &M1));
+        Vec phi = nullptr, Kphi = nullptr, Mphi = nullptr, r = nullptr;
+        MODAL_PETSC(MatCreateVecs(K, &phi, nullptr));
+        for (Vec* v : {&Kphi, &Mphi, &r}) MODAL_PETSC(VecDuplicate(phi, v));
+        for (PetscInt i = 0; i < nev; ++i) {
+          PetscScalar value = 0;
+          MODAL_PETSC(EPSGetEigenpair(eps_solver, i, &value, nullptr, phi, nullptr));
+          // φ M-normalized, λ its Rayleigh quotient, e = ‖Kφ − λMφ‖ in the M⁻¹-norm (M diagonal).
+          MODAL_PETSC(MatMult(M, phi, Mphi));
+          PetscScalar mm = 0;
+          MODAL_PETSC(VecDot(phi, Mphi, &mm));
+          const double unit = 1.0 / std::sqrt(mm);
+          MODAL_PETSC(VecScale(phi, unit));
+          MODAL_PETSC(VecScale(Mphi, unit));
+          MODAL_PETSC(MatMult(K, phi, Kphi));
+          PetscScalar lambda = 0;
+          MODAL_PETSC(VecDot(phi, Kphi, &lambda));
+          MODAL_PETSC(VecWAXPY(r, -lambda, Mphi, Kphi));
+          MODAL_PETSC(VecPointwiseMult(Kphi, r, r));
+          MODAL_PETSC(VecPointwiseDivide(Kphi, Kphi, dm));
+          PetscScalar e2 = 0;
+          MODAL_PETSC(VecSum(Kphi, &e2));
+          PetscReal x2 = 0;
+          MODAL_PETSC(VecNorm(phi, NORM_2, &x2));
+          x2 *= x2;
+          numbers.push_back({lambda, std::sqrt(std::max(0.0, e2)), 4 * eps * (K1 + std::abs(lambda) * M1) * x2});
+          shapes.push_back(gathered == Gathered::root ? gather_to_root(phi) : VectorX::Zero(1));
+        }
+        for (Vec* v : {&phi, &Kphi, &Mphi, &r}) MODAL_PETSC(VecDestroy(v));
+        MODAL_PETSC(EPSDestroy(&eps_solver));
+      };
+      // Completeness by inertia, as solve_sparse_modes checks it: a Krylov
+      // run from one start vector can skip a copy of a repeated eigenvalue.
+      // For the lowest modes (no shift, none negative), with b = λ_k − δ
+      // (δ = 1e-6|λ_k| + ζ) below the k-th returned eigenvalue, the inertia
+      // of K − bM must count no more eigenvalues below b than were returned
+      // below it; else the run is repeated with more wanted (at most 4 times).
+      PetscInt nev = k;
+      for (int attempt = 0;; ++attempt) {
+        solve_nearest(nev);
+        if (options.shift || m > 0) break;
+        std::vector<double> lambdas;
+        for (const auto& number : numbers) lambdas.push_back(number[0]);
+        std::sort(lambdas.begin(), lambdas.end());
+        const double lambda_k = lambdas[static_cast<std::size_t>(k - 1)];
+        double bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
+        if (!(bound > s0)) break;  // the k-th is (near) zero: nothing to check between σ₀ and it
+        const PetscInt count = inertia_near(K, M, bound, s);  // moves b down past a singular K − bM
+        const auto found = static_cast<PetscInt>(
+            std::count_if(lambdas.begin(), lambdas.end(), [&](double lambda) { return lambda < bound; }));
+        if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
+          result.notes.push_back(
+              count > found
+                  ? fmt::format("the inertia counts {} eigenvalues below {:.8g} but SLEPc's Krylov–Schur iteration "
+                                "found {}: some modes in this range may be missing",
+                                count, bound, found)
+                  : fmt::format("completeness checked by the inertia of K − σM at σ = {:.8g}, just below the highest "
+                                "returned eigenvalue: exactly {} eigenvalues lie below it, as found",
+                                bound, count));
+          break;
+        }
+        nev = std::min<PetscInt>(n - 2, nev + (count - found) + 2);
       }
-      for (Vec* v : {&phi, &Kphi, &Mphi, &r, &dk, &dm}) MODAL_PETSC(VecDestroy(v));
-      MODAL_PETSC(EPSDestroy(&eps_solver));
+      if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
+        std::vector<std::size_t> order(numbers.size());
+        std::iota(order.begin(), order.end(), std::size_t{0});
+        std::stable_sort(order.begin(), order.end(),
+                         [&](std::size_t i, std::size_t j) { return numbers[i][0] < numbers[j][0]; });
+        order.resize(static_cast<std::size_t>(k));
+        std::vector<std::array<double, 3>> kept_numbers;
+        std::vector<VectorX> kept_shapes;
+        for (const std::size_t i : order) {
+          kept_numbers.push_back(numbers[i]);
+          kept_shapes.push_back(std::move(shapes[i]));
+        }
+        numbers = std::move(kept_numbers);
+        shapes = std::move(kept_shapes);
+      }
+      for (Vec* v : {&dk, &dm}) MODAL_PETSC(VecDestroy(v));
       // The modes on every rank (the numbers come from collective reductions,
       // so every rank decides alike; the shapes only on rank 0), then the
       // inertia's account of those not returned: Morse index, zero modes and
@@ -1074,10 +1143,35 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       }
     });
     timings.mark("eigen");
-    const VectorX q = gather_to_root(x, q_everywhere);
-    eq.q = q;
-    return {std::move(eq), std::move(result)};
+    if (gathered == Gathered::root) {
+      eq.q = gather_to_root(x);
+    } else {
+      const PetscScalar* values = nullptr;
+      MODAL_PETSC(VecGetArrayRead(x, &values));
+      eq.q = Eigen::Map<const VectorX>(values, part.end_coordinate - part.first_coordinate);
+      MODAL_PETSC(VecRestoreArrayRead(x, &values));
+    }
+    return {std::move(eq), std::move(result), static_cast<long long>(n)};
   }
+}
+
+// This rank's part of the scene (distributed generation: each rank reads and
+// builds its part only, SceneWindow, never the whole), checked to be one the
+// backend applies to.
+Model read_part(const std::string& file, const std::vector<std::string>& sets, const SceneLimits& limits,
+                SceneFormat format) {
+  std::string text = read_scene_file(file);
+  std::vector<ParameterOverride> overrides;
+  for (const std::string& set : sets) overrides.push_back(parse_override(set));
+  if (scene_format(file, text, format) != SceneFormat::toml)
+    throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
+                     "serial backend");
+  const SceneWindow window{world_rank(), world_size()};
+  Scene scene = parse_scene(text, file, overrides, limits, &window);
+  System system = build_system(scene);
+  if (const auto why = distributed_unsupported(system))
+    throw InputError("--backend petsc does not apply to this scene: " + *why);
+  return {std::move(text), std::move(overrides), std::move(scene), std::move(system), limits, SceneFormat::toml, nullptr};
 }
 
 }  // namespace
@@ -1085,8 +1179,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
 int analyze_distributed(const DistributedRequest& request, std::ostream& out, std::ostream& err) {
   const int rank = world_rank(), size = world_size();
   Timings timings;
-  std::optional<Scene> scene;
-  std::optional<System> held;  // the part of the scene this rank has read and built
+  std::optional<Model> model;  // the part of the scene this rank has read and built
   const AnalysisOptions& options = request.options;
   int status = 0;
   try {
@@ -1101,20 +1194,10 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       if (options.derivatives != DerivativeMethod::exact)
         throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
       if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
-      // Distributed generation: each rank reads and builds its part of the
-      // scene only (SceneWindow), never the whole.
-      std::vector<ParameterOverride> overrides;
-      for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
-      const std::string text = read_scene_file(request.scene_file);
-      if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
-        throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
-                         "serial backend");
-      const SceneWindow window{rank, size};
-      scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
-      held.emplace(build_system(*scene));
-      if (const auto why = distributed_unsupported(*held))
-        throw InputError("--backend petsc does not apply to this scene: " + *why);
+      model.emplace(read_part(request.scene_file, request.sets, request.limits, request.format));
     });
+    const Scene* scene = &model->scene;
+    const System* held = &model->system;
     timings.mark("parse+build");
     Report names;
     const auto numbered = [&](const Part& part) {
@@ -1130,7 +1213,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       }
       gather_coordinate_names(part, names.coordinates, names.kinds);
     };
-    Point point = solve_point(*held, *scene, VectorX(), options, false, timings, numbered);
+    Point point = solve_point(*held, *scene, VectorX(), options, Gathered::root, timings, numbered);
 
     // ---- one report, by rank 0
     bool unstable = false;
@@ -1176,7 +1259,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
 
 int sweep_distributed(const DistributedSweepRequest& request, std::ostream& out, std::ostream& err) {
   const int rank = world_rank();
-  std::optional<Model> model;
+  std::optional<Model> model;  // this rank's part of the scene, as at the start
   std::optional<SweepStudy> study;
   std::vector<SweepAxis> axes;
   int status = 0;
@@ -1184,30 +1267,41 @@ int sweep_distributed(const DistributedSweepRequest& request, std::ostream& out,
     phase([&] {
       for (const std::string& v : request.varies) axes.push_back(parse_vary(v));
       if (rank == 0) check_outputs(Command::sweep, request.outputs, request.scene_file, request.options.extrapolate);
-      model.emplace(load_model(request.scene_file, request.sets, request.limits, request.format));
-      if (const auto why = distributed_unsupported(model->system))
-        throw InputError("--backend petsc does not apply to this scene: " + *why);
+      model.emplace(read_part(request.scene_file, request.sets, request.limits, request.format));
     });
     SweepStudyOptions options = request.options;
     AnalysisOptions analysis = request.analysis;
     analysis.modes = options.modes > 0 ? options.modes : 10;
-    // Each point is solve_point on every rank; a failure agreed on by the
-    // ranks becomes the same exception on all of them, so the sweep (which
-    // runs on every rank in step) fails that point everywhere alike.
-    options.sweep.analyze_point = [&](const System& sys, const VectorX& start) {
-      if (const auto why = distributed_unsupported(sys))
-        throw InputError("--backend petsc does not apply to the scene at this point: " + *why);
-      Timings timings;
+    // Every point is read in parts as `analyze` reads it (each rank its part
+    // only, never the whole), agreed on by the ranks, and solved by
+    // solve_point from the previous point's owned coordinates. A failure
+    // agreed on by the ranks becomes the same exception on all of them, so
+    // the sweep (which runs on every rank in step) fails that point
+    // everywhere alike.
+    options.sweep.window = SceneWindow{rank, world_size()};
+    options.sweep.agree_read = [](const std::string& failure) {
+      Failure mine;
+      if (!failure.empty()) mine = {static_cast<int>(ExitStatus::bad_input), failure, failure};
+      return agree(mine).cause;
+    };
+    bool named = false;  // the coordinates' names gathered (once, at the first point solved)
+    options.sweep.analyze_point = [&](const Scene& scene, const System& part, const VectorX& start) {
       try {
-        // The sweep's scene is read whole on every rank: each takes its
-        // contiguous range of the bodies, as a SceneWindow would give it.
-        Scene ownership;
-        const long long bodies = static_cast<long long>(sys.bodies().size()), ranks = world_size(), r = rank;
-        ownership.total_bodies = bodies;
-        ownership.first_owned = r * (bodies / ranks) + std::min(r, bodies % ranks);
-        ownership.end_owned = ownership.first_owned + bodies / ranks + (r < bodies % ranks ? 1 : 0);
-        Point p = solve_point(sys, ownership, start, analysis, true, timings);
-        return std::pair{std::move(p.eq), std::move(p.result)};
+        phase([&] {
+          if (const auto why = distributed_unsupported(part))
+            throw InputError("--backend petsc does not apply to the scene at this point: " + *why);
+        });
+        PointAnalysis a;
+        Timings timings;
+        std::vector<CoordinateKind> kinds;
+        Point p = solve_point(part, scene, start, analysis, Gathered::owned, timings, [&](const Part& numbered) {
+          if (!named) gather_coordinate_names(numbered, a.names, kinds);
+        });
+        named = true;
+        a.equilibrium = std::move(p.eq);
+        a.result = std::move(p.result);
+        a.coordinates = p.coordinates;
+        return a;
       } catch (const Agreed& a) {
         if (a.failure.status == static_cast<int>(ExitStatus::bad_input)) throw InputError(a.failure.cause);
         throw NumericalError(a.failure.cause);

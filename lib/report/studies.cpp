@@ -183,7 +183,7 @@ void print_extrapolation(std::ostream& out, const SweepResult& r,
       out << fmt::format("{:>{}}  failed: {}\n", g(p.value, 10), width, p.failure);
       continue;
     }
-    out << fmt::format("{:>{}}  {:>11}  {:>9.3g}", g(p.value, 10), width, p.equilibrium.q.size(), p.seconds);
+    out << fmt::format("{:>{}}  {:>11}  {:>9.3g}", g(p.value, 10), width, p.coordinates, p.seconds);
     for (const ModeConvergence& c : conv) {
       const std::size_t k = static_cast<std::size_t>(c.mode - 1);
       out << fmt::format("  {:>17}", k < p.result.modes.size() ? g(p.result.modes[k].omega, 12) : "-");
@@ -215,7 +215,7 @@ std::string convergence_csv(const SweepResult& r, const std::vector<ModeConverge
     for (std::size_t i = 0; i < c.n.size(); ++i) {
       const auto point = std::find_if(r.points.begin(), r.points.end(),
                                       [&](const SweepPoint& p) { return p.ok && p.value == c.n[i]; });
-      out << csv_number(c.n[i]) << ',' << point->equilibrium.q.size() << ','
+      out << csv_number(c.n[i]) << ',' << point->coordinates << ','
           << csv_number(point->seconds) << ',' << c.mode << ',' << csv_number(c.omega[i]) << ','
           << csv_number(c.omega_error[i]) << '\n';
     }

@@ -114,7 +114,9 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
                 "plane"});
   Generated g;
   start_block(s, g, "lattice");
-  const long long max_particles = reader.limits().particles;
+  // Read in parts, the limits bound the part (below) and the whole only its indices.
+  const long long max_particles = window.in_parts ? max_particles_in_parts : reader.limits().particles;
+  const std::string supported = window.in_parts ? " can be numbered in a scene read in parts" : " are supported";
 
   // size = [n1, n2, n3]: positive integers, at most max_particles in all.
   const toml::node* size_node = s.find("size");
@@ -134,16 +136,16 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
     if (value != std::floor(value)) reader.fail(element, key, "must be an integer, got " + format_number(value));
     if (value < 1) reader.fail(element, key, "must be at least 1, got " + format_number(value));
     if (value > static_cast<double>(max_particles))
-      reader.fail(element, key,
-                  "at most " + std::to_string(max_particles) + " particles are supported, got " + count_text(value));
+      reader.fail(element, key, "at most " + std::to_string(max_particles) + " particles" + supported + ", got " +
+                                    count_text(value));
     n[d] = static_cast<long long>(value);
     total *= value;
   }
   if (total > static_cast<double>(max_particles))
     reader.fail(*size_node, size_key, "the lattice would have " + count_text(total) + " particles; at most " +
-                                          std::to_string(max_particles) + " are supported");
+                                          std::to_string(max_particles) + supported);
   if (pass == LatticePass::count) {
-    reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, 0);
+    if (!window.in_parts) reader.add_to_scene(*size_node, size_key, "the lattice", total, 0, 0);
     g.count = static_cast<long long>(total);
     return g;
   }
@@ -214,8 +216,6 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
     for (std::size_t d = 0; d < 3; ++d) count *= static_cast<double>(std::max(0LL, n[d] - std::abs(o[d])));
     springs += count;
   }
-  reader.add_to_scene(*size_node, size_key, "the lattice", 0, 0, springs);  // its particles: counted before
-
   // Particles, the last index fastest: index = (i n2 + j) n3 + k. Read in
   // parts, a process owns a range of this index: whole layers of i and a
   // part of one, its ghosts in the next layer.
@@ -224,6 +224,10 @@ Generated read_lattice(const Reader& reader, const toml::table& table, std::size
   const auto flat = [&](long long i, long long j, long long k) { return static_cast<int>((i * n[1] + j) * n[2] + k); };
   // The springs of the owned particles, ends as block-local indices.
   const double share = window.whole(g.count) ? 1.0 : static_cast<double>(std::max(0LL, end - first)) / total;
+  // Its particles were counted in the first pass, unless read in parts: then
+  // what the part owns, here (its springs' share of the whole, estimated).
+  reader.add_to_scene(*size_node, size_key, window.in_parts ? "its part of the lattice" : "the lattice",
+                      window.in_parts ? share * total : 0.0, 0, share * springs);
   g.springs.reserve(static_cast<std::size_t>(share * springs));
   for (long long f = first; f < end; ++f) {
     const long long i = f / (n[1] * n[2]), j = f / n[2] % n[1], k = f % n[2];

@@ -169,6 +169,10 @@ struct Generated {
 struct GeneratorWindow {
   long long first = 0, end = -1;  // end < 0: the whole block
   const std::vector<std::string>* named = nullptr;
+  // The scene is read in parts (also in the count pass, which has no range
+  // yet): the limits (SceneLimits) then bound what this part builds, and the
+  // whole only by what its indices can number (max_particles_in_parts).
+  bool in_parts = false;
   bool whole(long long count) const { return first == 0 && (end < 0 || end >= count); }
 };
 // A lattice is read twice: first `count` (its size only, its particles added

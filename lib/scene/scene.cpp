@@ -826,6 +826,11 @@ std::vector<scene_detail::GeneratorWindow> part_windows(const Reader& reader, co
   std::stable_sort(placed.begin(), placed.end(), [](const Placed& x, const Placed& y) { return x.order < y.order; });
   long long total = 0;
   for (const Placed& p : placed) total += p.count;
+  if (total > max_particles_in_parts)  // each generator is within it: there are several
+    reader.fail(lattices.empty() ? *networks.front() : *lattices.front(), "",
+                "the scene's generators would make " + scene_detail::count_text(static_cast<double>(total)) +
+                    " particles in all; at most " + std::to_string(max_particles_in_parts) +
+                    " can be numbered in a scene read in parts (32-bit indices)");
   const long long parts = std::max(window.parts, 1), part = std::clamp<long long>(window.part, 0, parts - 1);
   const long long base = total / parts, extra = total % parts;
   scene.total_bodies = total;
@@ -931,16 +936,23 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   const auto networks = tables_of(reader, root, "network");
   check_generator_names(reader, lattices, networks);
   std::vector<long long> counts;  // the generators' particles
+  scene_detail::GeneratorWindow counting;
+  counting.in_parts = window != nullptr;
   for (std::size_t i = 0; i < lattices.size(); ++i)
-    counts.push_back(scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::count).count);
+    counts.push_back(
+        scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::count, counting).count);
   std::vector<scene_detail::GeneratorWindow> windows(lattices.size() + networks.size());
   std::vector<std::string> named;  // read in parts: the names the tables use
   if (window != nullptr) {
     for (std::size_t i = 0; i < networks.size(); ++i)
-      counts.push_back(scene_detail::read_network(reader, *networks[i], i, scene_detail::LatticePass::count).count);
+      counts.push_back(
+          scene_detail::read_network(reader, *networks[i], i, scene_detail::LatticePass::count, counting).count);
     windows = part_windows(reader, *window, entries, lattices, networks, counts, scene);
     named = table_names(root);
-    for (auto& w : windows) w.named = &named;
+    for (auto& w : windows) {
+      w.named = &named;
+      w.in_parts = true;
+    }
   }
   for (std::size_t i = 0; i < lattices.size(); ++i)
     blocks.push_back(scene_detail::read_lattice(reader, *lattices[i], i, scene_detail::LatticePass::generate, windows[i]));

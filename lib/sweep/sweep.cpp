@@ -75,6 +75,7 @@ struct Evaluation {
   Equilibrium equilibrium;
   ModalResult result;  // all modes
   std::vector<std::string> coordinates;
+  long long coordinate_count = 0;
   bool symmetric = true;
   bool velocity_terms = false;  // damping or gyroscopic terms
   double max_growth_rate = 0;
@@ -181,28 +182,41 @@ class Evaluator {
     Evaluation e;
     std::vector<ParameterOverride> overrides = fixed_;
     for (std::size_t i = 0; i < names_.size(); ++i) overrides.push_back({names_[i], exact_text(values[i])});
+    std::optional<Scene> scene;
     std::optional<System> sys;
+    std::string failure;
     try {
-      sys.emplace(build_system(parse_scene(text_, file_, overrides, options_.scene_limits)));
+      scene.emplace(parse_scene(text_, file_, overrides, options_.scene_limits,
+                                options_.window ? &*options_.window : nullptr));
+      sys.emplace(build_system(*scene));
     } catch (const SceneError& ex) {
-      e.scene_error = true;
-      e.failure = std::string("invalid scene: ") + ex.what();
-      return e;
+      failure = std::string("invalid scene: ") + ex.what();
     } catch (const std::invalid_argument& ex) {
+      failure = std::string("invalid scene: ") + ex.what();
+    } catch (const std::exception& ex) {
+      if (!options_.agree_read) throw;
+      failure = std::string("the scene could not be read: ") + ex.what();  // on this process alone, e.g. its memory
+    }
+    if (options_.agree_read) failure = options_.agree_read(failure);
+    if (!failure.empty()) {
       e.scene_error = true;
-      e.failure = std::string("invalid scene: ") + ex.what();
+      e.failure = failure;
       return e;
     }
     e.frame_rate = sys->frame_rotation().norm();
     std::string stage = "no equilibrium";
     try {
-      const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
       std::optional<LinearModel> lin;
       if (options_.analyze_point) {
         stage = "the analysis failed";
-        std::tie(e.equilibrium, e.result) = options_.analyze_point(*sys, q0);
-        e.coordinates = sys->coordinate_names();
+        PointAnalysis a = options_.analyze_point(*scene, *sys, start != nullptr ? *start : VectorX());
+        e.equilibrium = std::move(a.equilibrium);
+        e.result = std::move(a.result);
+        e.coordinates = std::move(a.names);
+        e.coordinate_count = a.coordinates;
       } else {
+        const VectorX q0 = start != nullptr && start->size() == sys->size() ? *start : sys->initial_configuration();
+        e.coordinate_count = sys->size();
         // A point whose scene the parameter has grown past what fits (--vary N=…).
         stage = "not analyzed";
         if (const auto r = memory_refusal(dense_analysis_memory(*sys),
@@ -246,8 +260,11 @@ class Evaluator {
 
 // Checks the scene and the axes before anything runs.
 void validate(const std::string& text, const std::string& file, const std::vector<ParameterOverride>& fixed,
-              const std::vector<const SweepAxis*>& axes, const SceneLimits& limits) {
-  const Scene scene = parse_scene(text, file, fixed, limits);  // SceneError: bad scene or --set
+              const std::vector<const SweepAxis*>& axes, const SweepOptions& options) {
+  if (options.window && !options.analyze_point)
+    throw std::invalid_argument("SweepOptions::window needs analyze_point (a scene read in parts has no serial analysis)");
+  // SceneError: bad scene or --set
+  const Scene scene = parse_scene(text, file, fixed, options.scene_limits, options.window ? &*options.window : nullptr);
   std::string known;
   for (const auto& [name, value] : scene.parameters) known += (known.empty() ? "" : ", ") + name;
   for (const SweepAxis* axis : axes) {
@@ -292,6 +309,7 @@ void fill_point(SweepPoint& p, const Evaluation& e, int modes) {
   p.max_growth_rate = e.max_growth_rate;
   p.min_omega2 = e.min_omega2;
   p.frame_rate = e.frame_rate;
+  p.coordinates = e.coordinate_count;
 }
 
 // The change of class between a (class ea) and b (class eb), neighbours in sweep order.
@@ -579,7 +597,7 @@ SweepAxis parse_vary(std::string_view text) {
 
 SweepResult sweep(const std::string& scene_text, const std::string& file,
                   const std::vector<ParameterOverride>& fixed, const SweepAxis& axis, const SweepOptions& options) {
-  validate(scene_text, file, fixed, {&axis}, options.scene_limits);
+  validate(scene_text, file, fixed, {&axis}, options);
   const Evaluator evaluate(scene_text, file, fixed, {axis.name}, options);
 
   SweepResult result;
@@ -624,7 +642,7 @@ SweepResult sweep(const std::string& scene_text, const std::string& file,
 StabilityMap sweep_map(const std::string& scene_text, const std::string& file,
                        const std::vector<ParameterOverride>& fixed, const SweepAxis& x, const SweepAxis& y,
                        const SweepOptions& options) {
-  validate(scene_text, file, fixed, {&x, &y}, options.scene_limits);
+  validate(scene_text, file, fixed, {&x, &y}, options);
   const Evaluator evaluate(scene_text, file, fixed, {x.name, y.name}, options);
   StabilityMap map;
   map.x = x;

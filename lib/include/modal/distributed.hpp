@@ -62,9 +62,12 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
 
 // One `sweep --backend petsc`: the serial sweep (modal::sweep, its critical
 // values and its reporting) with every point analyzed by the backend
-// (SweepOptions::analyze_point): the equilibrium from the previous point's,
-// the lowest `options.modes` modes (default 10) and the class from the
-// inertia. Every rank parses the scene at every point; rank 0 writes.
+// (SweepOptions::analyze_point): each rank reads and builds only its part of
+// the scene at every point (SweepOptions::window, as analyze_distributed),
+// the equilibrium continues from the previous point's (each rank keeping its
+// owned coordinates of it), and the lowest `options.modes` modes (default 10)
+// and the class come from the inertia. No shapes are gathered; rank 0
+// writes.
 struct DistributedSweepRequest {
   std::string scene_file;
   std::vector<std::string> sets;

@@ -89,6 +89,12 @@ struct Scene {
 struct SceneWindow {
   int part = 0, parts = 1;
 };
+// A scene read in parts is bounded per part by its SceneLimits (what the
+// process builds: its particles and springs, their memory), and as a whole
+// only by what the indices can number: bodies and springs' ends are 32-bit
+// integers, and the distributed backend's PETSc numbers the coordinates (3 per
+// particle) with 32-bit integers.
+inline constexpr long long max_particles_in_parts = 700'000'000;
 
 // Upper bounds on what the generators may expand to. The defaults are what
 // modal supports (a 5·10⁶-particle lattice with diagonals takes about 14 GB
@@ -96,7 +102,9 @@ struct SceneWindow {
 // fit); a
 // caller that must bound memory and time more tightly (the fuzzer: a mutated
 // size would otherwise exhaust its memory limit) passes smaller ones. Beyond
-// them the scene is refused with a SceneError at the key.
+// them the scene is refused with a SceneError at the key. A scene read in
+// parts (SceneWindow) is bounded per part: the limits apply to what the part
+// builds.
 struct SceneLimits {
   long long particles = 5'000'000;  // particles of one [[lattice]], and of all [[lattice]]s and [[network]]s together
   int links = 100'000;              // links of one [[chain]]

@@ -44,6 +44,7 @@
 
 #include <functional>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -84,6 +85,13 @@ SweepAxis parse_vary(std::string_view text);
 // larger request is refused before anything runs, with this limit in words).
 inline constexpr long long max_sweep_points = 1'000'000;
 
+// What SweepOptions::analyze_point gives for one point.
+struct PointAnalysis {
+  Equilibrium equilibrium;        // its q comes back as the next point's start, as it is
+  ModalResult result;
+  long long coordinates = 0;      // of the whole scene at this point
+  std::vector<std::string> names; // the coordinates' names, or empty (SweepResult::coordinates)
+};
 struct SweepOptions {
   int modes = -1;            // modes kept per point (-1: all); the class always uses all
   bool refine = true;        // refine the critical values (sweep() only)
@@ -96,13 +104,27 @@ struct SweepOptions {
   std::function<void(int done, int total)> progress;
   // The analysis of one point in place of the serial one (find_equilibrium,
   // linearize, solve_modes with all modes), as the distributed backend's sweep
-  // does it: the equilibrium of `system` from `start` and its lowest modes,
-  // with morse_index, zero_modes and stability over the whole spectrum (the
-  // inertia). The problem is then the symmetric one, K φ = λ M φ. It may throw
-  // as the serial stages do (the point fails with the message). Every call
-  // must give the same classes wherever it is made (the distributed sweep runs
-  // this function on every rank in step). Empty: the serial analysis.
-  std::function<std::pair<Equilibrium, ModalResult>(const System& system, const VectorX& start)> analyze_point;
+  // does it: the equilibrium of the scene at this point from `start` and its
+  // lowest modes, with morse_index, zero_modes and stability over the whole
+  // spectrum (the inertia). The problem is then the symmetric one,
+  // K φ = λ M φ. `scene` and `system` are what was read at this point (its
+  // part with `window`); `start` is the equilibrium.q this function returned
+  // for the neighbouring point the sweep continues from, or empty: it may not
+  // fit (a parameter that changes the scene's size), which the function
+  // decides. It may throw as the serial stages do (the point fails with the
+  // message). Every call must give the same classes wherever it is made (the
+  // distributed sweep runs this function on every process in step). Empty:
+  // the serial analysis.
+  std::function<PointAnalysis(const Scene& scene, const System& system, const VectorX& start)> analyze_point;
+  // Read the scene in parts at every point (SceneWindow: the distributed
+  // backend, whose processes each read and build only their part); only with
+  // analyze_point, which then gets the part.
+  std::optional<SceneWindow> window;
+  // With `window`: called on every process once it has read a point, with its
+  // failure to read it ("": none), and returns the failure every process then
+  // takes ("": none), so that all skip the point together (the distributed
+  // backend agrees over its ranks). Empty: each its own.
+  std::function<std::string(const std::string& failure)> agree_read;
 };
 
 // One value of the parameter.
@@ -121,6 +143,7 @@ struct SweepPoint {
   // a rotation speed: its HTML report draws a Campbell diagram against it.
   double frame_rate = 0;
   double seconds = 0;          // wall time of the point: parse, build, equilibrium, linearization, all modes
+  long long coordinates = 0;   // of the scene at this point (equilibrium.q has them all, except from analyze_point)
 };
 
 enum class CriticalKind {
