@@ -378,8 +378,11 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         // positive definite (then Newton is tried first, μ = 0).
         mu = std::max(r.cwiseAbs().maxCoeff() / (h * 1e-3 * s.length_scale()), 1e-10);
       }
-      SparseMatrix I(n, n);
-      I.setIdentity();
+      SparseMatrix I;  // the matrix path's shift
+      if (!matrix_free) {
+        I.resize(n, n);
+        I.setIdentity();
+      }
       VectorX d;
       for (int tries = 0; tries < 60 && d.size() == 0; ++tries) {
         d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(H + (mu * h) * I, r);
