@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <functional>
@@ -120,6 +121,50 @@ double sum_over_ranks(Evaluate&& evaluate) {
 }
 
 // ---------------------------------------------------------------- the scene
+
+// What no rank can see alone in a scene read in parts (SceneWindow), checked
+// by all together: every [[network]] edge owned by one part (an edge whose
+// first node no part has is owned by none, so the owned rows add up to fewer
+// than the scene's), and no body name owned twice (each rank sends a 64-bit
+// hash of each owned body's name to rank hash % size, MPI_Alltoallv, which
+// looks for repeats). When either fails, rank 0 reads the scene whole,
+// `read_whole` (the serial path), whose error is the agreed failure with the
+// serial message; if that reading succeeds (a hash collision), on we go.
+// Collective; memory of the part's size except in that failure.
+void check_read_in_parts(const Scene& part, const std::function<void()>& read_whole) {
+  const int size = world_size();
+  std::vector<std::uint64_t> hashes;
+  std::vector<int> counts(static_cast<std::size_t>(size), 0), offsets(static_cast<std::size_t>(size), 0);
+  phase([&] {
+    const auto& bodies = part.description.bodies;
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const long long g = part.global_bodies.empty() ? static_cast<long long>(b) : part.global_bodies[b];
+      if (g < part.first_owned || g >= part.end_owned) continue;
+      std::uint64_t h = 1469598103934665603ULL;  // FNV-1a
+      for (const char c : bodies[b].name) h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ULL;
+      hashes.push_back(h);
+    }
+    std::sort(hashes.begin(), hashes.end(), [size](std::uint64_t x, std::uint64_t y) {
+      return std::pair(x % static_cast<std::uint64_t>(size), x) < std::pair(y % static_cast<std::uint64_t>(size), y);
+    });
+    for (const std::uint64_t h : hashes) ++counts[static_cast<std::size_t>(h % static_cast<std::uint64_t>(size))];
+    std::partial_sum(counts.begin(), counts.end() - 1, offsets.begin() + 1);
+  });
+  std::vector<int> incoming(static_cast<std::size_t>(size)), at(static_cast<std::size_t>(size), 0);
+  MPI_Alltoall(counts.data(), 1, MPI_INT, incoming.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  std::partial_sum(incoming.begin(), incoming.end() - 1, at.begin() + 1);
+  std::vector<std::uint64_t> mine(static_cast<std::size_t>(at.back() + incoming.back()));
+  MPI_Alltoallv(hashes.data(), counts.data(), offsets.data(), MPI_UINT64_T, mine.data(), incoming.data(), at.data(),
+                MPI_UINT64_T, MPI_COMM_WORLD);
+  std::sort(mine.begin(), mine.end());
+  long long checks[2] = {part.owned_network_edges,
+                         std::adjacent_find(mine.begin(), mine.end()) != mine.end() ? 1LL : 0LL};
+  MPI_Allreduce(MPI_IN_PLACE, checks, 2, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  if (checks[0] == part.network_edges && checks[1] == 0) return;
+  phase([&] {
+    if (world_rank() == 0) read_whole();
+  });
+}
 
 std::optional<std::string> distributed_unsupported(const System& s) {
   if (const auto why = sparse_unsupported(s)) return why;
@@ -1089,6 +1134,8 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
   std::optional<System> held;  // the part of the scene this rank has read and built
   const AnalysisOptions& options = request.options;
   int status = 0;
+  std::vector<ParameterOverride> overrides;
+  std::string text;  // the scene file (its generators' data files are read in parts)
   try {
     phase([&] {
       const Outputs& o = request.outputs;
@@ -1103,9 +1150,8 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
       // Distributed generation: each rank reads and builds its part of the
       // scene only (SceneWindow), never the whole.
-      std::vector<ParameterOverride> overrides;
       for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
-      const std::string text = read_scene_file(request.scene_file);
+      text = read_scene_file(request.scene_file);
       if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
         throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
                          "serial backend");
@@ -1115,6 +1161,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       if (const auto why = distributed_unsupported(*held))
         throw InputError("--backend petsc does not apply to this scene: " + *why);
     });
+    check_read_in_parts(*scene, [&] { (void)parse_scene(text, request.scene_file, overrides, request.limits); });
     timings.mark("parse+build");
     Report names;
     const auto numbered = [&](const Part& part) {
