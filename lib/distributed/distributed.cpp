@@ -57,6 +57,7 @@ struct Failure {
   int status = 0;
   std::string message;
   std::string cause;  // the exception's own text, without the prefix of `message`
+  bool scene_error = false;  // a SceneError (its cause starts with its file)
 };
 // Thrown on every rank once the ranks agree that one of them failed.
 struct Agreed {
@@ -83,6 +84,7 @@ Failure agree(const Failure& mine) {
   Failure f = mine;
   int length = static_cast<int>(f.message.size());
   MPI_Bcast(&f.status, 1, MPI_INT, first, MPI_COMM_WORLD);
+  MPI_Bcast(&f.scene_error, 1, MPI_CXX_BOOL, first, MPI_COMM_WORLD);
   MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
   f.message.resize(static_cast<std::size_t>(length));
   MPI_Bcast(f.message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
@@ -103,7 +105,7 @@ void phase(Work&& work) {
   } catch (const Agreed&) {
     throw;
   } catch (const std::exception& e) {
-    mine = {static_cast<int>(exit_status(e)), error_message(e), e.what()};
+    mine = {static_cast<int>(exit_status(e)), error_message(e), e.what(), dynamic_cast<const SceneError*>(&e) != nullptr};
   } catch (...) {
     mine = {static_cast<int>(ExitStatus::numerical), "modal: failure: unknown error", "unknown error"};
   }
@@ -121,6 +123,20 @@ double sum_over_ranks(Evaluate&& evaluate) {
 }
 
 // ---------------------------------------------------------------- the scene
+
+// Collective: rank 0 reads the scene whole (`read_whole`, the serial path);
+// its SceneError, when `accept` takes it, becomes the agreed failure, with
+// the serial message.
+void serial_failure(const std::function<void()>& read_whole, const std::function<bool(const SceneError&)>& accept) {
+  phase([&] {
+    if (world_rank() != 0) return;
+    try {
+      read_whole();
+    } catch (const SceneError& e) {
+      if (accept(e)) throw;
+    }
+  });
+}
 
 // What no rank can see alone in a scene read in parts (SceneWindow), checked
 // by all together: every [[network]] edge owned by one part (an edge whose
@@ -161,9 +177,7 @@ void check_read_in_parts(const Scene& part, const std::function<void()>& read_wh
                          std::adjacent_find(mine.begin(), mine.end()) != mine.end() ? 1LL : 0LL};
   MPI_Allreduce(MPI_IN_PLACE, checks, 2, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
   if (checks[0] == part.network_edges && checks[1] == 0) return;
-  phase([&] {
-    if (world_rank() == 0) read_whole();
-  });
+  serial_failure(read_whole, [](const SceneError&) { return true; });
 }
 
 std::optional<std::string> distributed_unsupported(const System& s) {
@@ -1137,31 +1151,45 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
   std::vector<ParameterOverride> overrides;
   std::string text;  // the scene file (its generators' data files are read in parts)
   try {
-    phase([&] {
-      const Outputs& o = request.outputs;
-      if (o.energy || !o.report.empty() || !o.matrices.empty())
-        throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
-                         "need the serial backend");
-      if (options.at) throw InputError("--at: the petsc backend starts from the scene's configuration only");
-      if (options.solver == SolverChoice::dense)
-        throw InputError("--solver dense does not go with --backend petsc, which solves the sparse problem");
-      if (options.derivatives != DerivativeMethod::exact)
-        throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
-      if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
-      // Distributed generation: each rank reads and builds its part of the
-      // scene only (SceneWindow), never the whole.
-      for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
-      text = read_scene_file(request.scene_file);
-      if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
-        throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
-                         "serial backend");
-      const SceneWindow window{rank, size};
-      scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
-      held.emplace(build_system(*scene));
-      if (const auto why = distributed_unsupported(*held))
-        throw InputError("--backend petsc does not apply to this scene: " + *why);
-    });
-    check_read_in_parts(*scene, [&] { (void)parse_scene(text, request.scene_file, overrides, request.limits); });
+    // The scene whole on rank 0, for the serial path's message only.
+    const auto read_whole = [&] {
+      if (!text.empty()) (void)parse_scene(text, request.scene_file, overrides, request.limits);
+    };
+    try {
+      phase([&] {
+        const Outputs& o = request.outputs;
+        if (o.energy || !o.report.empty() || !o.matrices.empty())
+          throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
+                           "need the serial backend");
+        if (options.at) throw InputError("--at: the petsc backend starts from the scene's configuration only");
+        if (options.solver == SolverChoice::dense)
+          throw InputError("--solver dense does not go with --backend petsc, which solves the sparse problem");
+        if (options.derivatives != DerivativeMethod::exact)
+          throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
+        if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
+        // Distributed generation: each rank reads and builds its part of the
+        // scene only (SceneWindow), never the whole.
+        for (const std::string& set : request.sets) overrides.push_back(parse_override(set));
+        text = read_scene_file(request.scene_file);
+        if (scene_format(request.scene_file, text, request.format) != SceneFormat::toml)
+          throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
+                           "serial backend");
+        const SceneWindow window{rank, size};
+        scene.emplace(parse_scene(text, request.scene_file, overrides, request.limits, &window));
+        held.emplace(build_system(*scene));
+        if (const auto why = distributed_unsupported(*held))
+          throw InputError("--backend petsc does not apply to this scene: " + *why);
+      });
+    } catch (const Agreed& a) {
+      // A part sees the faults of its own rows (and every row's values): the
+      // first it meets may come after one another part met, so a fault in a
+      // file is reported as the serial path reports it (the first in the
+      // file), when rank 0 can read the scene whole.
+      if (a.failure.scene_error && size > 1)
+        serial_failure(read_whole, [&](const SceneError& e) { return a.failure.cause.starts_with(e.where().file + ":"); });
+      throw;
+    }
+    check_read_in_parts(*scene, read_whole);
     timings.mark("parse+build");
     Report names;
     const auto numbered = [&](const Part& part) {
