@@ -640,14 +640,15 @@ TEST_F(Cli, AmplitudeScanAndItsRefusals) {
 // The progress bar (long work on a terminal): shown when stderr is a
 // terminal, not with --quiet (before or after the command's name) nor under
 // CI=true. The terminal is a pseudo-terminal made by script(1) (util-linux);
-// a simulation of about two seconds (the bar waits one).
+// a simulation of about three seconds on a fast machine (the bar waits one;
+// at --duration 1000 one machine finished in 0.95 s, before the bar).
 TEST_F(Cli, ProgressBarOnlyOnATerminalWithoutQuietOrCi) {
   if (std::system("command -v script > /dev/null 2>&1") != 0) GTEST_SKIP() << "script(1) is not installed";
   const std::string scene = std::string(MODAL_SOURCE_DIR) + "/models/double_pendulum.toml";
   auto shown = [&](const std::string& environment, const std::string& before, const std::string& after) {
     const std::filesystem::path log = dir / "terminal.txt";
     const std::string command = environment + " " + modal::test::quote(MODAL_BINARY) + before + " simulate " +
-                                modal::test::quote(scene) + " --duration 1000 --at 0.5,0 --interval 1" + after +
+                                modal::test::quote(scene) + " --duration 3000 --at 0.5,0 --interval 1" + after +
                                 " > /dev/null";
     const std::string run = "script -qec " + modal::test::quote(command) + " " + modal::test::quote(log.string()) +
                             " > /dev/null 2>&1";

@@ -10,7 +10,14 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <malloc.h>
+
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <charconv>
+#include <cstdlib>
+#include <new>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -19,6 +26,7 @@
 #include <iostream>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <set>
 #include <tuple>
@@ -855,5 +863,364 @@ TEST(scene_parts, LimitsBoundEachPart) {
     FAIL() << "no error";
   } catch (const modal::SceneError& e) {
     EXPECT_NE(e.reason().find("can be numbered in a scene read in parts"), std::string::npos) << e.reason();
+  }
+}
+
+// --- networks read in parts: streamed, kept by part ---------------------------
+
+// Every heap allocation of this test program is counted (live bytes and their
+// peak), so that a reading's peak heap is measured exactly, without the noise
+// of the process's resident size.
+namespace heap {
+std::atomic<long long> live{0}, peak{0};
+void* allocate(std::size_t size) {
+  void* p = std::malloc(size == 0 ? 1 : size);
+  if (p == nullptr) throw std::bad_alloc();
+  const long long now = live += static_cast<long long>(malloc_usable_size(p));
+  long long high = peak.load();
+  while (now > high && !peak.compare_exchange_weak(high, now)) {
+  }
+  return p;
+}
+void release(void* p) noexcept {
+  if (p == nullptr) return;
+  live -= static_cast<long long>(malloc_usable_size(p));
+  std::free(p);
+}
+// The peak heap bytes above the start while `work` runs.
+template <class Work>
+long long peak_during(Work&& work) {
+  const long long start = live.load();
+  peak = start;
+  work();
+  return peak.load() - start;
+}
+}  // namespace heap
+
+void* operator new(std::size_t size) { return heap::allocate(size); }
+void* operator new[](std::size_t size) { return heap::allocate(size); }
+void operator delete(void* p) noexcept { heap::release(p); }
+void operator delete[](void* p) noexcept { heap::release(p); }
+void operator delete(void* p, std::size_t) noexcept { heap::release(p); }
+void operator delete[](void* p, std::size_t) noexcept { heap::release(p); }
+
+namespace {
+
+// The shortest text that reads back as `x`.
+std::string number_text(double x) {
+  std::array<char, 32> buffer{};
+  return std::string(buffer.data(), std::to_chars(buffer.data(), buffer.data() + buffer.size(), x).ptr);
+}
+
+// A random network's CSV files and what the scene must make of them, computed
+// here from the generated data (an independent reference for the serial
+// reading, which the parts are then compared with).
+struct RandomNetwork {
+  std::string nodes, edges;  // the files' text
+  std::vector<std::string> names;  // by row
+  std::vector<std::array<double, 3>> positions;
+  std::vector<double> masses;
+  struct Edge {
+    int a, b;
+    double stiffness, rest, damping;
+  };
+  std::vector<Edge> list;
+};
+
+// Names of random length (some beyond the 15 characters a std::string keeps
+// inline), rows in random order, a random subset and order of the optional
+// columns, empty optional fields (defaults), comments, blank lines, spaces
+// around fields, CRLF line ends and a byte order mark at random.
+RandomNetwork random_network(std::mt19937& random, int count, double mass, double stiffness, double damping,
+                             double prestrain) {
+  RandomNetwork n;
+  const auto chance = [&](double p) { return std::uniform_real_distribution<double>(0, 1)(random) < p; };
+  const bool crlf = chance(0.5);
+  const std::string end = crlf ? "\r\n" : "\n";
+  std::set<std::string> used;
+  while (static_cast<int>(n.names.size()) < count) {
+    std::string name;
+    const int length = std::uniform_int_distribution<int>(1, 24)(random);
+    for (int c = 0; c < length; ++c) name += "abcxyzAB_0123456789"[std::uniform_int_distribution<int>(0, 18)(random)];
+    if (name.front() == '#' || !used.insert(name).second) continue;
+    n.names.push_back(name);
+  }
+  std::vector<std::string> node_columns{"name", "x", "y", "z"}, optional{"mass", "fixed"};
+  for (const auto& c : optional)
+    if (chance(0.6)) node_columns.push_back(c);
+  std::shuffle(node_columns.begin(), node_columns.end(), random);
+  const auto header = [&](const std::vector<std::string>& columns) {
+    std::string h;
+    for (const auto& c : columns) h += (h.empty() ? "" : ",") + c;
+    return h + end;
+  };
+  const auto noise = [&](std::string& text) {
+    if (chance(0.1)) text += "# a comment, with commas" + end;
+    if (chance(0.05)) text += (chance(0.5) ? "  " : "") + end;
+  };
+  n.nodes = chance(0.3) ? "\xEF\xBB\xBF" : "";
+  noise(n.nodes);
+  n.nodes += header(node_columns);
+  std::uniform_real_distribution<double> coordinate(-5, 5);
+  for (int r = 0; r < count; ++r) {
+    noise(n.nodes);
+    const std::array<double, 3> x{coordinate(random), coordinate(random), coordinate(random)};
+    n.positions.push_back(x);
+    n.masses.push_back(mass);
+    std::string row;
+    for (const auto& c : node_columns) {
+      std::string field;
+      if (c == "name") field = n.names[static_cast<std::size_t>(r)];
+      if (c == "x" || c == "y" || c == "z") field = number_text(x[static_cast<std::size_t>(c[0] - 'x')]);
+      if (c == "mass" && chance(0.7)) {
+        n.masses.back() = std::uniform_int_distribution<int>(1, 9)(random) * 0.25;
+        field = number_text(n.masses.back());
+      }
+      if (c == "fixed" && chance(0.2)) field = chance(0.5) ? "0" : "false";
+      row += (&c == &node_columns.front() ? "" : ",") + std::string(chance(0.2) ? " " : "") + field +
+             (chance(0.2) ? "\t" : "");
+    }
+    n.nodes += row + end;
+  }
+  std::vector<std::string> edge_columns{"a", "b"};
+  for (const std::string c : {"stiffness", "rest_length", "damping"})
+    if (chance(0.5)) edge_columns.push_back(c);
+  std::shuffle(edge_columns.begin(), edge_columns.end(), random);
+  n.edges = header(edge_columns);
+  const int edges = std::uniform_int_distribution<int>(0, 3 * count)(random);
+  for (int e = 0; e < edges; ++e) {
+    noise(n.edges);
+    RandomNetwork::Edge edge{};
+    edge.a = std::uniform_int_distribution<int>(0, count - 1)(random);
+    edge.b = (edge.a + 1 + std::uniform_int_distribution<int>(0, count - 2)(random)) % count;
+    const auto& xa = n.positions[static_cast<std::size_t>(edge.a)];
+    const auto& xb = n.positions[static_cast<std::size_t>(edge.b)];
+    edge.stiffness = stiffness;
+    edge.rest = (1 - prestrain) * std::sqrt((xa[0] - xb[0]) * (xa[0] - xb[0]) + (xa[1] - xb[1]) * (xa[1] - xb[1]) +
+                                            (xa[2] - xb[2]) * (xa[2] - xb[2]));
+    edge.damping = damping;
+    std::string row;
+    for (const auto& c : edge_columns) {
+      std::string field;
+      if (c == "a") field = n.names[static_cast<std::size_t>(edge.a)];
+      if (c == "b") field = n.names[static_cast<std::size_t>(edge.b)];
+      if (c == "stiffness" && chance(0.6)) field = number_text(edge.stiffness = e + 1.5);
+      if (c == "rest_length" && chance(0.6)) field = number_text(edge.rest = 0.125 * e);
+      if (c == "damping" && chance(0.6)) field = number_text(edge.damping = 0.5 * e);
+      row += (&c == &edge_columns.front() ? "" : ",") + std::string(chance(0.2) ? " " : "") + field;
+    }
+    n.edges += row + end;
+    n.list.push_back(edge);
+  }
+  if (chance(0.5) && n.edges.ends_with(end)) n.edges.resize(n.edges.size() - end.size());  // no final line end
+  return n;
+}
+
+}  // namespace
+
+// Random networks (see random_network) among [[particle]]s, with a [[spring]]
+// and a [[load]] on nodes, read whole and in 1 to 5 parts. The whole reading
+// is first checked against the generated data (bodies by name, position,
+// mass; springs by their ends, stiffness, rest length computed here from the
+// positions, damping; each body's CSV line); then each part must hold
+// exactly the whole scene's bodies at their global indices (name, origin,
+// mass, joint, source line), the owned ranges must tile the scene, the
+// parts' owned springs must be the whole scene's, each once (ends, stiffness,
+// rest length, damping: bit for bit, as both compute the same expression),
+// and the parts' owned edge rows must add up to the file's.
+TEST(scene_parts, StreamedNetworksTileTheSerialScene) {
+  std::mt19937 random(1818);
+  const Directory dir;
+  for (int trial = 0; trial < 40; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    const int count = std::uniform_int_distribution<int>(2, 70)(random);
+    const RandomNetwork n = random_network(random, count, 0.5, 3, 0.25, 0.01);
+    dir.write("nodes.csv", n.nodes);
+    dir.write("edges.csv", n.edges);
+    const std::string named = n.names[static_cast<std::size_t>(count / 2)];
+    const std::string text = "[[particle]]\nname = \"p\"\nposition = [0, 0, 9]\nmass = 1\n"
+                             "[[network]]\nname = \"w\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nmass = 0.5\n"
+                             "stiffness = 3\ndamping = 0.25\nprestrain = 0.01\n"
+                             "[[particle]]\nname = \"q\"\nposition = [1, 0, 9]\nmass = 1\n"
+                             "[[spring]]\na = \"q\"\nb = \"w." + named + "\"\nstiffness = 7\n"
+                             "[[load]]\nbody = \"w." + n.names[0] + "\"\nforce = [0, 0, -1]\n";
+    const std::string file = dir.write("scene.toml", text);
+    const modal::Scene whole = modal::load_scene(file);
+    const auto& all = whole.description;
+    ASSERT_EQ(all.bodies.size(), static_cast<std::size_t>(count) + 2);
+    std::vector<long long> line_of(static_cast<std::size_t>(count));
+    for (int r = 0; r < count; ++r) {
+      const modal::Body& b = all.bodies[static_cast<std::size_t>(r) + 1];
+      EXPECT_EQ(b.name, "w." + n.names[static_cast<std::size_t>(r)]);
+      EXPECT_EQ(b.origin, Eigen::Vector3d(n.positions[static_cast<std::size_t>(r)].data()));
+      EXPECT_EQ(b.mass, n.masses[static_cast<std::size_t>(r)]);
+      line_of[static_cast<std::size_t>(r)] = whole.body_locations[static_cast<std::size_t>(r) + 1].line;
+      if (r > 0) {
+        EXPECT_GT(line_of[static_cast<std::size_t>(r)], line_of[static_cast<std::size_t>(r) - 1]);
+      }
+    }
+    ASSERT_EQ(all.springs.size(), n.list.size() + 1);
+    for (std::size_t e = 0; e < n.list.size(); ++e) {
+      const modal::Spring& s = all.springs[e + 1];  // after the [[spring]]
+      EXPECT_EQ(s.a.body, n.list[e].a + 1);
+      EXPECT_EQ(s.b.body, n.list[e].b + 1);
+      EXPECT_EQ(s.stiffness, n.list[e].stiffness);
+      // The same expression up to the order of the sum of squares: a few ulps.
+      EXPECT_NEAR(s.rest_length, n.list[e].rest, 1e-14 * n.list[e].rest);
+      EXPECT_EQ(s.damping, n.list[e].damping);
+    }
+    using Key = std::tuple<long long, long long, double, double, double>;
+    std::multiset<Key> springs, owned_springs;
+    for (const modal::Spring& s : all.springs)
+      springs.insert({parts::global(whole, s.a.body), parts::global(whole, s.b.body), s.stiffness, s.rest_length,
+                      s.damping});
+    const long long total = static_cast<long long>(all.bodies.size());
+    for (int parts_count = 1; parts_count <= 5; ++parts_count) {
+      SCOPED_TRACE(std::to_string(parts_count) + " parts");
+      owned_springs.clear();
+      long long next = 0, owned_edges = 0;
+      for (int p = 0; p < parts_count; ++p) {
+        const modal::SceneWindow window{p, parts_count};
+        const modal::Scene part = modal::load_scene(file, {}, {}, &window);
+        const auto& d = part.description;
+        EXPECT_EQ(part.first_owned, next);
+        next = part.end_owned;
+        EXPECT_EQ(part.network_edges, static_cast<long long>(n.list.size()));
+        owned_edges += part.owned_network_edges;
+        ASSERT_EQ(part.global_bodies.size(), d.bodies.size());
+        for (std::size_t b = 0; b < d.bodies.size(); ++b) {
+          const auto g = static_cast<std::size_t>(part.global_bodies[b]);
+          EXPECT_EQ(d.bodies[b].name, all.bodies[g].name);
+          EXPECT_EQ(d.bodies[b].origin, all.bodies[g].origin);
+          EXPECT_EQ(d.bodies[b].mass, all.bodies[g].mass);
+          EXPECT_EQ(d.bodies[b].joint, all.bodies[g].joint);
+          EXPECT_EQ(part.body_locations[b].file, whole.body_locations[g].file);
+          EXPECT_EQ(part.body_locations[b].line, whole.body_locations[g].line);
+        }
+        for (const modal::Spring& s : d.springs) {
+          const long long a = parts::global(part, s.a.body), b = parts::global(part, s.b.body);
+          if (a >= part.first_owned && a < part.end_owned) owned_springs.insert({a, b, s.stiffness, s.rest_length, s.damping});
+        }
+      }
+      EXPECT_EQ(next, total);
+      EXPECT_EQ(owned_edges, static_cast<long long>(n.list.size()));
+      EXPECT_EQ(owned_springs, springs);
+    }
+  }
+}
+
+// A large network (a 400 × 500 grid of 2·10⁵ nodes, edges to the right and
+// down neighbours, rows in order) read in 8 parts: each part holds its owned
+// rows and the next grid row (the down neighbours) only, owns exactly the
+// edges of its rows, and its reading's peak heap is a fraction of the whole
+// reading's: the files are streamed, never held whole. Bound: the part holds
+// 1/8 of the nodes and edges; the whole reading holds both files' text and
+// every row's fields besides. 0.25 leaves room for the fixed costs (the
+// parser, the hash map's buckets) without letting an O(whole) reading pass.
+TEST(scene_parts, LargeNetworkReadInPartsHoldsOnlyItsPart) {
+  const Directory dir;
+  const int rows = 400, columns = 500;
+  std::string nodes = "name,x,y,z\n", edges = "a,b\n";
+  const auto name = [&](int i, int j) { return "node_" + std::to_string(i) + "_" + std::to_string(j); };
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < columns; ++j) {
+      nodes += name(i, j) + "," + std::to_string(j) + "," + std::to_string(i) + ",0\n";
+      if (j + 1 < columns) edges += name(i, j) + "," + name(i, j + 1) + "\n";
+      if (i + 1 < rows) edges += name(i, j) + "," + name(i + 1, j) + "\n";
+    }
+  dir.write("nodes.csv", nodes);
+  dir.write("edges.csv", edges);
+  const std::string file = dir.write(
+      "scene.toml", "[[network]]\nname = \"g\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nmass = 1\nstiffness = 1\n");
+  const long long edge_count = static_cast<long long>(rows) * (columns - 1) + static_cast<long long>(rows - 1) * columns;
+  long long whole_peak = 0;
+  {
+    modal::Scene whole;
+    whole_peak = heap::peak_during([&] { whole = modal::load_scene(file); });
+    ASSERT_EQ(whole.description.springs.size(), static_cast<std::size_t>(edge_count));
+  }
+  const int parts = 8;
+  for (const int p : {0, 3, 7}) {
+    SCOPED_TRACE("part " + std::to_string(p));
+    const modal::SceneWindow window{p, parts};
+    modal::Scene part;
+    const long long part_peak = heap::peak_during([&] { part = modal::load_scene(file, {}, {}, &window); });
+    const long long owned = part.end_owned - part.first_owned;
+    ASSERT_EQ(owned, rows * columns / parts);  // whole grid rows: 50 of them
+    const long long first_row = part.first_owned / columns, last_row = part.end_owned / columns;
+    EXPECT_EQ(static_cast<long long>(part.description.bodies.size()), owned + (last_row < rows ? columns : 0));
+    EXPECT_EQ(part.owned_network_edges, (last_row - first_row) * (columns - 1) + (last_row - first_row) * columns -
+                                            (last_row == rows ? columns : 0));
+    EXPECT_EQ(part.network_edges, edge_count);
+    EXPECT_LT(static_cast<double>(part_peak), 0.25 * static_cast<double>(whole_peak))
+        << "part peak " << part_peak << " bytes, whole " << whole_peak;
+    std::cout << "  part " << p << " of " << parts << ": peak heap " << part_peak / 1048576.0 << " MiB, whole reading "
+              << whole_peak / 1048576.0 << " MiB\n";
+  }
+}
+
+// Faults in a network read in parts: some part reports the fault where the
+// serial reading does (file, line, column, key; the reason too, except that
+// an unknown node's suggestions come from the names the part holds), an
+// earlier fault before a later one, and no part reports one before it (a
+// part that does not own the faulty edge may report a later fault: the
+// distributed backend then reads the scene whole on rank 0 for the serial
+// message); a fault no part can see alone (an edge from a node no part has)
+// leaves the parts' owned edge rows short of the file's, which the backend
+// checks. Reference: the serial reading.
+TEST(scene_parts, FaultsInANetworkReadInParts) {
+  const Directory dir;
+  std::string nodes = "name,x,y,z\n";
+  for (int i = 0; i < 12; ++i) nodes += "n" + std::to_string(i) + "," + std::to_string(i) + ",0,0\n";
+  const std::string scene = dir.write(
+      "scene.toml", "[[network]]\nname = \"w\"\nnodes = \"nodes.csv\"\nedges = \"edges.csv\"\nmass = 1\nstiffness = 1\n");
+  struct Case {
+    std::string what, nodes, edges;
+    bool seen;  // by some part alone
+  };
+  const std::vector<Case> cases{
+      {"unknown second node", nodes, "a,b\nn0,n1\nn10,n99\nn5,n6\n", true},
+      {"unknown second node before a bad value", nodes, "a,b,stiffness\nn0,n1,1\nn10,n99,1\nn2,n3,-1\n", true},
+      {"bad value before an unknown second node", nodes, "a,b,stiffness\nn0,n1,-1\nn10,n99,1\n", true},
+      {"same ends", nodes, "a,b\nn0,n1\nn7,n7\n", true},
+      {"same place", nodes + "n12,3,0,0\n", "a,b\nn0,n1\nn3,n12\n", true},
+      {"duplicate in one part", nodes + "n11,1,1,1\n", "a,b\n", true},
+      {"line longer than 1 MiB", nodes, "a,b\nn0,n1\n" + std::string(std::size_t{1} << 20, 'x') + "\n", true},
+      {"unknown first node", nodes, "a,b\nn0,n1\nzz,n3\n", false},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    dir.write("nodes.csv", c.nodes);
+    dir.write("edges.csv", c.edges);
+    std::optional<modal::SceneError> serial;
+    try {
+      (void)modal::load_scene(scene);
+    } catch (const modal::SceneError& e) {
+      serial = e;
+    }
+    ASSERT_TRUE(serial.has_value());
+    int seen = 0;
+    long long owned = 0, rows = 0;
+    for (int p = 0; p < 3; ++p) {
+      const modal::SceneWindow window{p, 3};
+      try {
+        const modal::Scene part = modal::load_scene(scene, {}, {}, &window);
+        owned += part.owned_network_edges;
+        rows = part.network_edges;
+      } catch (const modal::SceneError& e) {
+        EXPECT_EQ(e.where().file, serial->where().file);
+        EXPECT_GE(e.where().line, serial->where().line);
+        const std::string reason = e.reason(), expected = serial->reason();
+        seen += e.where().line == serial->where().line && e.where().column == serial->where().column &&
+                e.key() == serial->key() &&
+                reason.substr(0, reason.find(" (did you mean")) == expected.substr(0, expected.find(" (did you mean"));
+      }
+    }
+    if (c.seen) {
+      EXPECT_GE(seen, 1) << serial->what();
+    } else {
+      EXPECT_EQ(seen, 0);
+      EXPECT_LT(owned, rows);
+    }
   }
 }

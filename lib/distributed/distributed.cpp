@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <functional>
@@ -56,6 +57,7 @@ struct Failure {
   int status = 0;
   std::string message;
   std::string cause;  // the exception's own text, without the prefix of `message`
+  bool scene_error = false;  // a SceneError (its cause starts with its file)
 };
 // Thrown on every rank once the ranks agree that one of them failed.
 struct Agreed {
@@ -82,6 +84,7 @@ Failure agree(const Failure& mine) {
   Failure f = mine;
   int length = static_cast<int>(f.message.size());
   MPI_Bcast(&f.status, 1, MPI_INT, first, MPI_COMM_WORLD);
+  MPI_Bcast(&f.scene_error, 1, MPI_CXX_BOOL, first, MPI_COMM_WORLD);
   MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
   f.message.resize(static_cast<std::size_t>(length));
   MPI_Bcast(f.message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
@@ -102,7 +105,7 @@ void phase(Work&& work) {
   } catch (const Agreed&) {
     throw;
   } catch (const std::exception& e) {
-    mine = {static_cast<int>(exit_status(e)), error_message(e), e.what()};
+    mine = {static_cast<int>(exit_status(e)), error_message(e), e.what(), dynamic_cast<const SceneError*>(&e) != nullptr};
   } catch (...) {
     mine = {static_cast<int>(ExitStatus::numerical), "modal: failure: unknown error", "unknown error"};
   }
@@ -120,6 +123,62 @@ double sum_over_ranks(Evaluate&& evaluate) {
 }
 
 // ---------------------------------------------------------------- the scene
+
+// Collective: rank 0 reads the scene whole (`read_whole`, the serial path);
+// its SceneError, when `accept` takes it, becomes the agreed failure, with
+// the serial message.
+void serial_failure(const std::function<void()>& read_whole, const std::function<bool(const SceneError&)>& accept) {
+  phase([&] {
+    if (world_rank() != 0) return;
+    try {
+      read_whole();
+    } catch (const SceneError& e) {
+      if (accept(e)) throw;
+    }
+  });
+}
+
+// What no rank can see alone in a scene read in parts (SceneWindow), checked
+// by all together: every [[network]] edge owned by one part (an edge whose
+// first node no part has is owned by none, so the owned rows add up to fewer
+// than the scene's), and no body name owned twice (each rank sends a 64-bit
+// hash of each owned body's name to rank hash % size, MPI_Alltoallv, which
+// looks for repeats). When either fails, rank 0 reads the scene whole,
+// `read_whole` (the serial path), whose error is the agreed failure with the
+// serial message; if that reading succeeds (a hash collision), on we go.
+// Collective; memory of the part's size except in that failure.
+void check_read_in_parts(const Scene& part, const std::function<void()>& read_whole) {
+  const int size = world_size();
+  std::vector<std::uint64_t> hashes;
+  std::vector<int> counts(static_cast<std::size_t>(size), 0), offsets(static_cast<std::size_t>(size), 0);
+  phase([&] {
+    const auto& bodies = part.description.bodies;
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const long long g = part.global_bodies.empty() ? static_cast<long long>(b) : part.global_bodies[b];
+      if (g < part.first_owned || g >= part.end_owned) continue;
+      std::uint64_t h = 1469598103934665603ULL;  // FNV-1a
+      for (const char c : bodies[b].name) h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ULL;
+      hashes.push_back(h);
+    }
+    std::sort(hashes.begin(), hashes.end(), [size](std::uint64_t x, std::uint64_t y) {
+      return std::pair(x % static_cast<std::uint64_t>(size), x) < std::pair(y % static_cast<std::uint64_t>(size), y);
+    });
+    for (const std::uint64_t h : hashes) ++counts[static_cast<std::size_t>(h % static_cast<std::uint64_t>(size))];
+    std::partial_sum(counts.begin(), counts.end() - 1, offsets.begin() + 1);
+  });
+  std::vector<int> incoming(static_cast<std::size_t>(size)), at(static_cast<std::size_t>(size), 0);
+  MPI_Alltoall(counts.data(), 1, MPI_INT, incoming.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  std::partial_sum(incoming.begin(), incoming.end() - 1, at.begin() + 1);
+  std::vector<std::uint64_t> mine(static_cast<std::size_t>(at.back() + incoming.back()));
+  MPI_Alltoallv(hashes.data(), counts.data(), offsets.data(), MPI_UINT64_T, mine.data(), incoming.data(), at.data(),
+                MPI_UINT64_T, MPI_COMM_WORLD);
+  std::sort(mine.begin(), mine.end());
+  long long checks[2] = {part.owned_network_edges,
+                         std::adjacent_find(mine.begin(), mine.end()) != mine.end() ? 1LL : 0LL};
+  MPI_Allreduce(MPI_IN_PLACE, checks, 2, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  if (checks[0] == part.network_edges && checks[1] == 0) return;
+  serial_failure(read_whole, [](const SceneError&) { return true; });
+}
 
 std::optional<std::string> distributed_unsupported(const System& s) {
   if (const auto why = sparse_unsupported(s)) return why;
@@ -1156,13 +1215,10 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
 }
 
 // This rank's part of the scene (distributed generation: each rank reads and
-// builds its part only, SceneWindow, never the whole), checked to be one the
-// backend applies to.
-Model read_part(const std::string& file, const std::vector<std::string>& sets, const SceneLimits& limits,
-                SceneFormat format) {
-  std::string text = read_scene_file(file);
-  std::vector<ParameterOverride> overrides;
-  for (const std::string& set : sets) overrides.push_back(parse_override(set));
+// builds its part only, SceneWindow, never the whole) from the scene file's
+// text, checked to be one the backend applies to.
+Model read_part(const std::string& text, const std::string& file, const std::vector<ParameterOverride>& overrides,
+                const SceneLimits& limits, SceneFormat format) {
   if (scene_format(file, text, format) != SceneFormat::toml)
     throw InputError("--backend petsc reads TOML scenes of particles and springs; an MJCF or URDF model needs the "
                      "serial backend");
@@ -1171,7 +1227,38 @@ Model read_part(const std::string& file, const std::vector<std::string>& sets, c
   System system = build_system(scene);
   if (const auto why = distributed_unsupported(system))
     throw InputError("--backend petsc does not apply to this scene: " + *why);
-  return {std::move(text), std::move(overrides), std::move(scene), std::move(system), limits, SceneFormat::toml, nullptr};
+  return {text, overrides, std::move(scene), std::move(system), limits, SceneFormat::toml, nullptr};
+}
+
+// Collective: read_part on every rank after `before` (checks of the request,
+// in the same agreed phase), a failure on any rank the failure of all; then
+// what no rank sees alone (check_read_in_parts). A scene error is reported as
+// the serial path reports it: a part sees the faults of its own rows (and
+// every row's values), and the first it meets may come after one another
+// part met, so rank 0 then reads the scene whole for the serial message
+// (only then does a rank hold the whole scene, on bad input).
+Model read_part_agreed(const std::string& file, const std::vector<std::string>& sets, const SceneLimits& limits,
+                       SceneFormat format, const std::function<void()>& before) {
+  std::string text;
+  std::vector<ParameterOverride> overrides;
+  std::optional<Model> part;
+  const auto read_whole = [&] {  // rank 0, for the serial path's message only
+    if (!text.empty()) (void)parse_scene(text, file, overrides, limits);
+  };
+  try {
+    phase([&] {
+      if (before) before();
+      for (const std::string& set : sets) overrides.push_back(parse_override(set));
+      text = read_scene_file(file);
+      part.emplace(read_part(text, file, overrides, limits, format));
+    });
+  } catch (const Agreed& a) {
+    if (a.failure.scene_error && world_size() > 1)
+      serial_failure(read_whole, [&](const SceneError& e) { return a.failure.cause.starts_with(e.where().file + ":"); });
+    throw;
+  }
+  check_read_in_parts(part->scene, read_whole);
+  return std::move(*part);
 }
 
 }  // namespace
@@ -1183,7 +1270,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
   const AnalysisOptions& options = request.options;
   int status = 0;
   try {
-    phase([&] {
+    model.emplace(read_part_agreed(request.scene_file, request.sets, request.limits, request.format, [&] {
       const Outputs& o = request.outputs;
       if (o.energy || !o.report.empty() || !o.matrices.empty())
         throw InputError("--backend petsc writes the text, --csv and --json; --energy, --report and --export-matrices "
@@ -1194,8 +1281,7 @@ int analyze_distributed(const DistributedRequest& request, std::ostream& out, st
       if (options.derivatives != DerivativeMethod::exact)
         throw InputError("--derivatives: the petsc backend assembles K exactly from the elements' derivatives");
       if (rank == 0) check_outputs(Command::analyze, o, request.scene_file);
-      model.emplace(read_part(request.scene_file, request.sets, request.limits, request.format));
-    });
+    }));
     const Scene* scene = &model->scene;
     const System* held = &model->system;
     timings.mark("parse+build");
@@ -1264,11 +1350,10 @@ int sweep_distributed(const DistributedSweepRequest& request, std::ostream& out,
   std::vector<SweepAxis> axes;
   int status = 0;
   try {
-    phase([&] {
+    model.emplace(read_part_agreed(request.scene_file, request.sets, request.limits, request.format, [&] {
       for (const std::string& v : request.varies) axes.push_back(parse_vary(v));
       if (rank == 0) check_outputs(Command::sweep, request.outputs, request.scene_file, request.options.extrapolate);
-      model.emplace(read_part(request.scene_file, request.sets, request.limits, request.format));
-    });
+    }));
     SweepStudyOptions options = request.options;
     AnalysisOptions analysis = request.analysis;
     analysis.modes = options.modes > 0 ? options.modes : 10;

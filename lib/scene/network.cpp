@@ -21,7 +21,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <deque>
+#include <exception>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -335,14 +338,19 @@ struct CsvRow {
 };
 
 // A CSV file: a header line, then rows. Blank lines and lines starting with '#'
-// are skipped; fields are separated by commas and trimmed (no quoting).
-// Fields are views into `text`, so a CsvFile stays where it was read.
+// are skipped; fields are separated by commas and trimmed (no quoting). Read
+// whole (read_csv: `text` and `rows`, whose fields are views into `text`, so
+// a CsvFile stays where it was read) or a row at a time (CsvStream: only the
+// current line is held).
 struct CsvFile {
-  std::string path;  // as resolved
-  std::string text;
-  std::string what;  // "nodes", "edges": how messages name it
+  std::string path;         // as resolved
+  std::string resolved;     // how messages name it: "'<path>'" and how it was written
+  std::string what;         // "nodes", "edges": how messages name it
+  std::string text;         // read whole: the file
+  std::string header_text;  // the header line; `header`'s fields are views into it
+  bool empty = true;        // the file has no bytes
   CsvRow header;
-  std::vector<CsvRow> rows;
+  std::vector<CsvRow> rows;  // read whole
 
   CsvFile() = default;
   CsvFile(const CsvFile&) = delete;
@@ -353,9 +361,13 @@ struct CsvFile {
   }
 };
 
-CsvRow split_row(std::string_view line, int number) {
-  CsvRow row;
+// The longest line a CSV file may have: a node or an edge takes a few dozen
+// bytes, and a file read a row at a time holds one line (and a chunk) only.
+constexpr std::size_t max_csv_line = std::size_t{1} << 20;  // 1 MiB
+
+void split_row(std::string_view line, int number, CsvRow& row) {
   row.line = number;
+  row.fields.clear();
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = std::min(line.find(',', start), line.size());
@@ -365,12 +377,17 @@ CsvRow split_row(std::string_view line, int number) {
     if (comma == line.size()) break;
     start = comma + 1;
   }
-  return row;
 }
 
-// Reads the CSV file named by the key `key` of `s` (relative to the scene
-// file's directory) into `file`.
-void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvFile& file) {
+[[noreturn]] void cannot_read(const Section& s, std::string_view key, const CsvFile& file) {
+  s.fail(key, "cannot read the " + file.what + " file " + file.resolved + ": " + std::strerror(errno));
+}
+
+// Opens the CSV file named by the key `key` of `s` (relative to the scene
+// file's directory) for `file` (its path, what and resolved), after the
+// checks: inside the scene file's directory (unless allowed), not a
+// directory, not a device.
+std::ifstream open_csv(const Reader& reader, const Section& s, std::string_view key, CsvFile& file) {
   const std::string written = s.required_string(key);
   if (written.empty()) s.fail(key, "must name a CSV file");
   std::filesystem::path path(written);
@@ -378,9 +395,8 @@ void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvF
   if (relative) path = std::filesystem::path(reader.file()).parent_path() / path;
   file.path = path.lexically_normal().string();
   file.what = std::string(key);
-  const std::string resolved =
-      "'" + file.path + "'" +
-      (relative && file.path != written ? " (\"" + written + "\" relative to the scene file's directory)" : "");
+  file.resolved = "'" + file.path + "'" +
+                  (relative && file.path != written ? " (\"" + written + "\" relative to the scene file's directory)" : "");
   std::error_code ec;
   if (!reader.limits().allow_outside_data) {
     namespace fs = std::filesystem;
@@ -389,43 +405,135 @@ void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvF
     const fs::path target = fs::weakly_canonical(fs::absolute(path, ec), ec);
     const bool inside = !ec && std::mismatch(base.begin(), base.end(), target.begin(), target.end()).first == base.end();
     if (!inside)
-      s.fail(key, "the " + file.what + " file " + resolved + " lies outside the scene file's directory '" +
+      s.fail(key, "the " + file.what + " file " + file.resolved + " lies outside the scene file's directory '" +
                       base.string() + "' (symbolic links followed); data files are read only from there and below, "
                       "unless the command is given --allow-outside-data");
   }
   const std::filesystem::file_type type = std::filesystem::status(file.path, ec).type();
   if (type == std::filesystem::file_type::directory)
-    s.fail(key, "cannot read the " + file.what + " file " + resolved + ": it is a directory");
+    s.fail(key, "cannot read the " + file.what + " file " + file.resolved + ": it is a directory");
   // A device (/dev/zero, a terminal) never ends or blocks: only files and pipes are read.
   if (type == std::filesystem::file_type::character || type == std::filesystem::file_type::block ||
       type == std::filesystem::file_type::socket)
-    s.fail(key, "cannot read the " + file.what + " file " + resolved + ": it is a device, not a file");
+    s.fail(key, "cannot read the " + file.what + " file " + file.resolved + ": it is a device, not a file");
   std::ifstream in(file.path, std::ios::binary);
-  if (!in) s.fail(key, "cannot open the " + file.what + " file " + resolved + ": " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) s.fail(key, "cannot read the " + file.what + " file " + resolved + ": " + std::strerror(errno));
-  file.text = std::move(text).str();
-
-  std::string_view rest = file.text;
-  if (rest.starts_with("\xEF\xBB\xBF")) rest.remove_prefix(3);  // a UTF-8 byte order mark
-  bool header = false;
-  for (int number = 1; !rest.empty(); ++number) {
-    const std::size_t end = std::min(rest.find('\n'), rest.size());
-    std::string_view line = rest.substr(0, end);
-    rest.remove_prefix(std::min(end + 1, rest.size()));
-    if (line.ends_with('\r')) line.remove_suffix(1);
-    const std::string_view content = trim(line);
-    if (content.empty() || content.front() == '#') continue;
-    if (!header) {
-      file.header = split_row(line, number);
-      header = true;
-    } else {
-      file.rows.push_back(split_row(line, number));
-    }
-  }
+  if (!in) s.fail(key, "cannot open the " + file.what + " file " + file.resolved + ": " + std::strerror(errno));
+  return in;
 }
 
+// The lines of a CSV file that are neither blank nor comments, in order, with
+// their 1-based numbers (a UTF-8 byte order mark and the CR of CRLF ends
+// taken off), from the whole text in memory or from a stream read a chunk at
+// a time (then only the current line and a chunk are held). A line longer
+// than max_csv_line is refused.
+class CsvLines {
+ public:
+  CsvLines(CsvFile& file, std::string_view text) : file_(file), rest_(text) {
+    file_.empty = text.empty();
+    start();
+  }
+  CsvLines(CsvFile& file, std::istream& in, const Section& s, std::string_view key)
+      : file_(file), in_(&in), section_(&s), key_(key) {
+    more();
+    start();
+  }
+  // The next line (valid until the next call) and its number; false at the end.
+  bool next(std::string_view& line, int& number) {
+    while (true) {
+      std::size_t end = rest_.find('\n');
+      while (end == std::string_view::npos && rest_.size() <= max_csv_line && more()) end = rest_.find('\n');
+      if (rest_.empty()) return false;
+      ++number_;
+      if (end == std::string_view::npos) end = rest_.size();
+      if (end > max_csv_line)
+        file_.fail(number_, 1, "", "the line is longer than " + std::to_string(max_csv_line) + " bytes (1 MiB), the most a line of a " +
+                                       file_.what + " file may have");
+      std::string_view found = rest_.substr(0, end);
+      rest_.remove_prefix(std::min(end + 1, rest_.size()));
+      if (found.ends_with('\r')) found.remove_suffix(1);
+      const std::string_view content = trim(found);
+      if (content.empty() || content.front() == '#') continue;
+      line = found;
+      number = number_;
+      return true;
+    }
+  }
+
+ private:
+  void start() {
+    if (rest_.starts_with("\xEF\xBB\xBF")) rest_.remove_prefix(3);  // a UTF-8 byte order mark
+  }
+  // Reads the next chunk after what is left of the buffer; false at the end.
+  bool more() {
+    if (in_ == nullptr || !*in_) return false;
+    constexpr std::size_t chunk = std::size_t{1} << 16;
+    buffer_.erase(0, buffer_.size() - rest_.size());  // rest_ is the buffer's tail
+    const std::size_t kept = buffer_.size();
+    buffer_.resize(kept + chunk);
+    in_->read(buffer_.data() + kept, static_cast<std::streamsize>(chunk));
+    if (in_->bad()) cannot_read(*section_, key_, file_);
+    const auto got = static_cast<std::size_t>(in_->gcount());
+    buffer_.resize(kept + got);
+    rest_ = buffer_;
+    if (got > 0) file_.empty = false;
+    return got > 0;
+  }
+
+  CsvFile& file_;
+  std::istream* in_ = nullptr;
+  const Section* section_ = nullptr;
+  std::string_view key_;
+  std::string buffer_;    // streamed: the current line and what follows it
+  std::string_view rest_;  // what is not yet split into lines
+  int number_ = 0;
+};
+
+// The header of `file`: its first line that is neither blank nor a comment
+// (none: header.line stays 0).
+void read_header(CsvFile& file, CsvLines& lines) {
+  std::string_view line;
+  int number = 0;
+  if (!lines.next(line, number)) return;
+  file.header_text = line;
+  split_row(file.header_text, number, file.header);
+}
+
+// Reads the CSV file named by the key `key` of `s` (relative to the scene
+// file's directory) whole into `file`.
+void read_csv(const Reader& reader, const Section& s, std::string_view key, CsvFile& file) {
+  std::ifstream in = open_csv(reader, s, key, file);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) cannot_read(s, key, file);
+  file.text = std::move(text).str();
+  CsvLines lines(file, file.text);
+  read_header(file, lines);
+  std::string_view line;
+  int number = 0;
+  while (lines.next(line, number)) split_row(line, number, file.rows.emplace_back());
+}
+
+// The CSV file named by the key `key` of `s`, read a row at a time: its
+// header when opened, then next().
+class CsvStream {
+ public:
+  CsvStream(const Reader& reader, const Section& s, std::string_view key, CsvFile& file)
+      : in_(open_csv(reader, s, key, file)), lines_(file, in_, s, key) {
+    read_header(file, lines_);
+  }
+  // The next row (its fields valid until the next call); false at the end.
+  bool next(CsvRow& row) {
+    std::string_view line;
+    int number = 0;
+    if (!lines_.next(line, number)) return false;
+    split_row(line, number, row);
+    return true;
+  }
+
+ private:
+  std::ifstream in_;
+  CsvLines lines_;
+};
 // The columns of a CSV file: required ones, then optional ones.
 struct Schema {
   std::vector<std::string_view> names;
@@ -444,7 +552,7 @@ std::vector<int> match_header(const CsvFile& file, const Schema& schema) {
                                schema.written();
   if (file.header.line == 0)
     file.fail(1, 1, "", "the " + file.what + " file has no header line (it is empty" +
-                            (file.text.empty() ? "" : " or only comments") + ")" + expected);
+                            (file.empty ? "" : " or only comments") + ")" + expected);
   std::vector<int> index(schema.names.size(), -1);
   const auto& fields = file.header.fields;
   // A first line none of whose columns is one of the schema's is no header of
@@ -519,9 +627,11 @@ class RowReader {
     if (range == Range::positive && !(*value > 0)) fail(c, "must be positive, got " + format_number(*value));
     return *value;
   }
-  // At the field of column c (the row's start when the column is absent).
+  // Where column c's field starts (the row's start when the column is absent).
+  int column(std::size_t c) const { return index_[c] < 0 ? 1 : field(c).column; }
+  // At the field of column c.
   [[noreturn]] void fail(std::size_t c, const std::string& reason) const {
-    file_.fail(row_.line, index_[c] < 0 ? 1 : field(c).column, std::string(schema_.names[c]), reason);
+    file_.fail(row_.line, column(c), std::string(schema_.names[c]), reason);
   }
 
  private:
@@ -545,6 +655,350 @@ std::optional<std::array<bool, 3>> parse_fixed(std::string_view text) {
   return fixed;
 }
 
+// The columns of the two files.
+enum NodeColumn : std::size_t { name_column, x_column, y_column, z_column, mass_column, fixed_column };
+enum EdgeColumn : std::size_t { a_column, b_column, stiffness_column, rest_column, damping_column };
+const Schema& node_schema() {  // name,x,y,z[,mass][,fixed]
+  static const Schema schema{{"name", "x", "y", "z", "mass", "fixed"}, 4};
+  return schema;
+}
+const Schema& edge_schema() {  // a,b[,stiffness][,rest_length][,damping]
+  static const Schema schema{{"a", "b", "stiffness", "rest_length", "damping"}, 2};
+  return schema;
+}
+
+// What a [[network]] table gives for rows that leave values out (has_…:
+// whether it gives one).
+struct NetworkDefaults {
+  bool has_mass = false, has_stiffness = false;
+  double mass = 0, stiffness = 1, damping = 0, prestrain = 0;
+};
+NetworkDefaults read_defaults(const Section& s) {
+  NetworkDefaults d;
+  d.has_mass = s.has("mass");
+  d.has_stiffness = s.has("stiffness");
+  d.mass = s.number("mass", 0.0, Range::nonnegative);
+  d.stiffness = s.number("stiffness", 1.0, Range::positive);
+  d.damping = s.number("damping", 0.0, Range::nonnegative);
+  d.prestrain = read_prestrain(s);
+  return d;
+}
+
+// The nodes file's header checked (`has_rows`: whether any row follows it),
+// and a default mass when it has no mass column: each column's index.
+std::vector<int> check_nodes_header(const Section& s, const CsvFile& nodes, bool has_rows, const NetworkDefaults& d) {
+  std::vector<int> index = match_header(nodes, node_schema());
+  if (!has_rows) nodes.fail(nodes.header.line, 1, "", "the nodes file has a header but no nodes");
+  if (index[mass_column] < 0 && !d.has_mass)
+    s.fail("mass", "the nodes file '" + nodes.path + "' has no mass column, so [[network]] needs a default 'mass'");
+  return index;
+}
+// The same for the edges file: a default stiffness when it has edges and no stiffness column.
+std::vector<int> check_edges_header(const Section& s, const CsvFile& edges, bool has_rows, const NetworkDefaults& d) {
+  std::vector<int> index = match_header(edges, edge_schema());
+  if (index[stiffness_column] < 0 && !d.has_stiffness && has_rows)
+    s.fail("stiffness",
+           "the edges file '" + edges.path + "' has no stiffness column, so [[network]] needs a default 'stiffness'");
+  return index;
+}
+
+// A node row's name, present and printable.
+std::string_view node_name(const RowReader& r) {
+  const std::string_view name = r.required_text(name_column);
+  if (!is_printable(name))
+    r.fail(name_column, "the node name \"" + printable(name) + "\" contains control characters or bytes that are "
+                        "not UTF-8 (shown escaped); node names must be printable text");
+  return name;
+}
+std::string duplicate_node(std::string_view name, int line) {
+  return "duplicate node name '" + std::string(name) + "': already used on line " + std::to_string(line);
+}
+
+// A node row's values (read after its name).
+struct NodeValues {
+  Vec3 position = Vec3::Zero();
+  double mass = 0;
+  std::array<bool, 3> fixed{};
+};
+NodeValues node_values(const RowReader& r, std::string_view name, const NetworkDefaults& d) {
+  NodeValues node;
+  node.position = Vec3(r.number(x_column, Range::any), r.number(y_column, Range::any), r.number(z_column, Range::any));
+  if (r.has(mass_column)) {
+    node.mass = r.number(mass_column, Range::nonnegative);
+  } else if (d.has_mass) {
+    node.mass = d.mass;
+  } else {
+    r.fail(mass_column, "no mass for node '" + std::string(name) +
+                            "': fill in the mass column or give [[network]] a default 'mass'");
+  }
+  const std::optional<std::array<bool, 3>> fixed = parse_fixed(r.text(fixed_column));
+  if (!fixed)
+    r.fail(fixed_column, "expected 0, 1, true, false or the fixed axes as letters (\"z\", \"xy\", \"xyz\"), got '" +
+                             std::string(r.text(fixed_column)) + "'");
+  node.fixed = *fixed;
+  return node;
+}
+
+std::string unknown_node(std::string_view name, const std::vector<std::string>& candidates, const std::string& nodes) {
+  return "unknown node '" + std::string(name) + "'" + did_you_mean(name, candidates) +
+         "; an edge joins two nodes of the nodes file '" + nodes + "'" +
+         (name == "world" ? " (to tie a node to the world, fix it: fixed = 1)" : "");
+}
+std::string same_ends(std::string_view a) {
+  return "an edge must join two different nodes; both ends are '" + std::string(a) + "'";
+}
+
+// An edge row's values that its ends do not decide: stiffness, damping and
+// the rest length when given (else −1).
+Spring edge_values(const RowReader& r, const NetworkDefaults& d) {
+  Spring spring;
+  if (r.has(stiffness_column)) {
+    spring.stiffness = r.number(stiffness_column, Range::positive);
+  } else if (d.has_stiffness) {
+    spring.stiffness = d.stiffness;
+  } else {
+    r.fail(stiffness_column, "no stiffness for the edge '" + std::string(r.text(a_column)) + "'-'" +
+                                 std::string(r.text(b_column)) +
+                                 "': fill in the stiffness column or give [[network]] a default 'stiffness'");
+  }
+  spring.damping = r.has(damping_column) ? r.number(damping_column, Range::nonnegative) : d.damping;
+  spring.rest_length = r.has(rest_column) ? r.number(rest_column, Range::nonnegative) : -1;
+  return spring;
+}
+
+// The rest length of an edge that gives none: its nodes' distance less the
+// prestrain; `fail(reason)` reports the edge at its rest_length column.
+template <class Fail>
+double default_rest_length(const Vec3& xa, const Vec3& xb, std::string_view a, std::string_view b,
+                           const NetworkDefaults& d, Fail&& fail) {
+  const double length = (xa - xb).norm();
+  if (!std::isfinite(length))
+    fail("the distance between the nodes '" + std::string(a) + "' and '" + std::string(b) +
+         "' is not finite; give a rest_length");
+  if (!(length > 1e-12 * std::max(xa.norm(), xb.norm())))
+    fail("the nodes '" + std::string(a) + "' and '" + std::string(b) +
+         "' are at the same place, so the edge's rest length would be 0; give a rest_length");
+  return (1 - d.prestrain) * length;
+}
+
+// The particle of node `node` ("<name>.<node>"), read on line `line`.
+void add_node(Generated& g, std::string_view node, const NodeValues& v, int line) {
+  std::string full;
+  full.reserve(g.name.size() + 1 + node.size());
+  full.append(g.name).append(".").append(node);
+  add_particle(g.bodies, std::move(full), v.position, v.mass, v.fixed);
+  g.lines.push_back(line);
+}
+
+// The nodes file's rows, counted a row at a time (its header checked).
+long long count_nodes(const Reader& reader, const Section& s, const NetworkDefaults& d) {
+  CsvFile nodes;
+  CsvStream in(reader, s, "nodes", nodes);
+  CsvRow row;
+  const bool any = in.next(row);
+  check_nodes_header(s, nodes, any, d);
+  long long count = any ? 1 : 0;
+  while (in.next(row)) ++count;
+  return count;
+}
+
+// A [[network]] read in parts (window.end ≥ 0: docs/design.md "Distributed
+// backend"), its files streamed, never held whole: (a) the nodes, every row
+// checked, the owned rows [first, end) kept with a map of their names;
+// (b) the edges, every row's values checked, those whose first node is owned
+// kept, their second nodes' names when not owned remembered; (c) the nodes
+// again for those names and for the nodes the scene's tables name; then the
+// default rest lengths. An edge naming a node no part owns is not kept by
+// any (Scene::owned_network_edges; the backend checks the parts together).
+// A row error in (b) waits until the kept edges before it have been checked
+// for an unknown second node, as the serial reading meets them first.
+void read_network_in_parts(const Reader& reader, const Section& s, const NetworkDefaults& d,
+                           const GeneratorWindow& window, Generated& g) {
+  struct Held {
+    std::string name;
+    NodeValues values;
+    int line = 0;
+  };
+  const long long first = window.first, end = std::max(window.end, first);
+  std::vector<Held> owned;                                      // rows [first, end)
+  std::unordered_map<std::string_view, long long> owned_index;  // name → row (views into `owned`: never moved)
+
+  // (a) the nodes.
+  CsvFile nodes;
+  {
+    CsvStream in(reader, s, "nodes", nodes);
+    CsvRow row;
+    bool any = in.next(row);
+    const std::vector<int> index = check_nodes_header(s, nodes, any, d);
+    reader.add_to_scene(*s.find("nodes"), s.key("nodes"), "its part of the network's nodes",
+                        static_cast<double>(end - first), 0, 0);
+    owned.reserve(static_cast<std::size_t>(end - first));
+    owned_index.reserve(static_cast<std::size_t>(end - first));
+    long long k = 0;
+    for (; any; ++k, any = in.next(row)) {
+      const RowReader r(nodes, node_schema(), index, row);
+      const std::string_view name = node_name(r);
+      if (k < first || k >= end) {
+        (void)node_values(r, name, d);
+        continue;
+      }
+      if (const auto it = owned_index.find(name); it != owned_index.end())
+        r.fail(name_column, duplicate_node(name, owned[static_cast<std::size_t>(it->second - first)].line));
+      Held& node = owned.emplace_back();
+      node.name = name;
+      node.line = row.line;
+      node.values = node_values(r, name, d);
+      owned_index.emplace(node.name, k);
+    }
+    g.count = k;
+  }
+  g.csv = nodes.path;
+
+  // (b) the edges. The other nodes (not owned) that this part needs: by name,
+  // with their row once found (−1: not yet); an owned edge's second end
+  // −2 − slot until then.
+  struct Other {
+    Held node;  // its name from the start, the rest once found
+    long long row = -1;
+    bool named = false;  // by a table of the scene
+  };
+  std::deque<Other> others;                                // never moved: `slots` views their names
+  std::unordered_map<std::string_view, std::size_t> slots;  // name → index in `others`
+  const auto slot = [&](std::string_view name) {
+    const auto it = slots.find(name);
+    if (it != slots.end()) return it->second;
+    others.emplace_back().node.name = name;
+    slots.emplace(others.back().node.name, others.size() - 1);
+    return others.size() - 1;
+  };
+  struct Where {  // a kept edge's line and the columns its late errors point at
+    int line = 0, b_column = 1, rest_column = 1;
+  };
+  std::vector<Where> where;
+  CsvFile edges;
+  std::exception_ptr deferred;  // the first row error, thrown after the kept edges before it are checked
+  int deferred_line = std::numeric_limits<int>::max();
+  {
+    CsvStream in(reader, s, "edges", edges);
+    CsvRow row;
+    bool any = in.next(row);
+    const std::vector<int> index = check_edges_header(s, edges, any, d);
+    std::size_t counted = 0;  // springs added to the scene's totals
+    long long rows = 0;
+    for (; any; any = in.next(row)) {
+      ++rows;
+      try {
+        const RowReader r(edges, edge_schema(), index, row);
+        const std::string_view a = r.required_text(a_column), b = r.required_text(b_column);
+        const auto mine = owned_index.find(a);
+        if (mine == owned_index.end()) {  // another part's, or no part's
+          (void)edge_values(r, d);
+          continue;
+        }
+        if (a == b) r.fail(b_column, same_ends(a));
+        if (g.springs.size() == counted) {  // counted before allocated, in growing batches
+          const std::size_t batch = std::max<std::size_t>(counted, 1024);
+          reader.add_to_scene(*s.find("edges"), s.key("edges"), "its part of the network's edges", 0, 0,
+                              static_cast<double>(batch));
+          counted += batch;
+          g.springs.reserve(counted);
+          where.reserve(counted);
+        }
+        where.push_back({row.line, r.column(b_column), r.column(rest_column)});
+        Spring& spring = g.springs.emplace_back();
+        const auto other = owned_index.find(b);
+        spring.a.body = static_cast<int>(mine->second);
+        spring.b.body = other != owned_index.end() ? static_cast<int>(other->second) : -2 - static_cast<int>(slot(b));
+        const Spring values = edge_values(r, d);
+        spring.stiffness = values.stiffness;
+        spring.damping = values.damping;
+        spring.rest_length = values.rest_length;
+      } catch (const SceneError&) {
+        deferred = std::current_exception();
+        deferred_line = row.line;
+        break;
+      }
+    }
+    g.edge_rows = rows;
+  }
+
+  // (c) the other nodes: the second ends wanted, and those the tables name.
+  std::vector<long long> named;
+  if (window.named != nullptr)
+    for (const std::string& full : *window.named)
+      if (full.starts_with(g.name + ".")) {
+        const std::string_view name = std::string_view(full).substr(g.name.size() + 1);
+        if (const auto it = owned_index.find(name); it != owned_index.end())
+          named.push_back(it->second);
+        else
+          others[slot(name)].named = true;
+      }
+  if (!others.empty()) {
+    reader.add_to_scene(*s.find("nodes"), s.key("nodes"), "its part of the network's nodes",
+                        static_cast<double>(others.size()), 0, 0);
+    CsvFile again;
+    CsvStream in(reader, s, "nodes", again);
+    const std::vector<int> index = match_header(again, node_schema());
+    CsvRow row;
+    for (long long k = 0; in.next(row); ++k) {
+      if (k >= first && k < end) continue;
+      const RowReader r(again, node_schema(), index, row);
+      const auto it = slots.find(r.text(name_column));
+      if (it == slots.end() || others[it->second].row >= 0) continue;
+      Other& o = others[it->second];
+      o.row = k;
+      o.node.line = row.line;
+      o.node.values = node_values(r, o.node.name, d);
+      if (o.named) named.push_back(k);
+    }
+  }
+
+  // The kept edges in file order, up to a row error: unknown second nodes,
+  // default rest lengths.
+  for (std::size_t e = 0; e < g.springs.size() && where[e].line <= deferred_line; ++e) {
+    Spring& spring = g.springs[e];
+    const Held& a = owned[static_cast<std::size_t>(spring.a.body - first)];
+    const Held* b = nullptr;
+    if (spring.b.body < -1) {
+      const Other& o = others[static_cast<std::size_t>(-2 - spring.b.body)];
+      if (o.row < 0) {
+        std::vector<std::string> candidates;  // the names this part has read
+        for (const Held& h : owned) candidates.push_back(h.name);
+        for (const Other& h : others)
+          if (h.row >= 0) candidates.push_back(h.node.name);
+        edges.fail(where[e].line, where[e].b_column, "b", unknown_node(o.node.name, candidates, nodes.path));
+      }
+      spring.b.body = static_cast<int>(o.row);
+      b = &o.node;
+    } else {
+      b = &owned[static_cast<std::size_t>(spring.b.body - first)];
+    }
+    if (where[e].line == deferred_line || spring.rest_length >= 0) continue;
+    spring.rest_length = default_rest_length(a.values.position, b->values.position, a.name, b->name, d,
+                                             [&](const std::string& reason) {
+                                               edges.fail(where[e].line, where[e].rest_column, "rest_length", reason);
+                                             });
+  }
+  if (deferred) std::rethrow_exception(deferred);
+
+  // The held particles: all rows (the whole block), or the window's.
+  hold_window(window, g, std::move(named));
+  std::unordered_map<long long, const Other*> by_row;
+  for (const Other& o : others)
+    if (o.row >= 0) by_row.emplace(o.row, &o);
+  const auto particle = [&](long long l) {
+    const Held& h = l >= first && l < end ? owned[static_cast<std::size_t>(l - first)] : by_row.at(l)->node;
+    add_node(g, h.name, h.values, h.line);
+  };
+  const std::size_t held = window.whole(g.count) ? owned.size() : g.held.size();
+  g.bodies.reserve(held);
+  g.lines.reserve(held);
+  if (window.whole(g.count))
+    for (long long l = 0; l < g.count; ++l) particle(l);
+  else
+    for (const long long l : g.held) particle(l);
+}
+
 }  // namespace
 
 Generated read_network(const Reader& reader, const toml::table& table, std::size_t index, LatticePass pass,
@@ -553,34 +1007,26 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   s.check_keys({"name", "nodes", "edges", "mass", "stiffness", "damping", "prestrain"});
   Generated g;
   start_block(s, g, "network");
-  // Defaults for rows that leave them out (has_…: whether the scene gives one).
-  const bool has_mass = s.has("mass"), has_stiffness = s.has("stiffness");
-  const double mass = s.number("mass", 0.0, Range::nonnegative);
-  const double stiffness = s.number("stiffness", 1.0, Range::positive);
-  const double damping = s.number("damping", 0.0, Range::nonnegative);
-  const double prestrain = read_prestrain(s);
+  const NetworkDefaults defaults = read_defaults(s);
+  if (pass == LatticePass::count) {  // (only the scene read in parts counts first)
+    g.count = count_nodes(reader, s, defaults);
+    return g;
+  }
+  if (window.end >= 0) {
+    read_network_in_parts(reader, s, defaults, window, g);
+    return g;
+  }
 
-  // Nodes: name,x,y,z[,mass][,fixed].
+  // The whole network: both files read whole, every node and edge made.
   CsvFile nodes;
   read_csv(reader, s, "nodes", nodes);
-  enum NodeColumn : std::size_t { name_column, x_column, y_column, z_column, mass_column, fixed_column };
-  const Schema node_schema{{"name", "x", "y", "z", "mass", "fixed"}, 4};
-  const std::vector<int> node_index = match_header(nodes, node_schema);
-  if (nodes.rows.empty()) nodes.fail(nodes.header.line, 1, "", "the nodes file has a header but no nodes");
-  if (node_index[mass_column] < 0 && !has_mass)
-    s.fail("mass", "the nodes file '" + nodes.path + "' has no mass column, so [[network]] needs a default 'mass'");
+  const std::vector<int> node_index = check_nodes_header(s, nodes, !nodes.rows.empty(), defaults);
   g.count = static_cast<long long>(nodes.rows.size());
-  if (pass == LatticePass::count) return g;
-
   reader.add_to_scene(*s.find("nodes"), s.key("nodes"), "the network's nodes",
                       static_cast<double>(nodes.rows.size()), 0, 0);
-  // Every node is read and checked (by every process when the scene is read
-  // in parts); the particles are made for the held ones only, at the end.
   struct Node {
     std::string_view name;
-    Vec3 position;
-    double mass = 0;
-    std::array<bool, 3> fixed{};
+    NodeValues values;
   };
   std::vector<Node> read;
   std::unordered_map<std::string_view, int> by_name;  // node name → its row index
@@ -588,46 +1034,20 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
   read.reserve(nodes.rows.size());
   g.csv = nodes.path;
   for (const CsvRow& row : nodes.rows) {
-    const RowReader r(nodes, node_schema, node_index, row);
-    const std::string_view name = r.required_text(name_column);
-    if (!is_printable(name))
-      r.fail(name_column, "the node name \"" + printable(name) + "\" contains control characters or bytes that are "
-                          "not UTF-8 (shown escaped); node names must be printable text");
+    const RowReader r(nodes, node_schema(), node_index, row);
+    const std::string_view name = node_name(r);
     const auto [it, inserted] = by_name.emplace(name, static_cast<int>(read.size()));
     if (!inserted)
-      r.fail(name_column, "duplicate node name '" + std::string(name) + "': already used on line " +
-                              std::to_string(nodes.rows[static_cast<std::size_t>(it->second)].line));
-    Node& node = read.emplace_back();
-    node.name = name;
-    node.position = Vec3(r.number(x_column, Range::any), r.number(y_column, Range::any), r.number(z_column, Range::any));
-    if (r.has(mass_column)) {
-      node.mass = r.number(mass_column, Range::nonnegative);
-    } else if (has_mass) {
-      node.mass = mass;
-    } else {
-      r.fail(mass_column, "no mass for node '" + std::string(name) +
-                              "': fill in the mass column or give [[network]] a default 'mass'");
-    }
-    const std::optional<std::array<bool, 3>> fixed = parse_fixed(r.text(fixed_column));
-    if (!fixed)
-      r.fail(fixed_column, "expected 0, 1, true, false or the fixed axes as letters (\"z\", \"xy\", \"xyz\"), got '" +
-                               std::string(r.text(fixed_column)) + "'");
-    node.fixed = *fixed;
+      r.fail(name_column, duplicate_node(name, nodes.rows[static_cast<std::size_t>(it->second)].line));
+    read.push_back({name, node_values(r, name, defaults)});
   }
 
-  // Edges: a,b[,stiffness][,rest_length][,damping].
   CsvFile edges;
   read_csv(reader, s, "edges", edges);
-  enum EdgeColumn : std::size_t { a_column, b_column, stiffness_column, rest_column, damping_column };
-  const Schema edge_schema{{"a", "b", "stiffness", "rest_length", "damping"}, 2};
-  const std::vector<int> edge_index = match_header(edges, edge_schema);
-  if (edge_index[stiffness_column] < 0 && !has_stiffness && !edges.rows.empty())
-    s.fail("stiffness",
-           "the edges file '" + edges.path + "' has no stiffness column, so [[network]] needs a default 'stiffness'");
+  const std::vector<int> edge_index = check_edges_header(s, edges, !edges.rows.empty(), defaults);
   reader.add_to_scene(*s.find("edges"), s.key("edges"), "the network's edges", 0, 0,
                       static_cast<double>(edges.rows.size()));
-  const long long first = window.first, end = window.end < 0 ? g.count : window.end;
-  if (window.whole(g.count)) g.springs.reserve(edges.rows.size());
+  g.springs.reserve(edges.rows.size());
   const auto node = [&](const RowReader& r, std::size_t c) {
     const std::string_view name = r.required_text(c);
     const auto it = by_name.find(name);
@@ -635,67 +1055,24 @@ Generated read_network(const Reader& reader, const toml::table& table, std::size
     std::vector<std::string> candidates;
     candidates.reserve(read.size());
     for (const Node& n : read) candidates.emplace_back(n.name);
-    r.fail(c, "unknown node '" + std::string(name) + "'" + did_you_mean(name, candidates) +
-                  "; an edge joins two nodes of the nodes file '" + nodes.path + "'" +
-                  (name == "world" ? " (to tie a node to the world, fix it: fixed = 1)" : ""));
+    r.fail(c, unknown_node(name, candidates, nodes.path));
   };
   for (const CsvRow& row : edges.rows) {
-    const RowReader r(edges, edge_schema, edge_index, row);
-    Spring spring;
-    spring.a.body = node(r, a_column);
-    spring.b.body = node(r, b_column);
-    if (spring.a.body == spring.b.body)
-      r.fail(b_column, "an edge must join two different nodes; both ends are '" + std::string(r.text(a_column)) + "'");
-    if (r.has(stiffness_column)) {
-      spring.stiffness = r.number(stiffness_column, Range::positive);
-    } else if (has_stiffness) {
-      spring.stiffness = stiffness;
-    } else {
-      r.fail(stiffness_column, "no stiffness for the edge '" + std::string(r.text(a_column)) + "'-'" +
-                                   std::string(r.text(b_column)) +
-                                   "': fill in the stiffness column or give [[network]] a default 'stiffness'");
-    }
-    spring.damping = r.has(damping_column) ? r.number(damping_column, Range::nonnegative) : damping;
-    if (r.has(rest_column)) {
-      spring.rest_length = r.number(rest_column, Range::nonnegative);
-    } else {
-      const Vec3& xa = read[static_cast<std::size_t>(spring.a.body)].position;
-      const Vec3& xb = read[static_cast<std::size_t>(spring.b.body)].position;
-      const double length = (xa - xb).norm();
-      if (!std::isfinite(length))
-        r.fail(rest_column, "the distance between the nodes '" + std::string(r.text(a_column)) + "' and '" +
-                                std::string(r.text(b_column)) + "' is not finite; give a rest_length");
-      if (!(length > 1e-12 * std::max(xa.norm(), xb.norm())))
-        r.fail(rest_column, "the nodes '" + std::string(r.text(a_column)) + "' and '" + std::string(r.text(b_column)) +
-                                "' are at the same place, so the edge's rest length would be 0; give a rest_length");
-      spring.rest_length = (1 - prestrain) * length;
-    }
-    if (spring.a.body >= first && spring.a.body < end) g.springs.push_back(spring);  // the owner's
+    const RowReader r(edges, edge_schema(), edge_index, row);
+    const int a = node(r, a_column), b = node(r, b_column);
+    if (a == b) r.fail(b_column, same_ends(r.text(a_column)));
+    Spring& spring = g.springs.emplace_back(edge_values(r, defaults));
+    spring.a.body = a;
+    spring.b.body = b;
+    if (spring.rest_length < 0)
+      spring.rest_length = default_rest_length(
+          read[static_cast<std::size_t>(a)].values.position, read[static_cast<std::size_t>(b)].values.position,
+          r.text(a_column), r.text(b_column), defaults, [&](const std::string& reason) { r.fail(rest_column, reason); });
   }
 
-  // The held nodes' particles ("<name>.<node>"): all, or the window's.
-  std::vector<long long> named;
-  if (window.named != nullptr && !window.whole(g.count))
-    for (const std::string& full : *window.named)
-      if (full.starts_with(g.name + "."))
-        if (const auto it = by_name.find(std::string_view(full).substr(g.name.size() + 1)); it != by_name.end())
-          named.push_back(it->second);
-  hold_window(window, g, std::move(named));
-  const auto particle = [&](std::size_t l) {
-    const Node& n = read[l];
-    std::string full;
-    full.reserve(g.name.size() + 1 + n.name.size());
-    full.append(g.name).append(".").append(n.name);
-    add_particle(g.bodies, std::move(full), n.position, n.mass, n.fixed);
-    g.lines.push_back(nodes.rows[l].line);
-  };
-  const std::size_t held = window.whole(g.count) ? read.size() : g.held.size();
-  g.bodies.reserve(held);
-  g.lines.reserve(held);
-  if (window.whole(g.count))
-    for (std::size_t l = 0; l < read.size(); ++l) particle(l);
-  else
-    for (const long long l : g.held) particle(static_cast<std::size_t>(l));
+  g.bodies.reserve(read.size());
+  g.lines.reserve(read.size());
+  for (std::size_t l = 0; l < read.size(); ++l) add_node(g, read[l].name, read[l].values, nodes.rows[l].line);
   return g;
 }
 

@@ -156,6 +156,9 @@ struct Generated {
   // Read in parts (a GeneratorWindow): the block-local index of each body,
   // ascending; empty when the block holds all `count` particles in order.
   std::vector<long long> held;
+  // A network read in parts: the rows of its edges file (its `springs` are
+  // those this part owns); −1 otherwise.
+  long long edge_rows = -1;
 };
 
 // The part of a generator's particles one process builds (distributed
@@ -165,7 +168,9 @@ struct Generated {
 // belongs to its first end's owner), and the particles `named` by
 // [[spring]], [[load]] or [[constraint]] tables (by their full names). Only
 // the owned particles' springs are made. Every row and value is still read
-// and checked, so the errors are those of the serial path.
+// and checked, so the errors are those of the serial path, except what one
+// part cannot see: an edge whose first node no part has, a node name
+// repeated in two parts (the distributed backend checks them together).
 struct GeneratorWindow {
   long long first = 0, end = -1;  // end < 0: the whole block
   const std::vector<std::string>* named = nullptr;
@@ -182,8 +187,10 @@ struct GeneratorWindow {
 enum class LatticePass { count, generate };
 Generated read_lattice(const Reader& reader, const toml::table& table, std::size_t index,
                        LatticePass pass = LatticePass::generate, const GeneratorWindow& window = {});
-// A network counted only (`count`: the nodes file read, its rows counted,
-// nothing made) or generated.
+// A network counted only (`count`: the nodes file's rows counted as it is
+// streamed, its header checked, nothing kept) or generated: with a window
+// (end ≥ 0) both files streamed a row at a time, only the part kept (memory
+// of the part's size), else both read whole.
 Generated read_network(const Reader& reader, const toml::table& table, std::size_t index,
                        LatticePass pass = LatticePass::generate, const GeneratorWindow& window = {});
 

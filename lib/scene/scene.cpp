@@ -986,6 +986,10 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   for (std::size_t i = 0; i < springs.size(); ++i) d.springs.push_back(read_spring(reader, *springs[i], i, names, frames));
   for (std::size_t b = 0; b < blocks.size(); ++b) {  // after the [[spring]]s, ends shifted to the block's place
     std::vector<Spring>& generated = blocks[b].springs;
+    if (blocks[b].edge_rows >= 0) {  // a network read in parts
+      scene.network_edges += blocks[b].edge_rows;
+      scene.owned_network_edges += static_cast<long long>(generated.size());
+    }
     for (Spring& spring : generated) {
       spring.a.body += block_start[b];
       spring.b.body += block_start[b];

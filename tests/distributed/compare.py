@@ -31,6 +31,11 @@ must end every rank with exit status STATUS and exactly one message line,
 within a timeout, without output on stdout. zero_length_spring.toml fails on
 one rank only (the one that owns the spring of zero length): the message
 must be that rank's (the spring's), not the other ranks' stopped Newton.
+With STATUS 2 (bad input) the message must also be exactly the serial
+run's (`modal analyze SCENE` without the backend, which reads the scene
+whole): a fault that no rank sees alone in its part of the scene (an edge
+naming a node no rank has, a node name repeated in two ranks' parts) must
+still be reported with the serial path's file, line, key and reason.
 """
 import csv
 import json
@@ -137,6 +142,11 @@ def main():
             sys.exit("FAIL: the message repeats its prefix: " + r.stderr)
         if r.stdout.strip():
             sys.exit("FAIL: output on stdout: " + r.stdout)
+        if status == 2:
+            serial = run([modal, "analyze", scene] + options)
+            if serial.returncode != 2 or serial.stderr.strip() != lines[0].strip():
+                sys.exit("FAIL: the message differs from the serial run's (status %d):\n  %s\n  %s" %
+                         (serial.returncode, lines[0], serial.stderr.strip()))
         return
     scene, options = args[0], args[1:]
     halo = None

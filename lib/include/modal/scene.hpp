@@ -70,6 +70,11 @@ struct Scene {
   // whole scene's body count, and the bodies this part owns [first, end).
   std::vector<long long> global_bodies;
   long long total_bodies = 0, first_owned = 0, end_owned = 0;
+  // Read in parts: the edge rows of the scene's [[network]]s, and those whose
+  // springs this part owns. An edge whose first node no part has is owned by
+  // none, so the parts' owned rows add up to fewer (the distributed backend
+  // checks the sum: check_read_in_parts).
+  long long network_edges = 0, owned_network_edges = 0;
 };
 
 // One part of a scene, for one of `parts` processes (the distributed backend:
@@ -81,10 +86,13 @@ struct Scene {
 // second when the first is the world: ghosts), every hand-written body and
 // every particle a [[spring]], [[load]] or [[constraint]] names. A
 // [[lattice]] makes only those particles and the owned ones' springs; a
-// [[network]]'s CSV files are read and checked whole, and only those kept.
+// [[network]]'s CSV files are streamed a row at a time, every row checked,
+// and only those rows kept (memory of the part's size, never the whole).
 // Every body must hang from the world (particles), and the names of
 // generated particles are checked for clashes only among what the part
-// holds. The springs and loads of `description` are those whose ends it
+// holds; clashes between parts and edges naming a node no part has are left
+// to the distributed backend, which checks the parts together
+// (check_read_in_parts). The springs and loads of `description` are those whose ends it
 // holds.
 struct SceneWindow {
   int part = 0, parts = 1;
