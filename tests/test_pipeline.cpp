@@ -261,6 +261,14 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("must be a whole number ≥ 1, got '0'"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("1.79769"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.rfind("modal analyze: --modes: ", 0), 0u) << r.err;  // a sentence naming the command first
+  const std::string huge(60, '9');  // beyond every integer type: CLI11's conversion message, rewritten
+  r = run({"analyze", scene, "--modes", huge});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err.rfind("modal analyze: --modes: '", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("is not a value it takes"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("Could not convert"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(huge), std::string::npos) << r.err;  // cut to 40 characters
 
   if (fs::exists("/dev/full")) {
     const std::string cmd = modal::test::quote(MODAL_BINARY) + " analyze " + modal::test::quote(scene) +

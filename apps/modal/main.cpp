@@ -177,6 +177,28 @@ int run_distributed_program(char** argv) {
 }
 #endif
 
+// A usage error as a sentence naming the command ("modal analyze: --modes:
+// ..."), CLI11's own texts rewritten where they are not sentences ("Could not
+// convert: --modes = <300 digits>"), arguments shown escaped and cut to 40
+// characters; then the help of the command that failed.
+std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
+  std::string what = e.what();
+  constexpr std::string_view convert = "Could not convert: ";
+  if (what.starts_with(convert)) {
+    const std::string rest = what.substr(convert.size());
+    if (const auto eq = rest.find(" = "); eq != std::string::npos) {
+      std::string value = rest.substr(eq + 3);
+      if (value.size() > 40) value = value.substr(0, 37) + "...";
+      what = rest.substr(0, eq) + ": '" + value + "' is not a value it takes (a number within its range: see below)";
+    }
+  } else if (what.starts_with("modal: ")) {
+    what.erase(0, 7);
+  }
+  std::string command = "modal";
+  if (app->get_parent() != nullptr) command += " " + app->get_name();
+  return command + ": " + modal::printable(what) + "\n" + app->help();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -187,7 +209,7 @@ int main(int argc, char** argv) {
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
   // message and the help of the command that failed.
-  app.failure_message(CLI::FailureMessage::help);
+  app.failure_message(usage_failure);
   app.set_version_flag("--version", std::string("modal ") + MODAL_VERSION);
   app.require_subcommand(1);
   bool quiet = false;
