@@ -903,6 +903,18 @@ void operator delete(void* p) noexcept { heap::release(p); }
 void operator delete[](void* p) noexcept { heap::release(p); }
 void operator delete(void* p, std::size_t) noexcept { heap::release(p); }
 void operator delete[](void* p, std::size_t) noexcept { heap::release(p); }
+// The nothrow forms too (std::stable_sort's buffer): every unaligned new and
+// delete then goes through malloc and free here, as AddressSanitizer checks.
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+  try {
+    return heap::allocate(size);
+  } catch (const std::bad_alloc&) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept { return operator new(size, tag); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { heap::release(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { heap::release(p); }
 
 namespace {
 
