@@ -33,8 +33,12 @@ include(GNUInstallDirs)
 #   FIND         the arguments of find_package()/find_dependency() in modalConfig.cmake
 #   PKG_CONFIG   its pkg-config module (modal.pc Requires / Requires.private)
 #   LIBS         or, without a module, its -l flags (modal.pc Libs.private)
+#   LAZY         the names of its shared libraries (lib<name>.so) that the
+#                program `modal` loads on first use instead of linking them
+#                (cmake/ModalLazy.cmake); libmodal links them as usual
 function(modal_dependency target kind)
-  cmake_parse_arguments(ARG "" "PKG_CONFIG" "FIND;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "" "PKG_CONFIG" "FIND;LIBS;LAZY" ${ARGN})
+  set_property(GLOBAL PROPERTY "MODAL_DEPENDENCY_LAZY ${target}" "${ARG_LAZY}")
   set_property(GLOBAL PROPERTY "MODAL_DEPENDENCY_KIND ${target}" ${kind})
   set_property(GLOBAL PROPERTY "MODAL_DEPENDENCY_FIND ${target}" "${ARG_FIND}")
   set_property(GLOBAL PROPERTY "MODAL_DEPENDENCY_PKG_CONFIG ${target}" "${ARG_PKG_CONFIG}")
@@ -47,18 +51,19 @@ modal_dependency(nlohmann_json::nlohmann_json HEADER_ONLY)
 # Debian ships two NLoptConfig.cmake (C and C++ builds): the one found here.
 modal_dependency(NLopt::nlopt_cxx PRIVATE
   FIND NLopt CONFIG HINTS "${NLopt_DIR}" /usr/lib/\${CMAKE_LIBRARY_ARCHITECTURE}/cmake/nlopt_cxx
-  PKG_CONFIG nlopt_cxx)
-modal_dependency(GSL::gsl PRIVATE FIND GSL PKG_CONFIG gsl)
-modal_dependency(LAPACK::LAPACK PRIVATE FIND LAPACK PKG_CONFIG lapack)
+  PKG_CONFIG nlopt_cxx LAZY nlopt_cxx)
+modal_dependency(GSL::gsl PRIVATE FIND GSL PKG_CONFIG gsl LAZY gsl)
+modal_dependency(LAPACK::LAPACK PRIVATE FIND LAPACK PKG_CONFIG lapack LAZY lapack blas)
 modal_dependency(tomlplusplus::tomlplusplus PRIVATE FIND tomlplusplus PKG_CONFIG tomlplusplus)
 modal_dependency(fmt::fmt PRIVATE FIND fmt PKG_CONFIG fmt)
 # SuiteSparse 5 and MUMPS have no pkg-config module on Debian 12; their find
 # modules (cmake/FindCHOLMOD.cmake, cmake/FindMUMPS.cmake) are installed with
 # the package.
-modal_dependency(CHOLMOD::CHOLMOD PRIVATE FIND CHOLMOD LIBS -lcholmod -lsuitesparseconfig)
+modal_dependency(CHOLMOD::CHOLMOD PRIVATE FIND CHOLMOD LIBS -lcholmod -lsuitesparseconfig LAZY cholmod)
 # libmujoco (MJCF and URDF import): Debian's own CMake config is unusable (cmake/FindMuJoCo.cmake).
-modal_dependency(MuJoCo::MuJoCo PRIVATE FIND MuJoCo LIBS -lmujoco)
-modal_dependency(MUMPS::MUMPS PRIVATE FIND MUMPS LIBS -ldmumps_seq -lmumps_common_seq -lpord_seq -lmpiseq_seq)
+modal_dependency(MuJoCo::MuJoCo PRIVATE FIND MuJoCo LIBS -lmujoco LAZY mujoco)
+modal_dependency(MUMPS::MUMPS PRIVATE FIND MUMPS LIBS -ldmumps_seq -lmumps_common_seq -lpord_seq -lmpiseq_seq
+  LAZY dmumps_seq)
 
 # --- stages -----------------------------------------------------------------------
 function(modal_register_stage name)
@@ -134,4 +139,27 @@ function(modal_libraries)
   set_target_properties(modal_static PROPERTIES EXPORT_NAME modal_static)
   add_library(modal::modal ALIAS modal)
   add_library(modal::modal_static ALIAS modal_static)
+
+  # The program's libmodal (cmake/ModalLazy.cmake): the same objects, linked
+  # to the dependencies that are not loaded on first use; the program adds
+  # the stubs of the others. Not installed.
+  if(MODAL_LAZY_LOADING)
+    set(eager "")
+    set(lazy "")
+    foreach(dep IN LISTS private)
+      get_property(names GLOBAL PROPERTY "MODAL_DEPENDENCY_LAZY ${dep}")
+      if(names)
+        list(APPEND lazy ${names})
+      else()
+        list(APPEND eager ${dep})
+      endif()
+    endforeach()
+    add_library(modal_program_library STATIC ${objects})
+    target_include_directories(modal_program_library PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_link_libraries(modal_program_library PUBLIC ${public} PRIVATE ${eager})
+    target_compile_features(modal_program_library PUBLIC cxx_std_20)
+    set_target_properties(modal_program_library PROPERTIES LINKER_LANGUAGE CXX
+                          ARCHIVE_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/lib/program)
+    set_property(GLOBAL PROPERTY MODAL_LAZY_LIBRARY_NAMES ${lazy})
+  endif()
 endfunction()

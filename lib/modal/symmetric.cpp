@@ -95,6 +95,13 @@ bool mostly_zero(const MatrixX& A) {
   return true;
 }
 
+// Products of fewer than 128³ multiply–adds are left to Eigen: BLAS pays only
+// for larger ones, and a small scene then never loads it (the program
+// `modal` loads OpenBLAS on its first call).
+bool small_product(int m, int n, int k) {
+  return static_cast<double>(m) * static_cast<double>(n) * static_cast<double>(k) < 128.0 * 128.0 * 128.0;
+}
+
 // C ← beta C + A B (column-major, sizes from A and B; beta 0 or 1).
 void multiply(const MatrixX& A, const MatrixX& B, double beta, MatrixX& C) {
   const int m = static_cast<int>(A.rows()), n = static_cast<int>(B.cols()), k = static_cast<int>(A.cols());
@@ -108,6 +115,11 @@ void multiply(const MatrixX& A, const MatrixX& B, double beta, MatrixX& C) {
     const Eigen::SparseMatrix<double> S = A.sparseView();
     if (beta == 0) C.noalias() = S * B;
     else C.noalias() += S * B;
+    return;
+  }
+  if (small_product(m, n, k)) {  // Eigen's own kernel: no BLAS to load or start (docs/design.md, "Start-up")
+    if (beta == 0) C.noalias() = A * B;
+    else C.noalias() += A * B;
     return;
   }
   const double one = 1;
@@ -128,6 +140,10 @@ void add_product(const MatrixX& A, const MatrixX& B, MatrixX& C) { multiply(A, B
 void solve_lower(const MatrixX& L, MatrixX& B) {
   const int n = static_cast<int>(L.rows()), m = static_cast<int>(B.cols());
   if (n == 0 || m == 0) return;
+  if (small_product(n, m, n)) {
+    L.triangularView<Eigen::Lower>().solveInPlace(B);
+    return;
+  }
   const double one = 1;
   dtrsm_("L", "L", "N", "N", &n, &m, &one, L.data(), &n, B.data(), &n, 1, 1, 1, 1);
 }

@@ -111,6 +111,16 @@ bool project_state(const System& s, Workspace& w, Eigen::Ref<VectorX> q, Eigen::
   return moved;
 }
 
+// GSL's explicit embedded Runge–Kutta Prince–Dormand (8, 9) step. GSL names
+// its steppers by data objects, not functions; the program `modal` loads GSL
+// on first use and fills in its copy of this object only then
+// (cmake/ModalLazy.cmake, docs/design.md "Start-up"), so a call into GSL
+// comes first: gsl_strerror, which has no side effect.
+const gsl_odeiv2_step_type* prince_dormand_89() {
+  static_cast<void>(gsl_strerror(GSL_SUCCESS));
+  return gsl_odeiv2_step_rk8pd;
+}
+
 struct DriverFree {
   void operator()(gsl_odeiv2_driver* d) const { gsl_odeiv2_driver_free(d); }
 };
@@ -159,7 +169,7 @@ Trajectory simulate(const System& given, const VectorX& q0, const VectorX& qd0, 
   const double first_step =
       std::max((times.size() > 1 ? times[1] : options.duration) / 100, std::numeric_limits<double>::denorm_min());
   const std::unique_ptr<gsl_odeiv2_driver, DriverFree> driver(gsl_odeiv2_driver_alloc_scaled_new(
-      &ode, gsl_odeiv2_step_rk8pd, first_step, options.tolerance, options.tolerance, 1.0, 0.0, scale.data()));
+      &ode, prince_dormand_89(), first_step, options.tolerance, options.tolerance, 1.0, 0.0, scale.data()));
   if (!driver) throw NumericalError("simulate: GSL could not allocate the integrator");
 
   std::vector<double> y(static_cast<std::size_t>(2 * n + 1));
