@@ -16,7 +16,7 @@ packages=(
                        # which starts no threads on load but made a 10⁵-coordinate net's equilibrium 1.8× slower
   libpetsc-real-dev libslepc-real-dev openmpi-bin libopenmpi-dev  # the distributed backend, modal-mpi
                        # (analyze --backend petsc; MODAL_WITH_PETSC, ON when these are found)
-  libjemalloc-dev      # the program's allocator: freed memory kept for reuse on huge pages (large scenes)
+  libjemalloc-dev      # optional allocator of the program (cmake -DMODAL_JEMALLOC=ON)
   libnlopt-cxx-dev     # NLopt with its C++ API (equilibrium searches)
   libgsl-dev           # GSL: ODE integration (energy conservation, simulation)
   libcli11-dev         # command line

@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""The dense eigen phase of `modal analyze` against scipy.linalg.eigh on the
+very matrices modal exports (issue 15 part 4: within 1.2× of eigh, estimates
+included). Writes results/dense_eigen.md.
+
+Usage: bench/dense_eigen.py [BUILD]     (default: build; /usr/bin/python3 with scipy)
+
+For each scene: `modal analyze SCENE --timing --export-matrices DIR` (the
+eigen phase as --timing reports it: equilibration, the solver, every error
+estimate and bound, the shapes), then, in the same loop, scipy's
+eigh(K, M) (LAPACK dsygvd, driver "gvd", the same OpenBLAS) on DIR's K and M.
+Runs interleaved, REPEAT times (default 5); medians. The whole process is
+reported beside it.
+"""
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+import scipy.io
+import scipy.linalg
+
+root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+build = sys.argv[1] if len(sys.argv) > 1 else "build"
+modal = os.path.join(root, build, "modal")
+repeat = int(os.environ.get("REPEAT", "5"))
+chain = os.path.join(root, "models", "hanging_chain.toml")
+scenes = [
+    ("hanging chain, 1000 links (default solver)", [chain, "--set", "N=1000"]),
+    ("hanging chain, 1000 links, `--modes 10`", [chain, "--set", "N=1000", "--modes", "10"]),
+    ("hanging chain, 2000 links, `--solver dense`", [chain, "--set", "N=2000", "--solver", "dense"]),
+    ("lattice 6³ (models/lattice.toml), `--solver dense`", [os.path.join(root, "models", "lattice.toml"),
+                                                   "--solver", "dense"]),
+]
+rows = []
+with tempfile.TemporaryDirectory() as work:
+    for name, args in scenes:
+        out = os.path.join(work, "m")
+        eig, whole, peer, solver = [], [], [], ""
+        for _ in range(repeat):
+            t = time.perf_counter()
+            p = subprocess.run([modal, "analyze", *args, "--timing", "--quiet", "--export-matrices", out],
+                               capture_output=True, text=True)
+            whole.append(time.perf_counter() - t)
+            if p.returncode not in (0, 3):
+                sys.exit(f"{name}: modal failed ({p.returncode}): {p.stderr[-1000:]}")
+            for line in p.stderr.splitlines():
+                f = line.split()
+                if len(f) >= 3 and f[0] == "timing:" and f[1] == "eigen":
+                    eig.append(float(f[2]) / 1000)
+            for line in p.stdout.splitlines():
+                if line.startswith("Modes ("):
+                    solver = line[len("Modes ("):-1]
+            K = scipy.io.mmread(os.path.join(out, "K.mtx"))
+            M = scipy.io.mmread(os.path.join(out, "M.mtx"))
+            K = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
+            M = M.toarray() if hasattr(M, "toarray") else np.asarray(M)
+            t = time.perf_counter()
+            scipy.linalg.eigh(K, M, driver="gvd")
+            peer.append(time.perf_counter() - t)
+        e, w, s = statistics.median(eig), statistics.median(whole), statistics.median(peer)
+        rows.append((name, K.shape[0], e, s, e / s, w, solver))
+
+load = open("/proc/loadavg").read().split()[0]
+lines = [
+    "# Dense eigen phase against scipy.linalg.eigh",
+    "",
+    f"Regenerate: `bench/dense_eigen.py {build}` (after `cmake --build {build}`).",
+    f"Machine: {os.cpu_count()} cores; {time.strftime('%Y-%m-%d', time.gmtime())}; load average {load} at the end;",
+    f"medians of {repeat} interleaved runs. `eigh` is `scipy.linalg.eigh(K, M, driver=\"gvd\")` (LAPACK dsygvd,",
+    "all pairs, no error estimate) on the matrices modal exported; modal's eigen phase includes",
+    "equilibration, the solve, the residuals, every error estimate and bound, and the shapes.",
+    "",
+    "| scene | n | modal eigen [s] | eigh [s] | ratio | whole process [s] | modal's solver |",
+    "|---|---:|---:|---:|---:|---:|---|",
+]
+for name, n, e, s, r, w, solver in rows:
+    lines.append(f"| {name} | {n} | {e:.3f} | {s:.3f} | {r:.2f} | {w:.2f} | {solver} |")
+with open(os.path.join(root, "results", "dense_eigen.md"), "w") as f:
+    f.write("\n".join(lines) + "\n")
+print("\n".join(lines))
