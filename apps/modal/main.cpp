@@ -4,6 +4,7 @@
 // into the options values of modal/pipeline.hpp, which computes and writes
 // everything. Exit statuses: 0 success, 1 usage, 2 bad scene or input,
 // 3 unstable under --require-stable, 4 numerical failure.
+#include "memory_policy.hpp"
 #include "modal/pipeline.hpp"
 #if defined(MODAL_DISTRIBUTED)
 #include "modal/distributed.hpp"
@@ -25,35 +26,8 @@
 #include <cstring>
 
 #include <unistd.h>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 namespace {
-
-// The process's memory (docs/design.md, "Memory policy"): a 10⁶-coordinate
-// analysis allocates and frees buffers of tens to hundreds of MB thousands of
-// times. With jemalloc (MODAL_JEMALLOC), it is told here (read when it starts:
-// no environment variable, no second execution) to keep freed memory for
-// reuse instead of returning it to the system, and to back its large extents
-// with transparent huge pages. With glibc's malloc, set_memory_policy() does
-// the same with mallopt when main starts: every block from the heap, none
-// from its own mmap, and the heap never trimmed, so that a reuse costs no page
-// faults. Small scenes do not notice either.
-#if defined(MODAL_JEMALLOC)
-extern "C" {
-const char* malloc_conf = "thp:always,metadata_thp:auto,dirty_decay_ms:-1,muzzy_decay_ms:-1";
-}
-void set_memory_policy() {}
-#elif defined(__GLIBC__)
-void set_memory_policy() {
-  mallopt(M_MMAP_MAX, 0);
-  mallopt(M_TRIM_THRESHOLD, -1);  // never
-  mallopt(M_TOP_PAD, 64 << 20);
-}
-#else
-void set_memory_policy() {}
-#endif
 
 // Option checks whose messages read as sentences ("--modes must be a whole
 // number ≥ 1, got 0"), not CLI11's "Value 0 not in range 0 to 1.79e308".
@@ -219,7 +193,7 @@ int main(int argc, char** argv) {
 #if defined(MODAL_DISTRIBUTED)
   const modal::DistributedSession session;  // MPI, PETSc and SLEPc for the whole process
 #endif
-  set_memory_policy();
+  modal_program::set_memory_policy();
   modal::remove_output_temporaries_on_signals();  // an interrupt leaves the previous outputs as they were
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
