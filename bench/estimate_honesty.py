@@ -400,5 +400,31 @@ if not QUICK or "--out=" in " ".join(sys.argv):
                      f"{r['under']} | {f(r['bound_min'])} … {f(r['bound_max'])} | {r['bound_under']} | "
                      f"{r['groups']} ({r['false_notes']}) | {'pass' if r['pass_est'] else 'FAIL'} | "
                      f"{'pass' if r['pass_bound'] else 'FAIL'} |")
+    lines += [
+        "",
+        "*bound/true* for the nets is against the eigenvalues of the pencil modal formed at its own (loose)",
+        "equilibrium (the net rebuilt in long double at modal's coordinates): `residual_bound` bounds what the",
+        "eigen-solver left, not the equilibrium's error, which the estimate carries.",
+        "",
+        "## Before and after the sparse path's estimates (commit after 692a8cb)",
+        "",
+        "Measured with this script on d94908f (before) and on the commit that changed",
+        "lib/modal/sparse.cpp (after); estimate/true and bound/true, min … max:",
+        "",
+        "| scene | estimate before | estimate after | bound before | bound after | notes (false) before → after |",
+        "|---|---:|---:|---:|---:|---|",
+        "| net, --eq-tol 1e-12 | 630 … 1e5 | 11 … 18 | 290 … 8.1e4 | 180 … 8.1e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-9 | 630 … 1e5 | 11 … 18 | 290 … 8e4 | 180 … 8e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-6 | 290 … 910 | 2 … 2 | 270 … 9.9e4 | 170 … 9.9e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-4 | 87 … 210 | 5.2 … 16 | 200 … 1.1e3 | 200 … 390 | 1 (1) → 2 (2) |",
+        "",
+        "The other rows go through the dense, first-order and matrix-free (tree) paths, unchanged by it.",
+        "No estimate or bound is below the true error anywhere, before or after. Left: the dense path's",
+        "estimates of long uniform chains (up to 1e6× at the high modes, where the worst-case data term",
+        "4ε|λ||φ|ᵀ|M||φ| of the absolute-angle M, dense and positive, grows as N²), the matrix-free path",
+        "(chain N = 2000, 2e3 … 7e4×: its rounding is still the worst case), graded chains (up to 1.5e3×),",
+        "and the net at --eq-tol 1e-4, whose estimates (5–16×, λ moves by 13 % and the Newton step",
+        "overshoots it twice) overlap the 350 gap between modes 1 and 2, hence the false \"not resolved\" notes.",
+    ]
     open(OUT, "w").write("\n".join(lines) + "\n")
     print("wrote", OUT)
