@@ -353,6 +353,16 @@ for tol in (["1e-12", "1e-9", "1e-6", "1e-4"] if not QUICK else ["1e-12", "1e-9"
     formed = net_reference((30, 0.002, 1000.0, 0.1, 0.02, 9.81), 6, r["equilibrium"]["coordinates"])
     compare(f"net 2352, --eq-tol {tol}", r, net_ref, formed=formed)
 
+# a 10 x 10 net (192 coordinates): the dense path, whose loose-equilibrium term is |φ|ᵀ|ΔK||φ|
+small = os.path.join(WORK, "net10.toml")
+open(small, "w").write(open(net).read().replace("size = [30, 30, 1]", "size = [10, 10, 1]")
+                       .replace('origin = ["-29*a/2", "-29*a/2", 0]', 'origin = ["-9*a/2", "-9*a/2", 0]'))
+small_ref = net_reference((10, 0.002, 1000.0, 0.1, 0.02, 9.81), 6)
+for tol in (["1e-12", "1e-6", "1e-4"] if not QUICK else ["1e-6"]):
+    r, _ = analyze(small, ["--eq-tol", tol, "--modes", "6"])
+    formed = net_reference((10, 0.002, 1000.0, 0.1, 0.02, 9.81), 6, r["equilibrium"]["coordinates"])
+    compare(f"net 192 (dense), --eq-tol {tol}", r, small_ref, formed=formed)
+
 # 4. damped, follower-loaded and gyroscopic scenes (exported matrices, 50 digits)
 first_order = [("models/ziegler_damped.toml", ["--set", "P=1"]), ("models/ziegler_damped.toml", ["--set", "P=2.5"]),
                ("models/spinning_top.toml", []), ("models/foucault.toml", []),
