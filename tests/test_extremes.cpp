@@ -314,10 +314,10 @@ TEST(Extremes, LooseEquilibriumIsCoveredByTheEstimates) {
   }
   EXPECT_GT(worst, 1e-9);
   const SparseLinearModel sparse = linearize_sparse(sys, off, loose);
-  ASSERT_GT(sparse.K_systematic_error.nonZeros(), 0);
+  ASSERT_GT(sparse.K_equilibrium_shift.nonZeros(), 0);
   SparseModalOptions options;
   options.modes = 6;
-  options.K_systematic_error = sparse.K_systematic_error;
+  options.K_equilibrium_shift = sparse.K_equilibrium_shift;
   const ModalResult lowest = solve_sparse_modes(sparse.K, sparse.M, options);
   for (std::size_t j = 0; j < lowest.modes.size(); ++j)
     EXPECT_LE(std::abs(lowest.modes[j].omega2 - exact.modes[j].omega2),

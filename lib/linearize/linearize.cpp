@@ -308,7 +308,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
       const VectorX dq = -ldlt.solve(gradient);
       if (dq.allFinite()) {
         try {
-          model.K_systematic_error = (sparse_potential_hessian(s, ws, q + dq) - model.K).cwiseAbs();
+          model.K_equilibrium_shift = sparse_potential_hessian(s, ws, q + dq) - model.K;
         } catch (const NumericalError&) {
         }
       }

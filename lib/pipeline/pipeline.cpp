@@ -428,10 +428,11 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.shift = options.shift;
     so.tolerance = options.tolerance;
     so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
-    so.K_systematic_error = lin.K_systematic_error;     // a loose equilibrium's share of the error
+    so.K_systematic_error = lin.K_systematic_error;
+    so.K_equilibrium_shift = lin.K_equilibrium_shift;   // a loose equilibrium's share of the error
     so.inertia_scale = lin.inertia_scale;
     result = solve_sparse_modes(lin.K, lin.M, so);
-    if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_systematic_error.nonZeros() == 0)
+    if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_equilibrium_shift.nonZeros() == 0)
       result.notes.push_back(fmt::format(
           "the equilibrium's relative residual {:.1e} is above the rounding level, and the error it causes "
           "(K differs from K at the equilibrium) is not in the estimates: the sparse path takes it only above {:g}, "

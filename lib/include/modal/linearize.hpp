@@ -130,6 +130,10 @@ struct SparseLinearModel {
   // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
   // the residual is negligible. For the eigenvalues' error estimates.
   SparseMatrix K_systematic_error;
+  // K(q + δq) − K(q), signed (see above): the loose equilibrium's change of K
+  // for SparseModalOptions::K_equilibrium_shift; empty when the residual is
+  // negligible. K_systematic_error is then left empty.
+  SparseMatrix K_equilibrium_shift;
   VectorX inertia_scale;  // n, as LinearModel::inertia_scale; for SparseModalOptions::inertia_scale
   int size() const { return static_cast<int>(q.size()); }
 };

@@ -134,6 +134,13 @@ struct SparseModalOptions {
   // K_systematic_error), added to each mode's error estimate as |φ|ᵀE|φ|.
   // Empty: none.
   SparseMatrix K_systematic_error;
+  // A loose equilibrium's change of K on the way to the equilibrium (n×n,
+  // signed, e.g. SparseLinearModel::K_equilibrium_shift, ΔK = K(q + δq) −
+  // K(q)): each mode's estimate adds 2(|φᵀΔKφ| + δ_Δ²/g), first-order
+  // perturbation of the eigenvalue and its second-order remainder (δ_Δ =
+  // ‖ΔKφ − (φᵀΔKφ)Mφ‖_{M⁻¹}, g the gap to the other eigenvalues; δ_Δ itself
+  // where g is not known), doubled for the Newton step's own error. Empty: none.
+  SparseMatrix K_equilibrium_shift;
   // The natural inertia scale of each coordinate (n, e.g. SparseLinearModel::
   // inertia_scale): the pencil is equilibrated by it as in solve_modes
   // (LinearModel::inertia_scale). Empty: no scaling.

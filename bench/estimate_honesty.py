@@ -1,0 +1,440 @@
+#!/usr/bin/python3
+"""Are modal's error estimates and residual bounds true, in both directions? (issue 15, part 3)
+
+Runs `build/modal analyze` on a published family of scenes and compares every reported
+eigenvalue with a reference computed in extended precision, independently of modal's
+double path:
+
+  * hanging chains of N equal point-mass links (N up to 2000): the exact ω² = (g/a)·x_k,
+    x_k the zeros of the Laguerre polynomial L_N, refined by Newton's method in 30-digit
+    arithmetic (mpmath);
+  * graded chains (hinges, masses and lengths log-uniform over 10^6 each): the pencil of the
+    point-mass chain in absolute angles written down in closed form,
+    M_ij = l_i l_j Σ_{k ≥ max(i,j)} m_k, K_ii = g l_i Σ_{k ≥ i} m_k, solved in 40 digits;
+  * the sagging pre-tensioned net (models/net.toml) at several `--eq-tol`: the net rebuilt
+    here (particles, springs, gravity), its equilibrium and stiffness in long double
+    (Newton with double solves and long double residuals), the eigenvalues as long double
+    Rayleigh quotients of scipy's eigenvectors (error quadratic in theirs);
+  * damped, follower-loaded and gyroscopic scenes: the exported M, D + G, K (exact doubles)
+    as a quadratic eigenproblem, solved in 50 digits (mpmath eig of the companion matrix).
+
+For each scene: the ratio estimate/true and bound/true (min, max over the modes), with the
+true error floored at ε|λ| (one rounding of the value itself: an estimate cannot be asked to
+beat it), the number of underestimates (estimate < true error), and the "not resolved"
+notes whose eigenvalues the reference separates. Targets: every estimate ≥ true and
+≤ 10× it; every bound ≥ true (of the matrices as formed: see the page) and ≤ 100× it;
+no multiplicity note on separated eigenvalues.
+
+    bench/estimate_honesty.sh [build-dir]     (about 3 minutes on 2 cores)
+"""
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import mpmath
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.linalg import eigvalsh_tridiagonal
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = next((a for a in sys.argv[1:] if not a.startswith("--")), "build")
+MODAL = os.path.join(ROOT, BUILD, "modal") if not os.path.isabs(BUILD) else os.path.join(BUILD, "modal")
+QUICK = "--quick" in sys.argv  # smaller family, for a check during development
+OUT = next((a.split("=", 1)[1] for a in sys.argv[1:] if a.startswith("--out=")),
+           os.path.join(ROOT, "results", "estimate_honesty.md"))
+WORK = tempfile.mkdtemp(prefix="modal_honesty_")
+EPS = np.finfo(float).eps
+
+
+def analyze(scene, args, export=False):
+    """modal analyze SCENE ARGS → its JSON (and the export directory)."""
+    out = os.path.join(WORK, "r.json")
+    mats = tempfile.mkdtemp(dir=WORK, prefix="matrices_")
+    cmd = [MODAL, "analyze", scene, "--json", out] + args + (["--export-matrices", mats] if export else [])
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(" ".join(cmd) + ": " + p.stderr.strip())
+    return json.load(open(out)), mats
+
+
+# --- references --------------------------------------------------------------------------
+def laguerre_zeros(n, indices):
+    """Zeros x_k (k in indices, 0-based ascending) of L_n, 30 digits."""
+    mpmath.mp.dps = 30
+    # Guesses: the eigenvalues of the Jacobi matrix of L_n (Golub–Welsch; diagonal 2j + 1,
+    # off-diagonal j), accurate in double to ε·4n absolute; Newton then refines each.
+    guesses = eigvalsh_tridiagonal(2.0 * np.arange(n) + 1, np.arange(1.0, n))
+    out = []
+    for k in indices:
+        x = mpmath.mpf(guesses[k])
+        for _ in range(30):
+            p0, p1 = mpmath.mpf(1), 1 - x
+            for j in range(1, n):
+                p0, p1 = p1, ((2 * j + 1 - x) * p1 - j * p0) / (j + 1)
+            step = p1 / (n * (p1 - p0) / x)
+            x -= step
+            if abs(step) < mpmath.mpf(10) ** -26 * x:
+                break
+        out.append(x)
+    return out
+
+
+def chain_reference(n, g, length, indices):
+    a = mpmath.mpf(length) / n
+    return [mpmath.mpf(g) / a * x for x in laguerre_zeros(n, indices)]
+
+
+def symmetric_reference(M, K):
+    """Eigenvalues of K φ = λ M φ (mpmath matrices), ascending, at the current precision."""
+    L = mpmath.cholesky(M)
+    Li = mpmath.inverse(L)
+    C = Li * K * Li.T
+    C = (C + C.T) / 2
+    return sorted(mpmath.eigsy(C, eigvals_only=True))
+
+
+def graded_chain(links, seed):
+    """A hinge chain of point masses, masses and lengths log-uniform over 1e-3 … 1e3."""
+    rng = np.random.default_rng(seed)
+    lengths = np.exp(rng.uniform(math.log(1e-3), math.log(1e3), links))
+    masses = np.exp(rng.uniform(math.log(1e-3), math.log(1e3), links))
+    if seed % 3 == 0:
+        lengths.sort()
+    elif seed % 3 == 1:
+        lengths[::-1].sort()
+    text = ['title = "graded chain"', "gravity = [0, 0, -9.81]"]
+    for i, (l, m) in enumerate(zip(lengths, masses)):
+        text += ["[[body]]", f'name = "b{i}"', 'joint = "hinge"', "axis = [0, 1, 0]", f"mass = {m!r}",
+                 f"com = [0, 0, {-l!r}]"]
+        if i > 0:
+            text += [f'parent = "b{i - 1}"', f"origin = [0, 0, {-lengths[i - 1]!r}]"]
+    path = os.path.join(WORK, f"graded_{links}_{seed}.toml")
+    open(path, "w").write("\n".join(text) + "\n")
+    mpmath.mp.dps = 40
+    l = [mpmath.mpf(float(x)) for x in lengths]
+    m = [mpmath.mpf(float(x)) for x in masses]
+    g = mpmath.mpf(9.81)
+    tail = [sum(m[k:]) for k in range(links)]
+    M = mpmath.matrix(links, links)
+    K = mpmath.matrix(links, links)
+    for i in range(links):
+        K[i, i] = g * l[i] * tail[i]
+        for j in range(links):
+            M[i, j] = l[i] * l[j] * tail[max(i, j)]
+    return path, symmetric_reference(M, K)
+
+
+def net_reference(params, count, displacement=None):
+    """models/net.toml rebuilt: equilibrium, K and the lowest ω² in long double. With
+    `displacement` (modal's equilibrium coordinates by name), K there instead: the
+    eigenvalues of the matrices as modal formed them, what residual_bound bounds."""
+    LD = np.longdouble
+    side, m, k, a, p, g = params
+    idx = -np.ones((side, side), dtype=int)
+    free = [(i, j) for j in range(side) for i in range(side) if 0 < i < side - 1 and 0 < j < side - 1]
+    for f, (i, j) in enumerate(free):
+        idx[i, j] = f
+    pos0 = np.zeros((side, side, 3), dtype=LD)
+    for i in range(side):
+        for j in range(side):
+            pos0[i, j] = (LD(i) * LD(a) - LD(side - 1) * LD(a) / 2, LD(j) * LD(a) - LD(side - 1) * LD(a) / 2, 0)
+    springs = []
+    for i in range(side):
+        for j in range(side):
+            for di, dj in ((1, 0), (0, 1)):
+                if i + di < side and j + dj < side and (idx[i, j] >= 0 or idx[i + di, j + dj] >= 0):
+                    springs.append(((i, j), (i + di, j + dj)))
+    rest = (1 - LD(p)) * LD(a)
+    nf = len(free)
+
+    def positions(x):
+        pos = pos0.copy()
+        for f, (i, j) in enumerate(free):
+            pos[i, j] = x[3 * f:3 * f + 3]
+        return pos
+
+    def gradient_and_hessian(x, hessian=True):
+        pos = positions(x)
+        grad = np.zeros(3 * nf, dtype=LD)
+        grad[2::3] += LD(m) * LD(g)
+        rows, cols, vals = [], [], []
+        for (a1, b1) in springs:
+            d = pos[b1] - pos[a1]
+            ell = np.sqrt((d * d).sum())
+            u = d / ell
+            force = LD(k) * (ell - rest) * u  # on b, minus; on a, plus
+            H = LD(k) * ((1 - rest / ell) * (np.eye(3, dtype=LD) - np.outer(u, u)) + np.outer(u, u))
+            ends = [(idx[a1], -1), (idx[b1], 1)]
+            for (e, s) in ends:
+                if e >= 0:
+                    grad[3 * e:3 * e + 3] += s * force
+            if hessian:
+                for (e1, s1) in ends:
+                    for (e2, s2) in ends:
+                        if e1 >= 0 and e2 >= 0:
+                            for r in range(3):
+                                for c in range(3):
+                                    rows.append(3 * e1 + r)
+                                    cols.append(3 * e2 + c)
+                                    vals.append(s1 * s2 * H[r, c])
+        return grad, (rows, cols, vals)
+
+    x = np.concatenate([pos0[i, j] for (i, j) in free]).astype(LD)
+    if displacement is not None:
+        for f, (i, j) in enumerate(free):
+            for c, axis in enumerate("xyz"):
+                x[3 * f + c] += LD(repr(displacement[f"net.{i}.{j}.{axis}"]))
+    for it in range(0 if displacement is not None else 40):
+        grad, (r, c, v) = gradient_and_hessian(x)
+        H = sp.csc_matrix((np.array(v, dtype=float), (r, c)), shape=(3 * nf, 3 * nf))
+        dx = spla.spsolve(H, -grad.astype(float))
+        x = x + dx.astype(LD)
+        if np.max(np.abs(dx)) < 1e-17 * a and it > 3:
+            break
+    grad, (r, c, v) = gradient_and_hessian(x)
+    assert displacement is not None or float(np.max(np.abs(grad))) < 1e-12 * k * a, np.max(np.abs(grad))
+    vals = np.array(v, dtype=LD)
+    Kd = sp.csr_matrix((vals.astype(float), (r, c)), shape=(3 * nf, 3 * nf))
+    lam, vec = spla.eigsh(Kd, k=count + 2, M=sp.identity(3 * nf) * m, sigma=0, which="LM")
+    order = np.argsort(lam)
+    rr, cc = np.array(r), np.array(c)
+    out = []
+    for j in order[:count]:
+        xv = vec[:, j].astype(LD)
+        Kx = np.zeros(3 * nf, dtype=LD)
+        np.add.at(Kx, rr, vals * xv[cc])
+        out.append((xv * Kx).sum() / (LD(m) * (xv * xv).sum()))
+    return out
+
+
+def read_mtx(path):
+    lines = [l for l in open(path) if not l.startswith("%")]
+    n, _, _ = map(int, lines[0].split())
+    A = mpmath.matrix(n, n)
+    for l in lines[1:]:
+        i, j, v = l.split()
+        A[int(i) - 1, int(j) - 1] = mpmath.mpf(float(v))  # exact doubles (17 digits)
+    return A, ("symmetric" in open(path).readline())
+
+
+def first_order_reference(mats):
+    """Eigenvalues s of (s² M + s (D + G) + K) φ = 0 from the exported matrices, 50 digits."""
+    mpmath.mp.dps = 50
+
+    def load(name):
+        path = os.path.join(mats, name)
+        if not os.path.exists(path):
+            return None
+        A, symmetric = read_mtx(path)
+        if symmetric:
+            for i in range(A.rows):
+                for j in range(i):
+                    A[j, i] = A[i, j] if A[j, i] == 0 else A[j, i]
+                    A[i, j] = A[j, i]
+        return A
+
+    M, K = load("M.mtx"), load("K.mtx")
+    n = M.rows
+    C = mpmath.matrix(n, n)
+    for name in ("D.mtx", "G.mtx"):
+        A = load(name)
+        if A is not None:
+            C += A
+    Mi = mpmath.inverse(M)
+    A = mpmath.matrix(2 * n, 2 * n)
+    for i in range(n):
+        A[i, n + i] = 1
+    MK, MC = Mi * K, Mi * C
+    for i in range(n):
+        for j in range(n):
+            A[n + i, j] = -MK[i, j]
+            A[n + i, n + j] = -MC[i, j]
+    return list(mpmath.eig(A, left=False, right=False))
+
+
+# --- comparison --------------------------------------------------------------------------
+rows = []
+
+
+def not_resolved_groups(notes):
+    groups = []
+    for note in notes:
+        m = re.match(r"modes (\d+)–(\d+) are not resolved", note)
+        if m:
+            groups.append((int(m.group(1)), int(m.group(2))))
+    return groups
+
+
+def compare(name, result, reference, indices=None, symmetric=True, bound_note="", formed=None):
+    """`formed`: the eigenvalues of the matrices as modal formed them, for the bounds (default: reference)."""
+    modes = result["modes"]
+    if indices is None:
+        indices = list(range(len(modes)))
+    ratios, bounds, under, loose, worst_rel = [], [], 0, 0, 0.0
+    values, refs, errs = [], [], []
+    for k, ref, ref_formed in zip(indices, reference, formed if formed is not None else reference):
+        mode = modes[k]
+        if symmetric:
+            value = mode["omega2"]
+            true = abs(mpmath.mpf(value) - ref)
+        else:
+            value = complex(mode["growth_rate"], mode["omega"])
+            true = abs(mpmath.mpc(value) - ref)
+        true = float(true)
+        floor = max(true, EPS * float(abs(ref)))
+        est = mode["error_estimate"]
+        ratios.append((est / floor, est >= true))
+        if est < true:
+            under += 1
+        bound = mode.get("residual_bound")
+        if symmetric and bound is not None:
+            true_formed = float(abs(mpmath.mpf(value) - mpmath.mpf(repr(ref_formed)) if formed is not None
+                                    else abs(mpmath.mpf(value) - ref)))
+            floor_formed = max(true_formed, EPS * float(abs(ref)))
+            bounds.append((bound / floor_formed, bound >= true_formed))
+        worst_rel = max(worst_rel, true / float(abs(ref)))
+        values.append(value)
+        refs.append(ref)
+        errs.append(true)
+    false_notes = 0
+    position = {k: i for i, k in enumerate(indices)}
+    for first, last in not_resolved_groups(result.get("notes", [])):
+        members = [position[k - 1] for k in range(first, last + 1) if k - 1 in position]
+        if len(members) < 2:
+            continue
+        spread = float(max(abs(refs[i] - refs[members[0]]) for i in members))
+        if spread > 2 * max(errs[i] for i in members) + 1e-13 * float(abs(refs[members[0]])):
+            false_notes += 1
+    row = {
+        "scene": name, "modes": len(ratios), "solver": result.get("solver", "")[:40], "worst_rel": worst_rel,
+        "est_min": min(r for r, _ in ratios), "est_max": max(r for r, _ in ratios), "under": under,
+        "bound_min": min((r for r, _ in bounds), default=float("nan")),
+        "bound_max": max((r for r, _ in bounds), default=float("nan")),
+        "bound_under": sum(1 for _, ok in bounds if not ok), "false_notes": false_notes,
+        "groups": len(not_resolved_groups(result.get("notes", []))), "bound_note": bound_note,
+    }
+    row["pass_est"] = row["under"] == 0 and row["est_max"] <= 10
+    row["pass_bound"] = (not bounds) or (row["bound_under"] == 0 and row["bound_max"] <= 100)
+    rows.append(row)
+    print(f"{name}: {row['modes']} modes, worst rel {worst_rel:.1e}, estimate/true {row['est_min']:.2g}…"
+          f"{row['est_max']:.2g} (under {under}), bound/true {row['bound_min']:.2g}…{row['bound_max']:.2g} "
+          f"(under {row['bound_under']}), notes {row['groups']} (false {false_notes})", flush=True)
+
+
+started = time.time()
+chain = os.path.join(ROOT, "models", "hanging_chain.toml")
+# 1. uniform hanging chains (g = 1 as in the issue, and 9.81)
+chain_cases = [(10, 9.81, []), (100, 1.0, []), (300, 9.81, [])]
+if not QUICK:
+    chain_cases += [(1000, 1.0, []), (2000, 9.81, ["--modes", "20"])]
+for n, g, extra in chain_cases:
+    r, _ = analyze(chain, ["--set", f"N={n}", "--set", f"g={g}"] + extra)
+    count = len(r["modes"])
+    compare(f"chain N={n}, g={g}" + (" " + " ".join(extra) if extra else ""), r,
+            chain_reference(n, g, 1.0, range(count)))
+
+# 2. graded chains
+for links, seed in ([(4, 1), (8, 2)] if QUICK else [(3, 0), (4, 1), (6, 2), (8, 3), (12, 4), (16, 5), (20, 6)]):
+    path, ref = graded_chain(links, seed)
+    r, _ = analyze(path, [])
+    compare(f"graded chain {links} links (seed {seed})", r, ref)
+
+# 3. the net at several equilibrium tolerances
+net = os.path.join(ROOT, "models", "net.toml")
+net_ref = net_reference((30, 0.002, 1000.0, 0.1, 0.02, 9.81), 6)
+for tol in (["1e-12", "1e-9", "1e-6", "1e-4"] if not QUICK else ["1e-12", "1e-9"]):
+    r, _ = analyze(net, ["--eq-tol", tol, "--modes", "6"])
+    formed = net_reference((30, 0.002, 1000.0, 0.1, 0.02, 9.81), 6, r["equilibrium"]["coordinates"])
+    compare(f"net 2352, --eq-tol {tol}", r, net_ref, formed=formed)
+
+# a 10 x 10 net (192 coordinates): the dense path, whose loose-equilibrium term is |φ|ᵀ|ΔK||φ|
+small = os.path.join(WORK, "net10.toml")
+open(small, "w").write(open(net).read().replace("size = [30, 30, 1]", "size = [10, 10, 1]")
+                       .replace('origin = ["-29*a/2", "-29*a/2", 0]', 'origin = ["-9*a/2", "-9*a/2", 0]'))
+small_ref = net_reference((10, 0.002, 1000.0, 0.1, 0.02, 9.81), 6)
+for tol in (["1e-12", "1e-6", "1e-4"] if not QUICK else ["1e-6"]):
+    r, _ = analyze(small, ["--eq-tol", tol, "--modes", "6"])
+    formed = net_reference((10, 0.002, 1000.0, 0.1, 0.02, 9.81), 6, r["equilibrium"]["coordinates"])
+    compare(f"net 192 (dense), --eq-tol {tol}", r, small_ref, formed=formed)
+
+# 4. damped, follower-loaded and gyroscopic scenes (exported matrices, 50 digits)
+first_order = [("models/ziegler_damped.toml", ["--set", "P=1"]), ("models/ziegler_damped.toml", ["--set", "P=2.5"]),
+               ("models/spinning_top.toml", []), ("models/foucault.toml", []),
+               ("models/bead_on_hoop_frame.toml", [])]
+for scene, extra in first_order:
+    r, mats = analyze(os.path.join(ROOT, scene), extra, export=True)
+    ref = first_order_reference(mats)
+    modes = r["modes"]
+    if modes and modes[0].get("omega2") is not None:  # a symmetric scene after all
+        mpmath.mp.dps = 50
+        M, _ = read_mtx(os.path.join(mats, "M.mtx"))
+        compare(f"{os.path.basename(scene)} {' '.join(extra)}", r, sorted(
+            [-(s * s).real for s in ref if s.imag >= 0])[:len(modes)])
+        continue
+    picked = []
+    for mode in modes:
+        s = mpmath.mpc(complex(mode["growth_rate"], mode["omega"]))
+        best = min(range(len(ref)), key=lambda i: abs(ref[i] - s))
+        picked.append(ref.pop(best))
+    compare(f"{os.path.basename(scene)} {' '.join(extra)}".strip(), r, picked, symmetric=False)
+
+elapsed = time.time() - started
+# --- the page ----------------------------------------------------------------------------
+if not QUICK or "--out=" in " ".join(sys.argv):
+    def f(x, digits=2):
+        return "–" if isinstance(x, float) and math.isnan(x) else f"{x:.{digits}g}"
+
+    lines = [
+        "# Are the error estimates true? (issue 15, part 3)", "",
+        f"Regenerate: `bench/estimate_honesty.sh` (after `cmake --build build --target modal_app`; "
+        f"{elapsed / 60:.1f} minutes on {os.cpu_count()} cores, {time.strftime('%Y-%m-%d')}).", "",
+        "Every reported eigenvalue (ω², or s for damped, follower and gyroscopic scenes) against an",
+        "extended-precision reference computed without modal's double path (see `bench/estimate_honesty.py`:",
+        "Laguerre zeros in 30 digits for the uniform chains, the closed-form absolute-angle pencil in 40",
+        "digits for the graded chains, the net rebuilt in long double, the exported matrices in 50 digits",
+        "for first-order scenes). *true* is |value − reference| floored at ε·|reference|.",
+        "*estimate/true* and *bound/true*: min … max over the modes (targets: estimate in [1, 10], bound",
+        "in [1, 100]); *under*: modes whose estimate (bound) is below the true error; *notes*: \"not",
+        "resolved\" notes, and in brackets those whose reference eigenvalues are separated (false).", "",
+        "| scene | modes | worst rel. error | estimate/true | under | bound/true | under | notes (false) | estimate target | bound target |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---|---|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['modes']} | {r['worst_rel']:.1e} | {f(r['est_min'])} … {f(r['est_max'])} | "
+                     f"{r['under']} | {f(r['bound_min'])} … {f(r['bound_max'])} | {r['bound_under']} | "
+                     f"{r['groups']} ({r['false_notes']}) | {'pass' if r['pass_est'] else 'FAIL'} | "
+                     f"{'pass' if r['pass_bound'] else 'FAIL'} |")
+    lines += [
+        "",
+        "*bound/true* for the nets is against the eigenvalues of the pencil modal formed at its own (loose)",
+        "equilibrium (the net rebuilt in long double at modal's coordinates): `residual_bound` bounds what the",
+        "eigen-solver left, not the equilibrium's error, which the estimate carries.",
+        "",
+        "## Before and after the sparse path's estimates (commit after 692a8cb)",
+        "",
+        "Measured with this script on d94908f (before) and on the commit that changed",
+        "lib/modal/sparse.cpp (after); estimate/true and bound/true, min … max:",
+        "",
+        "| scene | estimate before | estimate after | bound before | bound after | notes (false) before → after |",
+        "|---|---:|---:|---:|---:|---|",
+        "| net, --eq-tol 1e-12 | 630 … 1e5 | 11 … 18 | 290 … 8.1e4 | 180 … 8.1e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-9 | 630 … 1e5 | 11 … 18 | 290 … 8e4 | 180 … 8e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-6 | 290 … 910 | 2 … 2 | 270 … 9.9e4 | 170 … 9.9e4 | 1 (0) → 1 (0) |",
+        "| net, --eq-tol 1e-4 | 87 … 210 | 5.2 … 16 | 200 … 1.1e3 | 200 … 390 | 1 (1) → 2 (2) |",
+        "",
+        "The other rows go through the dense, first-order and matrix-free (tree) paths, unchanged by it.",
+        "No estimate or bound is below the true error anywhere, before or after. Left: the dense path's",
+        "estimates of long uniform chains (up to 1e6× at the high modes, where the worst-case data term",
+        "4ε|λ||φ|ᵀ|M||φ| of the absolute-angle M, dense and positive, grows as N²), the matrix-free path",
+        "(chain N = 2000, 2e3 … 7e4×: its rounding is still the worst case), graded chains (up to 1.5e3×),",
+        "and the net at --eq-tol 1e-4, whose estimates (5–16×, λ moves by 13 % and the Newton step",
+        "overshoots it twice) overlap the 350 gap between modes 1 and 2, hence the false \"not resolved\" notes.",
+    ]
+    open(OUT, "w").write("\n".join(lines) + "\n")
+    print("wrote", OUT)
