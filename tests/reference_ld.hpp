@@ -22,13 +22,14 @@ using MatLD = Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>;
 using VecLD = Eigen::Matrix<LD, Eigen::Dynamic, 1>;
 
 // The reference basis θ, q = Tθ (T an integer matrix, exact): a rotational
-// coordinate of a body whose parent has a rotational coordinate about the same
-// world axis at q = 0 (hinge or rotation-vector component; the generated
-// bodies have no orientation, so the axes are the joints' own) is measured
-// from it, q_k = θ_k − θ_j. In relative angles a short link before a long one
-// makes M singular to (l_short/l_long)² — below long double's ε too (1e-24
-// for the families below) — while in θ the pencil is as well conditioned as
-// the links. Decided here from the scene description, not by modal.
+// coordinate (hinge or rotation-vector component; the generated bodies have
+// no orientation, so at q = 0 the world axes are the joints' own) is measured
+// from the nearest coordinate above its body turning about the same axis,
+// q_k = θ_k − θ_j, whatever joints lie between. In relative angles a short
+// link before a long one makes M singular to (l_short/l_long)² — below long
+// double's ε too (1e-24 for the families below) — while in θ the pencil is as
+// well conditioned as the links. Decided here from the scene description, not
+// by modal.
 inline MatLD reference_basis(const System& s) {
   const int n = s.size();
   MatLD T = MatLD::Identity(n, n);
@@ -42,28 +43,32 @@ inline MatLD reference_basis(const System& s) {
     return a;
   };
   for (int b = 0; b < static_cast<int>(s.bodies().size()); ++b) {
-    const int p = s.bodies()[static_cast<std::size_t>(b)].parent;
-    if (p < 0) continue;
-    const auto mine = axes(b), theirs = axes(p);
-    for (std::size_t i = 0; i < mine.size(); ++i)
-      for (std::size_t j = 0; j < theirs.size(); ++j)
-        if (!mine[i].isZero() && mine[i] == theirs[j])
-          T(s.first_coordinate(b) + static_cast<int>(i), s.first_coordinate(p) + static_cast<int>(j)) = -1;
+    const auto mine = axes(b);
+    for (std::size_t i = 0; i < mine.size(); ++i) {
+      if (mine[i].isZero()) continue;
+      bool found = false;
+      for (int p = s.bodies()[static_cast<std::size_t>(b)].parent; p >= 0 && !found;
+           p = s.bodies()[static_cast<std::size_t>(p)].parent) {
+        const auto theirs = axes(p);
+        for (std::size_t j = 0; j < theirs.size() && !found; ++j)
+          if (mine[i] == theirs[j]) {
+            T(s.first_coordinate(b) + static_cast<int>(i), s.first_coordinate(p) + static_cast<int>(j)) = -1;
+            found = true;
+          }
+      }
+    }
   }
   return T;
 }
 
-// M and ∇∇V at q in the basis θ, in long double, and the ω² of K φ = λ M φ
-// solved in long double by Eigen. M = Σ_b m J_vᵀJ_v + J_ωᵀ(R I Rᵀ)J_ω from
-// the Jacobians of each body's centre of mass and rotation, obtained by
-// forward-mode AD of the templated forward kinematics with the seeds Tθ
-// (independent of modal's composite-inertia mass matrix); ∇∇V by nested
-// duals of the templated potential with the same seeds. The pencil is scaled
-// by diag(M)^{-1/2} before the solve.
-inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
+// M and ∇∇V at q in the basis θ (q = Tθ), in long double. M = Σ_b m J_vᵀJ_v
+// + J_ωᵀ(R I Rᵀ)J_ω from the Jacobians of each body's centre of mass and
+// rotation, obtained by forward-mode AD of the templated forward kinematics
+// with the seeds Tθ (independent of modal's composite-inertia mass matrix);
+// ∇∇V by nested duals of the templated potential with the same seeds.
+inline void reference_pencil(const System& s, const VectorX& q, const MatLD& T, MatLD& M, MatLD& K) {
   const int n = s.size();
   const auto nb = s.bodies().size();
-  const MatLD T = reference_basis(s);
   using D1 = Dual<LD, 1>;
   std::vector<MatLD> Jv(nb, MatLD::Zero(3, n)), Jw(nb, MatLD::Zero(3, n));
   model::TreeState<D1> st;
@@ -94,7 +99,7 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
   for (int i = 0; i < n; ++i) ql[static_cast<std::size_t>(i)] = q[i];
   model::TreeState<LD> sl;
   model::forward_kinematics(s, ql.data(), sl);
-  MatLD M = MatLD::Zero(n, n);
+  M = MatLD::Zero(n, n);
   for (std::size_t b = 0; b < nb; ++b) {
     const Body& body = s.bodies()[b];
     MatLD I(3, 3);
@@ -110,7 +115,7 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
           s.bodies()[b].armature;
   M += T.transpose() * A * T;
   using D = Dual<Dual<LD, 1>, 1>;
-  MatLD K(n, n);
+  K.resize(n, n);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j <= i; ++j) {
       model::VX<D> qd(n);
@@ -123,6 +128,14 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
       model::forward_kinematics(s, qd.data(), sd);
       K(i, j) = K(j, i) = model::potential(s, sd, qd.data()).d[0].d[0];
     }
+}
+
+// The ω² of K φ = λ M φ in the reference basis, solved in long double by
+// Eigen. The pencil is scaled by diag(M)^{-1/2} before the solve.
+inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
+  const int n = s.size();
+  MatLD M, K;
+  reference_pencil(s, q, reference_basis(s), M, K);
   VecLD d(n);
   for (int i = 0; i < n; ++i) d[i] = 1 / std::sqrt(M(i, i));
   const MatLD Ms = d.asDiagonal() * M * d.asDiagonal(), Ks = d.asDiagonal() * K * d.asDiagonal();

@@ -59,24 +59,57 @@ struct Figures {
   double worst_error = 0;     // largest |ω² − reference| / |reference|
   double worst_looseness = 0; // largest estimate / max(true error, 1e-12 |reference|)
   int cases = 0, modes = 0;
+  int loose = 0;  // estimates over 1e3 × max(error, 1e-12 rel)
+  int refused = 0;
 };
 
-// modal's ω² against the references: each within its error estimate, and the
-// estimate within 1e3 of the true error (or of 1e-12 relative when the true
-// error is below that).
-void check_modes(const ModalResult& r, const std::vector<LD>& reference, const std::string& what, Figures& f) {
+// modal's ω² against the references. Every mode must lie within its error
+// estimate of a reference eigenvalue of its own, one to one: the reference
+// eigenvalues, ascending, are each given to the unpaired mode whose interval
+// [ω² − estimate, ω² + estimate] contains it and ends first (the greedy
+// matching of points to intervals, which pairs all whenever a pairing
+// exists). Where no intervals overlap this is the pairing in sorted order;
+// where a mode whose estimate says it is unknown (estimate ≫ ω², e.g. ω² 14.6
+// ± 5.7e5 in a ball chain) lies above a well determined one (0.2027 ± 1e-10),
+// sorted order would pair the latter with the eigenvalue below it. With
+// `looseness`, each estimate must also be within 1e3 times its pair's true
+// error (or 1e-12 relative when the error is below that).
+void check_modes(const ModalResult& r, const std::vector<LD>& reference, const std::string& what, Figures& f,
+                 bool looseness = true) {
   ASSERT_EQ(r.modes.size(), reference.size()) << what;
   ++f.cases;
-  for (std::size_t k = 0; k < reference.size(); ++k) {
+  const std::size_t n = reference.size();
+  std::vector<int> pair(n, -1);  // mode k → reference index
+  std::vector<LD> sorted = reference;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 0; i < n; ++i) {
+    int best = -1;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Mode& m = r.modes[k];
+      const LD lo = static_cast<LD>(m.omega2) - static_cast<LD>(m.error_estimate);
+      const LD hi = static_cast<LD>(m.omega2) + static_cast<LD>(m.error_estimate);
+      if (pair[k] >= 0 || sorted[i] < lo || sorted[i] > hi) continue;
+      if (best < 0 || hi < static_cast<LD>(r.modes[static_cast<std::size_t>(best)].omega2) +
+                               static_cast<LD>(r.modes[static_cast<std::size_t>(best)].error_estimate))
+        best = static_cast<int>(k);
+    }
+    if (best >= 0) pair[static_cast<std::size_t>(best)] = static_cast<int>(i);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
     const Mode& m = r.modes[k];
-    const double ref = static_cast<double>(reference[k]);
-    const double err = static_cast<double>(std::abs(static_cast<LD>(m.omega2) - reference[k]));
-    EXPECT_LE(err, m.error_estimate) << what << " mode " << k + 1 << ": ω² " << m.omega2 << ", reference " << ref;
+    const std::size_t i = pair[k] >= 0 ? static_cast<std::size_t>(pair[k]) : k;  // unpaired: its sorted place
+    const double ref = static_cast<double>(sorted[i]);
+    const double err = static_cast<double>(std::abs(static_cast<LD>(m.omega2) - sorted[i]));
+    EXPECT_GE(pair[k], 0) << what << " mode " << k + 1 << ": ω² " << m.omega2 << " ± " << m.error_estimate
+                          << " holds no reference eigenvalue of its own; in sorted order " << ref;
     const double floor = std::max(err, 1e-12 * std::abs(ref));
-    EXPECT_LE(m.error_estimate, 1e3 * floor) << what << " mode " << k + 1 << ": ω² " << m.omega2 << ", reference "
-                                             << ref << ", true error " << err;
+    if (looseness) {
+      EXPECT_LE(m.error_estimate, 1e3 * floor) << what << " mode " << k + 1 << ": ω² " << m.omega2 << ", reference "
+                                               << ref << ", true error " << err;
+    }
     f.worst_error = std::max(f.worst_error, err / std::abs(ref));
     f.worst_looseness = std::max(f.worst_looseness, m.error_estimate / floor);
+    f.loose += m.error_estimate > 1e3 * floor ? 1 : 0;
     ++f.modes;
   }
 }
@@ -126,33 +159,32 @@ void graded_links(std::mt19937_64& rng, int trial, int links, std::vector<double
 
 // The chain's modes at q = 0 against the long double reference; a refusal
 // (singular M) is a failure.
-void check_chain(const System& s, const std::string& what, Figures& f) {
+void check_chain(const System& s, const std::string& what, Figures& f, bool looseness) {
   const VectorX q = VectorX::Zero(s.size());
   ModalResult r;
   try {
     r = solve_modes(linearize(s, q));
   } catch (const std::exception& e) {
     ADD_FAILURE() << what << ": " << e.what();
+    ++f.refused;
     return;
   }
-  check_modes(r, reference_omega2(s, q), what, f);
+  check_modes(r, reference_omega2(s, q), what, f, looseness);
 }
 
-// DISABLED (issue 15 open): measured on this commit, of 60 chains 14 are
-// refused as singular, every one with a ball joint next to a hinge or ball
-// whose rotation axis is parallel to one of its own (b0.ry with a y hinge
-// below it): the change to absolute angles covers hinge–hinge pairs only
-// (absolute_angle_parents). In the 46 solved (314 modes) no mode exceeds its
-// estimate (before: 8, all of them the long double reference's own normwise
-// error, now refined by inverse iteration: a ball-and-slide chain's small
-// root agrees with its closed form to 1e-16), the worst relative error is
-// 2.1e-4 (a case whose estimate says so) and 20 estimates are more than 1e3
-// times the true error (before: 61), the worst by 2.2e11: 11 of those 12
-// chains have a ball joint (relative angles there keep the conditioning of
-// the refused ones), one is all hinges with mixed x and y axes (trial 59,
-// 1.2e4). Before this commit the reference was solved in relative angles
-// and 18 chains were refused.
-TEST(Graded, DISABLED_ChainsMatchTheLongDoubleReference) {
+void print_figures(const char* what, const Figures& f) {
+  std::printf("%s: %d cases (%d modes), %d refused, worst relative error %.1e, %d estimates over 1e3 x max(error, "
+              "1e-12 rel), worst by %.1e\n",
+              what, f.cases, f.modes, f.refused, f.worst_error, f.loose, f.worst_looseness);
+}
+
+// Chains of hinges (x or y), slides and balls. Before the general links of
+// absolute_angle_parents, 14 of these 60 were refused as singular (a ball
+// next to a hinge or ball with a parallel axis); now none is, and every mode
+// holds its reference eigenvalue within its estimate (check_modes). The
+// estimates' looseness is measured, not bounded, here (printed; bounded by
+// the DISABLED_ test below).
+void graded_chains(bool looseness) {
   std::mt19937_64 rng(1512);
   Figures f;
   for (int trial = 0; trial < 60; ++trial) {
@@ -180,11 +212,19 @@ TEST(Graded, DISABLED_ChainsMatchTheLongDoubleReference) {
       d.bodies.push_back(b);
       origin = Vec3(0, 0, -lengths[static_cast<std::size_t>(i)]);
     }
-    check_chain(System(d), "chain " + joints + " trial " + std::to_string(trial), f);
+    check_chain(System(d), "chain " + joints + " trial " + std::to_string(trial), f, looseness);
   }
-  std::printf("chains: %d cases (%d modes), worst relative error %.1e, worst estimate / max(error, 1e-12 rel) %.1f\n",
-              f.cases, f.modes, f.worst_error, f.worst_looseness);
+  print_figures("chains", f);
 }
+
+TEST(Graded, ChainsMatchTheLongDoubleReference) { graded_chains(false); }
+
+// DISABLED (issue 15 open): the estimates within 1e3 of the true error.
+// Measured on this commit: 59 of 438 modes
+// over 1e3 × max(error, 1e-12 rel), worst by 1.3e14; the worst relative
+// error 4.1e6, within its estimate (a ball chain whose ∇∇V in θ is formed
+// by a congruence: docs/design.md, "General links").
+TEST(Graded, DISABLED_ChainEstimatesAreWithinAThousandTimesTheError) { graded_chains(true); }
 
 // Hinge chains, N = 2..8, the axes y (parallel: solved in absolute angles)
 // or, on some joints, x, lengths and masses log-uniform over [1e-6, 1e6] in
@@ -192,16 +232,10 @@ TEST(Graded, DISABLED_ChainsMatchTheLongDoubleReference) {
 // last body's centre of mass (at its rest length: q = 0 stays the
 // equilibrium) on some trials: every term of the absolute-angle assembly.
 // Same reference and tolerances as the chains above.
-// DISABLED (issue 15 open): measured on this commit, of 60 chains 2 are
-// refused as singular (x hinges separated by y hinges, xyyx…: parallel axes
-// that are not parent and child, which absolute_angle_parents does not link),
-// in the 58 solved (278 modes) no mode exceeds its estimate (so the springs,
-// armatures and spring elements of the absolute-angle assembly agree with
-// the reference), the worst relative error is 1.6e-4 (within its estimate),
-// and 15 estimates are more than 1e3 times max(error, 1e-12 rel), by 2 to
-// 6e9 (worst: xxxyxxy, xxyyyy; all-y chains up to 3.4e4, trial 30). Which
-// term of the estimate dominates there is not yet measured.
-TEST(Graded, DISABLED_HingeChainsWithSpringsAndArmaturesMatchTheLongDoubleReference) {
+// Before the general links, 2 of these 60 were refused (x hinges separated
+// by y hinges, xyyx…: parallel axes that are not parent and child); now
+// none is, and every mode holds its reference eigenvalue within its estimate.
+void graded_hinge_chains(bool looseness) {
   std::mt19937_64 rng(1515);
   Figures f;
   for (int trial = 0; trial < 60; ++trial) {
@@ -240,10 +274,84 @@ TEST(Graded, DISABLED_HingeChainsWithSpringsAndArmaturesMatchTheLongDoubleRefere
       sp.stiffness = masses[1] * 9.81 / lengths[1] * log_uniform(rng, 1e-2, 1e2);
       d.springs.push_back(sp);
     }
-    check_chain(System(d), "chain " + axes + " trial " + std::to_string(trial), f);
+    check_chain(System(d), "chain " + axes + " trial " + std::to_string(trial), f, looseness);
   }
-  std::printf("hinge chains: %d cases (%d modes), worst relative error %.1e, worst estimate / max(error, 1e-12 rel) %.1f\n",
-              f.cases, f.modes, f.worst_error, f.worst_looseness);
+  print_figures("hinge chains", f);
+}
+
+TEST(Graded, HingeChainsWithSpringsAndArmaturesMatchTheLongDoubleReference) { graded_hinge_chains(false); }
+
+// DISABLED (issue 15 open): the estimates within 1e3 of the true error.
+// Measured on this commit: 15 of 294 modes
+// over 1e3 × max(error, 1e-12 rel), worst by 5.2e9 (worst relative error
+// 1.3e-7).
+TEST(Graded, DISABLED_HingeChainEstimatesAreWithinAThousandTimesTheError) { graded_hinge_chains(true); }
+
+// The basis of absolute angles against its definition: on ungraded trees
+// (lengths and masses within a decade, where nothing cancels) with hinges
+// about x, y and z, balls and slides at random q, M and ∇∇V assembled in θ
+// must equal TᵀMT and Tᵀ∇∇V T formed from modal's M and ∇∇V in q, T built
+// from the links (q_k = θ_k − θ_parent(k)), and every link must join two
+// coordinates turning about the same world axis. Tolerance 1e-12 of the
+// largest entry: the two sides round differently, by a few ε per term.
+TEST(Graded, AbsoluteAnglesAreACongruenceOfTheRelativeOnes) {
+  std::mt19937_64 rng(1519);
+  int linked = 0, beyond_parent = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    const int links = 2 + trial % 7;
+    for (int i = 0; i < links; ++i) {
+      const int pick = std::uniform_int_distribution<int>(0, 5)(rng);
+      const JointType joint = pick == 4 ? JointType::slide : pick == 5 ? JointType::ball : JointType::hinge;
+      const int parent = i == 0 ? -1 : std::uniform_int_distribution<int>(std::max(-1, i - 3), i - 1)(rng);
+      const double l = log_uniform(rng, 0.3, 3);
+      Body b = link(parent, joint, Vec3(0.1 * l, 0.2 * l, -l), log_uniform(rng, 0.3, 3), l);
+      b.name = "b" + std::to_string(i);
+      if (joint == JointType::hinge) b.axis = pick == 1 ? Vec3::UnitX() : pick == 2 ? Vec3::UnitZ() : Vec3::UnitY();
+      b.armature = trial % 2 == 0 ? 0.1 * b.mass : 0.0;
+      b.stiffness = 3.0;
+      b.rest = VectorX::Zero(joint_coordinate_count(b));
+      d.bodies.push_back(b);
+    }
+    const System s(d);
+    Workspace w(s);
+    const bool zero = trial % 3 != 0;  // parallel axes need q = 0 on most trials
+    const VectorX q = zero ? VectorX::Zero(s.size()) : VectorX(0.3 * VectorX::Random(s.size()));
+    const std::vector<int> parent = absolute_angle_parents(s, w, q);
+    MatrixX T = MatrixX::Identity(s.size(), s.size());
+    model::TreeState<double> st;
+    model::forward_kinematics(s, q.data(), st);
+    for (int k = 0; k < s.size(); ++k) {
+      const int j = parent[static_cast<std::size_t>(k)];
+      if (j < 0) continue;
+      T(k, j) = -1;
+      ++linked;
+      EXPECT_LE((st.omega[static_cast<std::size_t>(k)] - st.omega[static_cast<std::size_t>(j)]).norm(), 1e-15);
+      EXPECT_LT(j, k);
+    }
+    for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+      const int a = s.bodies()[b].parent;
+      for (int k = s.first_coordinate(static_cast<int>(b)); k < s.first_coordinate(static_cast<int>(b)) + s.joint_size(static_cast<int>(b)); ++k)
+        if (parent[static_cast<std::size_t>(k)] >= 0 &&
+            (s.bodies()[b].joint != JointType::hinge || parent[static_cast<std::size_t>(k)] < s.first_coordinate(a)))
+          ++beyond_parent;
+    }
+    const MatrixX M = mass_matrix(s, w, q), K = potential_hessian(s, w, q);
+    const AbsoluteAngleModel m = absolute_angle_model(s, w, q, parent);
+    const MatrixX TMT = T.transpose() * M * T, TKT = T.transpose() * K * T;
+    EXPECT_LE((m.M - TMT).cwiseAbs().maxCoeff(), 1e-12 * TMT.cwiseAbs().maxCoeff()) << "trial " << trial << "\n"
+                                                                                   << m.M << "\n\n"
+                                                                                   << TMT;
+    EXPECT_LE((m.K - TKT).cwiseAbs().maxCoeff(), 1e-12 * TKT.cwiseAbs().maxCoeff()) << "trial " << trial;
+    for (int j = 0; j < s.size(); ++j) {
+      EXPECT_GE(m.inertia_scale[j], (1 - 1e-12) * m.M(j, j)) << "trial " << trial << " coordinate " << j;
+      EXPECT_GE(inertia_scale(s, w, q)[j], (1 - 1e-12) * M(j, j)) << "PLAIN trial " << trial << " coordinate " << j;
+    }
+  }
+  EXPECT_GT(linked, 20);
+  EXPECT_GT(beyond_parent, 5);  // links past a ball or across other axes, not only hinge under hinge
+  std::printf("congruence: %d links, %d beyond a parent hinge\n", linked, beyond_parent);
 }
 
 // The degenerate side: a massless end body, aligned hinge axes (two hinges

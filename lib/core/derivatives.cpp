@@ -691,11 +691,159 @@ VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q) {
   VectorX scale(s.size());
   for (std::size_t b = 0; b < s.bodies().size(); ++b) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)  // ‖ω_k‖ ≤ 1, ‖u_k‖ = 1
-      scale[k] = st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3) : Ic[b].block<3, 3>(0, 0).trace();
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)  // ‖ω_k‖ ≤ 1, ‖u_k‖ = 1; and the armature
+      scale[k] = (st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3) : Ic[b].block<3, 3>(0, 0).trace()) +
+                 s.bodies()[b].armature;
   }
   return scale;
 }
+
+namespace {
+
+// Σ_b (coordinates on b's path)²: the cost of assembling M body by body in a
+// basis whose columns reach beyond a parent (absolute_mass_matrix).
+double path_coordinate_work(const System& s) {
+  const auto& bodies = s.bodies();
+  std::vector<double> on_path(bodies.size(), 0.0);
+  double work = 0;
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    on_path[b] = s.joint_size(static_cast<int>(b)) +
+                 (bodies[b].parent >= 0 ? on_path[static_cast<std::size_t>(bodies[b].parent)] : 0.0);
+    work += on_path[b] * on_path[b];
+  }
+  return work;
+}
+
+// Above this work (a chain of about 390 coordinates) only hinges under a
+// parallel parent hinge are linked, as their assembly (model::region_inertias)
+// is O(n·depth); the general assembly is O(Σ path²).
+constexpr double general_link_work = 2e7;
+
+bool is_held(const System& s, const std::vector<int>& parents, std::size_t b) {
+  const int a = s.bodies()[b].parent;
+  if (a < 0 || s.bodies()[b].joint != JointType::hinge || s.bodies()[static_cast<std::size_t>(a)].joint != JointType::hinge)
+    return false;
+  return parents[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)))] == s.first_coordinate(a);
+}
+
+// M in the basis θ (q = Tθ, q_k = θ_k − θ_parent(k)) assembled body by body
+// from the twists of T's columns, and the coordinates' natural inertia
+// scales. Column j turns the subtree of j's body about p_j and turns back the
+// subtree of every k linked to it (parent[k] = j), so that subtree moves by
+// ξ_j − ξ_k: formed as (δω, δω × (x − p_k) + ω_j × d_k + u_j − u_k) with δω =
+// ω_j − ω_k and d_k = p_k − p_j summed from the offsets between, nothing
+// cancels. δω is dropped for a held hinge (model::region_inertias makes the
+// same choice in ∇∇V).
+void absolute_mass_matrix(const System& s, const TreeState<double>& st, const std::vector<int>& parent, MatrixX& M,
+                          VectorX& scale) {
+  const int n = s.size();
+  const auto& bodies = s.bodies();
+  std::vector<int> body_of(static_cast<std::size_t>(n));
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
+      body_of[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)) + i)] = static_cast<int>(b);
+  std::vector<Vec3> d(static_cast<std::size_t>(n), Vec3::Zero());  // p_k − p_parent(k)
+  std::vector<char> exact(static_cast<std::size_t>(n), 0);         // δω kept
+  for (int k = 0; k < n; ++k) {
+    const int j = parent[static_cast<std::size_t>(k)];
+    if (j < 0) continue;
+    const auto bk = static_cast<std::size_t>(body_of[static_cast<std::size_t>(k)]);
+    exact[static_cast<std::size_t>(k)] = !is_held(s, parent, bk);
+    for (int c = static_cast<int>(bk); c != body_of[static_cast<std::size_t>(j)]; c = bodies[static_cast<std::size_t>(c)].parent)
+      d[static_cast<std::size_t>(k)] += st.offset[static_cast<std::size_t>(c)];
+  }
+  M.setZero(n, n);
+  scale.setZero(n);
+  std::vector<int> cols;
+  std::vector<Vec3> lever;  // per path coordinate: p_b − p of its body
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J, J_q;  // θ's and q's columns
+  std::vector<char> replaced;
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    cols.clear();
+    lever.clear();
+    Vec3 l = Vec3::Zero();
+    for (int a = static_cast<int>(b); a >= 0; a = bodies[static_cast<std::size_t>(a)].parent) {
+      for (int c = s.first_coordinate(a) + s.joint_size(a); c-- > s.first_coordinate(a);) {
+        cols.push_back(c);
+        lever.push_back(l);
+      }
+      l += st.offset[static_cast<std::size_t>(a)];
+    }
+    const auto m = static_cast<Eigen::Index>(cols.size());
+    if (m == 0) continue;
+    J.resize(6, m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const auto c = static_cast<std::size_t>(cols[static_cast<std::size_t>(i)]);
+      J.col(i) << st.omega[c], st.omega[c].cross(lever[static_cast<std::size_t>(i)]) + st.centre_velocity[c];
+    }
+    J_q = J;
+    // Links within the path: column j gains −ξ_k. The deepest such k (met
+    // first) is combined with ξ_j as written above, any further one subtracted.
+    replaced.assign(static_cast<std::size_t>(m), 0);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const auto k = static_cast<std::size_t>(cols[static_cast<std::size_t>(i)]);
+      const int j = parent[k];
+      if (j < 0) continue;
+      const auto it = std::find(cols.begin() + i + 1, cols.end(), j);
+      if (it == cols.end()) continue;
+      const auto at = static_cast<std::size_t>(it - cols.begin());
+      const auto jj = static_cast<std::size_t>(j);
+      if (replaced[at]) {
+        J.col(static_cast<Eigen::Index>(at)) -= J_q.col(i);
+        continue;
+      }
+      replaced[at] = 1;
+      const Vec3 dw = exact[k] ? Vec3(st.omega[jj] - st.omega[k]) : Vec3::Zero();
+      J.col(static_cast<Eigen::Index>(at)) << dw,
+          dw.cross(lever[static_cast<std::size_t>(i)]) + st.omega[jj].cross(d[k]) +
+              (st.centre_velocity[jj] - st.centre_velocity[k]);
+    }
+    const Eigen::Matrix<double, 6, 6> I = model::spatial_inertia(bodies[b], st, b);
+    const MatrixX IJ = I * J;
+    const MatrixX B = J.transpose() * IJ;
+    const double trace = I.block<3, 3>(0, 0).trace(), h = I.block<3, 3>(0, 3).norm(), mass = I(3, 3);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const auto ci = cols[static_cast<std::size_t>(i)];
+      for (Eigen::Index r = 0; r < m; ++r) M(cols[static_cast<std::size_t>(r)], ci) += B(r, i);
+      const double w = J.col(i).head<3>().norm(), v = J.col(i).tail<3>().norm();
+      scale[ci] += w * w * trace + 2 * w * v * h + mass * v * v;
+    }
+  }
+  // Armatures: ½a(|ω|² + |u|²) of each joint's own rate, q̇_c = θ̇_c − θ̇_parent(c).
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const double a = bodies[b].armature;
+    if (a == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b)), nq = s.joint_size(static_cast<int>(b));
+    for (int c = k0; c < k0 + nq; ++c)
+      for (int e = k0; e < k0 + nq; ++e) {
+        const auto cc = static_cast<std::size_t>(c), ee = static_cast<std::size_t>(e);
+        const double v = a * (st.omega[cc].dot(st.omega[ee]) + st.centre_velocity[cc].dot(st.centre_velocity[ee]));
+        const int pc = parent[cc], pe = parent[ee];
+        M(c, e) += v;
+        if (pc >= 0) M(pc, e) -= v;
+        if (pe >= 0) M(c, pe) -= v;
+        if (pc >= 0 && pe >= 0) M(pc, pe) += v;
+        if (c == e) {
+          scale[c] += std::abs(v);
+          if (pc >= 0) scale[pc] += std::abs(v);
+        }
+      }
+  }
+  M = 0.5 * (M + M.transpose()).eval();
+}
+
+// X ← T₂ᵀ X T₂ with T₂ = I − Σ e_k e_{m(k)}ᵀ; with `magnitude`, |T₂|ᵀ X |T₂|.
+void congruence(MatrixX& X, const std::vector<int>& m, bool magnitude) {
+  const double sign = magnitude ? 1.0 : -1.0;
+  const MatrixX A = X;
+  for (std::size_t k = 0; k < m.size(); ++k)
+    if (m[k] >= 0) X.col(m[k]) += sign * A.col(static_cast<Eigen::Index>(k));
+  const MatrixX B = X;
+  for (std::size_t k = 0; k < m.size(); ++k)
+    if (m[k] >= 0) X.row(m[k]) += sign * B.row(static_cast<Eigen::Index>(k));
+}
+
+}  // namespace
 
 std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const VectorX& q) {
   std::vector<int> parent(static_cast<std::size_t>(s.size()), -1);
@@ -703,13 +851,25 @@ std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const Vec
   const TreeState<double>& st = kinematics(s, w, q);
   const auto& bodies = s.bodies();
   constexpr double tolerance = 8 * std::numeric_limits<double>::epsilon();  // both unit vectors
+  const bool general = path_coordinate_work(s) <= general_link_work;
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const int a = bodies[b].parent;
-    if (bodies[b].joint != JointType::hinge || a < 0 || bodies[static_cast<std::size_t>(a)].joint != JointType::hinge)
-      continue;
-    const int k = s.first_coordinate(static_cast<int>(b)), j = s.first_coordinate(a);
-    if ((st.omega[static_cast<std::size_t>(k)] - st.omega[static_cast<std::size_t>(j)]).norm() <= tolerance)
-      parent[static_cast<std::size_t>(k)] = j;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k) {
+      const Vec3& wk = st.omega[static_cast<std::size_t>(k)];
+      if (wk.isZero(0.0)) continue;  // a translation
+      // The nearest coordinate above k's body turning about the same world axis.
+      for (int a = bodies[b].parent, steps = 0; a >= 0 && parent[static_cast<std::size_t>(k)] < 0;
+           a = bodies[static_cast<std::size_t>(a)].parent, ++steps) {
+        if (!general && (steps > 0 || bodies[b].joint != JointType::hinge ||
+                         bodies[static_cast<std::size_t>(a)].joint != JointType::hinge))
+          break;
+        for (int j = s.first_coordinate(a) + s.joint_size(a); j-- > s.first_coordinate(a);)
+          if ((wk - st.omega[static_cast<std::size_t>(j)]).norm() <= tolerance) {
+            parent[static_cast<std::size_t>(k)] = j;
+            break;
+          }
+      }
+    }
   }
   return parent;
 }
@@ -720,34 +880,58 @@ AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const Vec
   if (s.is_map() || static_cast<int>(parents.size()) != n)
     throw std::invalid_argument("absolute_angle_model: a tree and one parent entry per coordinate are required");
   std::vector<char> held(s.bodies().size(), 0);
+  for (std::size_t b = 0; b < s.bodies().size(); ++b) held[b] = is_held(s, parents, b) ? 1 : 0;
+  // The links that are not a hinge under its parent hinge: T = T₁T₂, T₁ of
+  // the held hinges (assembled below in θ₁ = T₁⁻¹q by region sums), T₂ = I −
+  // Σ e_k e_{m(k)}ᵀ, m(k) the coordinate the chain of held links above k
+  // starts from.
+  std::vector<int> m2(static_cast<std::size_t>(n), -1);
+  bool general = false;
   for (std::size_t b = 0; b < s.bodies().size(); ++b)
-    if (s.joint_size(static_cast<int>(b)) == 1 && parents[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)))] >= 0)
-      held[b] = 1;
+    for (int k = s.first_coordinate(static_cast<int>(b)); k < s.first_coordinate(static_cast<int>(b)) + s.joint_size(static_cast<int>(b)); ++k) {
+      const int j = parents[static_cast<std::size_t>(k)];
+      if (j < 0) continue;
+      if (held[b]) {
+        m2[static_cast<std::size_t>(k)] = m2[static_cast<std::size_t>(j)];
+      } else {
+        m2[static_cast<std::size_t>(k)] = j;
+        general = true;
+      }
+    }
   AbsoluteAngleModel m;
   m.parent = parents;
   const TreeState<double>& st = kinematics(s, w, q);
   const model::Inertias<double> Ic = model::composite_inertias(s, st);
-  model::mass_matrix(s, st, Ic, m.M, &held);
-  // Natural scales as inertia_scale: the region's rotational trace plus the
-  // held children's translation, m_c |offset_c|² (≥ M_kk for a unit ω).
-  const model::Inertias<double> region = model::region_inertias(s, st, Ic, held);
-  m.inertia_scale.resize(n);
-  for (std::size_t b = 0; b < s.bodies().size(); ++b) {
-    const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)
-      m.inertia_scale[k] = st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3)
-                                                                              : region[b].block<3, 3>(0, 0).trace();
-  }
-  for (std::size_t c = 0; c < s.bodies().size(); ++c)
-    if (held[c]) {
-      const int k = s.first_coordinate(s.bodies()[c].parent);
-      m.inertia_scale[k] += Ic[c](3, 3) * st.offset[c].squaredNorm() + s.bodies()[c].armature;
+  if (general) {
+    absolute_mass_matrix(s, st, parents, m.M, m.inertia_scale);
+  } else {
+    model::mass_matrix(s, st, Ic, m.M, &held);
+    // Natural scales as inertia_scale: the region's rotational trace plus the
+    // held children's translation, m_c |offset_c|² (≥ M_kk for a unit ω).
+    const model::Inertias<double> region = model::region_inertias(s, st, Ic, held);
+    m.inertia_scale.resize(n);
+    for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+      const int k0 = s.first_coordinate(static_cast<int>(b));
+      for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)
+        m.inertia_scale[k] = (st.omega[static_cast<std::size_t>(k)].isZero(0.0) ? Ic[b](3, 3)
+                                                                                 : region[b].block<3, 3>(0, 0).trace()) +
+                             s.bodies()[b].armature;
     }
+    for (std::size_t c = 0; c < s.bodies().size(); ++c)
+      if (held[c]) {
+        const int k = s.first_coordinate(s.bodies()[c].parent);
+        m.inertia_scale[k] += Ic[c](3, 3) * st.offset[c].squaredNorm() + s.bodies()[c].armature;
+      }
+  }
   m.K.setZero(n, n);
   assemble_potential_hessian(s, w, q, dense_adder(m.K), &held);
   m.K = 0.5 * (m.K + m.K.transpose()).eval();
   m.K_magnitude.setZero(n, n);
   assemble_potential_hessian(s, w, q, [&m](int j, int k, double v) { m.K_magnitude(j, k) += std::abs(v); }, &held);
+  if (general) {  // ∇∇V has no second-order lengths to lose: T₂ᵀ(T₁ᵀ∇∇V T₁)T₂ keeps ε|T₂|ᵀ|K||T₂|
+    congruence(m.K, m2, false);
+    congruence(m.K_magnitude, m2, true);
+  }
   return m;
 }
 

@@ -432,16 +432,20 @@ const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);    
 // for kinematic maps, whose coordinates have no such scale.
 VectorX inertia_scale(const System& s, Workspace& w, const VectorX& q);
 
-// Absolute angles of parallel hinges (docs/design.md, "Graded scenes"). A
-// hinge whose parent's joint is a hinge about the same world axis at q (to
-// 8ε) measures its angle from its parent: in a chain with a short link before
-// a long one, M in these relative angles is singular to (l_short/l_long)² in
-// double precision, whatever the diagonal scaling. In the absolute angles
-// θ_b = θ_parent + q_b (q = Tθ, T unit lower triangular) the same chain is
-// as well conditioned as its links, provided the matrices are ASSEMBLED in θ
-// (TᵀMT formed from a rounded M keeps M's lost digits lost).
-// absolute_angle_parents: per coordinate, the coordinate of the parent hinge
-// it is measured from, or -1 (all -1 for maps and where nothing is parallel).
+// Absolute angles of parallel axes (docs/design.md, "Graded scenes"). A
+// rotational coordinate (hinge or rotation-vector component) is measured from
+// the nearest coordinate above its body that turns about the same world axis
+// at q (to 8ε), whatever joints lie between: in a chain with a short link
+// before a long one, M in these relative angles is singular to
+// (l_short/l_long)² in double precision, whatever the diagonal scaling. In
+// the absolute angles θ_k = θ_parent(k) + q_k (q = Tθ, T unit lower
+// triangular) the same chain is as well conditioned as its links, provided
+// the matrices are ASSEMBLED in θ (TᵀMT formed from a rounded M keeps M's
+// lost digits lost). Links other than a hinge under a parallel parent hinge
+// are made only while Σ over bodies of (coordinates on the body's path)² is
+// at most 2e7 (a chain of about 390 coordinates), the cost of their assembly.
+// absolute_angle_parents: per coordinate, the coordinate it is measured
+// from, or -1 (all -1 for maps and where nothing is parallel).
 std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const VectorX& q);
 struct AbsoluteAngleModel {
   std::vector<int> parent;  // n: as absolute_angle_parents; empty: no change of basis
@@ -452,7 +456,10 @@ struct AbsoluteAngleModel {
   bool empty() const { return parent.empty(); }
 };
 // M, ∇∇V and their companions assembled in θ (trees only: no map; the
-// potential's elements only, so neither follower loads nor constraints).
+// potential's elements only, so neither follower loads nor constraints). M
+// is exact to rounding for any links; ∇∇V is exact for hinges under a parallel
+// parent hinge, and the other links are applied to it as a congruence, whose
+// cancellation K_magnitude carries (|T₂|ᵀ Σ|terms| |T₂|).
 AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const VectorX& q,
                                         const std::vector<int>& parents);
 double kinetic_energy(const System& s, Workspace& w, const VectorX& q, const VectorX& qd);  // ½q̇ᵀMq̇, J
