@@ -284,3 +284,44 @@ TEST(Slack, PartlySlackGradedNetsBalanceByAnIndependentForceModel) {
 }
 
 }  // namespace
+
+// The metric of the damped steps (modal::sparse_tension_metric): for a scene
+// of particles it must be the Hessian of Σ ½ k |x_a − x_b|² over the springs,
+// the k-weighted graph Laplacian of the net in each direction, built here
+// from the spring list alone, at any configuration, and definite when the
+// boundary is fixed.
+TEST(Slack, TensionMetricIsTheLaplacianOfTheSpringGraph) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 3; ++trial) {
+    Net net{std::uniform_int_distribution<int>(4, 8)(rng), log_uniform(rng, 0.01, 1.0), 0.1,
+            log_uniform(rng, 1, 1e6), trial == 0 ? 0.0 : 0.01};
+    SCOPED_TRACE(net_scene(net));
+    const modal::Model model = modal::model_from_text(net_scene(net), "metric.toml");
+    const modal::System& s = model.system;
+    const int n = s.size();
+    modal::VectorX q = s.initial_configuration();
+    std::normal_distribution<double> noise(0.0, 0.1 * net.spacing);
+    for (int k = 0; k < n; ++k) q[k] += noise(rng);  // anywhere: D does not depend on q for particles
+    modal::Workspace w(s);
+    const Eigen::MatrixXd D(modal::sparse_tension_metric(s, w, q));
+
+    Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
+    auto coordinate = [&](const modal::Attachment& a, int axis) {
+      return a.body < 0 || s.joint_size(a.body) == 0 ? -1 : s.first_coordinate(a.body) + axis;  // fixed: none
+    };
+    for (const modal::Spring& sp : s.springs()) {
+      for (int axis = 0; axis < 3; ++axis) {
+        const int i = coordinate(sp.a, axis), j = coordinate(sp.b, axis);
+        if (i >= 0) L(i, i) += sp.stiffness;
+        if (j >= 0) L(j, j) += sp.stiffness;
+        if (i >= 0 && j >= 0) {
+          L(i, j) -= sp.stiffness;
+          L(j, i) -= sp.stiffness;
+        }
+      }
+    }
+    EXPECT_LE((D - L).cwiseAbs().maxCoeff(), 1e-14 * L.cwiseAbs().maxCoeff());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(D, Eigen::EigenvaluesOnly);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), 0) << "the boundary is fixed: every coordinate is held";
+  }
+}

@@ -627,6 +627,39 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
   return H;
 }
 
+SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q) {
+  const int n = s.size();
+  SparseMatrix D(n, n);
+  if (s.is_map()) {
+    D.setIdentity();
+    return D;
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) t.emplace_back(k, k, 0.0);  // the diagonal, always in the pattern
+  auto add = triplet_adder(t);
+  Eigen::Matrix<double, 6, 6> He;
+  for (const Spring& sp : s.springs()) {
+    He.setZero();
+    for (int i = 0; i < 3; ++i) {
+      He(i, i) = He(i + 3, i + 3) = sp.stiffness;
+      He(i, i + 3) = He(i + 3, i) = -sp.stiffness;
+    }
+    const std::array<Site, 2> ends{attachment_site(st, sp.a), attachment_site(st, sp.b)};
+    add_local_hessian(s, st, ends, He, add);
+  }
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    if (bodies[b].stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
+  }
+  D.setFromTriplets(t.begin(), t.end());
+  D.makeCompressed();
+  return D;
+}
+
 double force_scale(const System& s, Workspace& w, const VectorX& q) {
   if (s.is_map()) {
     check_size(s, q, "force_scale");

@@ -123,6 +123,14 @@ class NewtonSteps {
     return d;
   }
 
+  // −A⁻¹ r by conjugate gradients preconditioned with the kept factor (of an
+  // earlier A), to a relative residual of 0.1 within 12 iterations; empty when
+  // no factor is kept or they do not reach it.
+  VectorX solve_kept(const SparseMatrix& A, const VectorX& r) {
+    if (!have_factor_) return {};
+    return preconditioned_cg(A, r, 0.1, 12);
+  }
+
   // The pivot order of the last symbolic analysis of ∇∇V (empty: none).
   std::vector<int> ordering() const { return llt_.ordering(); }
 
@@ -148,16 +156,16 @@ class NewtonSteps {
   }
 
   // Conjugate gradients on H d = −r from d = 0, preconditioned by the kept
-  // factor, to ‖H d + r‖ ≤ forcing·‖r‖; empty on breakdown or after 40
-  // iterations.
-  VectorX preconditioned_cg(const SparseMatrix& H, const VectorX& r, double forcing) {
+  // factor, to ‖H d + r‖ ≤ forcing·‖r‖; empty on breakdown or after
+  // `limit` iterations.
+  VectorX preconditioned_cg(const SparseMatrix& H, const VectorX& r, double forcing, int limit = 40) {
     const double target = forcing * r.norm();
     VectorX d = VectorX::Zero(r.size());
     VectorX res = -r;
     VectorX z = llt_.solve(res);
     VectorX p = z;
     double rz = res.dot(z);
-    for (int it = 1; it <= 40; ++it) {
+    for (int it = 1; it <= limit; ++it) {
       const VectorX Hp = H * p;  // H holds both triangles
       const double curvature = p.dot(Hp);
       if (!(curvature > 0) || !std::isfinite(rz)) break;  // not positive definite along p
@@ -203,6 +211,23 @@ class NewtonSteps {
   std::vector<SparseMatrix::StorageIndex> outer_, inner_;
   bool have_factor_ = false, refactor_ = false;
 };
+
+// D scaled to a mean diagonal of 1, every empty diagonal entry (a coordinate
+// that no spring holds) set to 1 and a floor of 10⁻⁶ added to all, so that
+// D is definite and μ h D has the size of μ h I on average.
+SparseMatrix normalized_metric(SparseMatrix D) {
+  const double mean = D.diagonal().mean();
+  if (!(mean > 0) || !std::isfinite(mean)) {
+    D.setIdentity();
+    return D;
+  }
+  D /= mean;
+  for (Eigen::Index k = 0; k < D.rows(); ++k) {
+    double& dkk = D.coeffRef(k, k);
+    dkk = (dkk > 0 ? dkk : 1.0) + 1e-6;
+  }
+  return D;
+}
 
 }  // namespace
 
@@ -332,24 +357,42 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   // Damped Newton (Levenberg–Marquardt on V) for degenerate and indefinite
   // starts, where ∇∇V is singular or indefinite (a slack net: springs at
   // their rest length have no transverse stiffness, so a flat start has
-  // none out of its plane). Each step solves (∇∇V + μ h I) d = −∇V with a
-  // Cholesky factor (h: the mean diagonal of ∇∇V, so μ is dimensionless),
-  // and the ratio ρ of V's actual decrease to the decrease the quadratic
-  // model predicts decides: a step with ρ > 10⁻⁴ is taken and μ shrinks by
-  // up to 3× as ρ approaches 1 (Nielsen's rule; below 10⁻¹⁰ it becomes 0:
-  // Newton), a refused step or a failed factorization grows it 2×, 4×, 8×
-  // … in a row. μ starts where a
+  // none out of its plane). Each step solves (∇∇V + μ h D) d = −∇V, where D
+  // is the tension metric (sparse_tension_metric: the stiffness the scene
+  // would have if every spring were tensioned to T/L = k, scaled to a mean
+  // diagonal of 1) and h the mean diagonal of ∇∇V, so μ is dimensionless.
+  // From a flat start D makes the first step a membrane's sag (a Poisson
+  // solve: every spring stretched), where the identity made a uniform drop
+  // of the interior that stretched only the springs at the boundary.
+  // The system is solved by conjugate gradients preconditioned with the kept
+  // factor of an earlier step when they converge within 12 iterations, else
+  // by a fresh Cholesky factorization. A line search on V along d then sets
+  // the length (doubling or halving while V falls, then a golden section):
+  // V costs O(elements), a factorization far more, and along a sag V is
+  // quartic, which the quadratic model cannot say. The ratio ρ of V's actual
+  // decrease to the decrease the model predicts for that length decides: a
+  // step with ρ > 10⁻⁴ is taken, μ follows the length (a step t d is about
+  // what μ/t would give) and shrinks by up to 3× as ρ approaches 1
+  // (Nielsen's rule; 9× when ρ is within 10 % of 1), a refused step or a
+  // failed factorization grows it 2×, 4×, 8× … in a row. μ starts where a
   // gradient step moves the largest coordinate by 10⁻³ of the scene's length
-  // scale, and the steps lengthen with every success until the sag is
-  // reached, so the number of steps grows with the logarithm of the sag, not
-  // with n. Once the shift is small (μ < 10⁻³) and the residual has fallen
-  // 10³-fold, the truncated Newton above finishes with its kept factor.
-  // Counted in `damped_steps`.
+  // scale (the line search corrects it). Once μ < 10⁻³, a plain Newton step
+  // (μ = 0) is tried by the same conjugate gradients, which stop at the
+  // first direction of negative curvature (a failing factorization would
+  // cost a whole one: 5 s at 10⁶ coordinates); when that step is taken with
+  // ρ > 0.5, the truncated Newton above finishes with its kept factor (if
+  // not, two damped steps pass before the next trial). Counted in
+  // `damped_steps`.
+  // Measured on the slack nets (results/sparse_scaling.md): at 10⁵
+  // coordinates 5 factorizations instead of 10 with the identity, at 10⁶ 10
+  // instead of 12.
   int damped_steps = 0;
-  auto damped = [&](VectorX q) {
+  auto damped = [&](VectorX q, bool handover_any) {
     VectorX r = potential_gradient(s, w, q);
     const double r0 = r.norm();
     double v = potential(s, w, q);
+    SparseMatrix metric;  // the matrix path's shift: the tension metric, mean diagonal 1
+    int newton_wait = 0;  // damped steps before the next trial of μ = 0
     NielsenDamping damping;  // μ set from the first Hessian
     double& mu = damping.mu;
     for (int it = 0; it < 200; ++it) {
@@ -367,9 +410,13 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       SparseMatrix H;
       if (matrix_free) pencil = tree_pencil(s, w, q);
       else H = sparse_potential_hessian(s, w, q);
-      // Newton's region (the model trusted with a small shift, the residual
-      // down by 10³): the truncated Newton finishes with its kept factor.
-      if (mu < 1e-3 && rnorm < 1e-3 * r0) return q;
+      // Newton's region (the model trusted with a small shift): a step with
+      // μ = 0 is tried, and once ∇∇V is positive definite and that step is
+      // taken, the truncated Newton finishes with its kept factor. (In the
+      // second round, the residual must also be down by 10³.)
+      const bool newton_trial = mu >= 0 && mu < 1e-3 && (handover_any ? newton_wait == 0 : rnorm < 1e-3 * r0);
+      if (newton_trial && !handover_any) return q;
+      if (newton_wait > 0) --newton_wait;
       const VectorX diagonal = matrix_free ? tree_diagonal(*pencil, 1.0, 0.0) : VectorX(H.diagonal());
       const double h = std::max(diagonal.cwiseAbs().mean(), std::numeric_limits<double>::min());
       if (mu < 0) {
@@ -378,35 +425,101 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         // positive definite (then Newton is tried first, μ = 0).
         mu = std::max(r.cwiseAbs().maxCoeff() / (h * 1e-3 * s.length_scale()), 1e-10);
       }
-      SparseMatrix I;  // the matrix path's shift
-      if (!matrix_free) {
-        I.resize(n, n);
-        I.setIdentity();
-      }
+      if (!matrix_free && metric.size() == 0) metric = normalized_metric(sparse_tension_metric(s, w, q));
       VectorX d;
+      if (newton_trial) {
+        d = matrix_free ? tree_solve(*pencil, 0.0, true, r) : steps.solve_kept(H, r);
+        if (d.size() == 0) newton_wait = 2;  // ∇∇V is not positive definite yet
+      }
+      const bool newton_step = d.size() > 0;
+      if (d.size() == 0 && !matrix_free) d = steps.solve_kept(H + (mu * h) * metric, r);
       for (int tries = 0; tries < 60 && d.size() == 0; ++tries) {
-        d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(H + (mu * h) * I, r);
+        d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(H + (mu * h) * metric, r);
         if (d.size() == 0) mu = std::max(4 * mu, 1e-10);
       }
       if (d.size() == 0) return q;
       ++damped_steps;
       const VectorX Hd = matrix_free ? tree_product(*pencil, 1.0, 0.0, d) : VectorX(H * d);
-      const double predicted = -(r.dot(d) + 0.5 * d.dot(Hd));
-      VectorX qt = q + d;
-      double vt = std::numeric_limits<double>::infinity();
-      VectorX rt;
-      try {
-        vt = potential(s, w, qt);
-        if (std::isfinite(vt)) rt = potential_gradient(s, w, qt);
-      } catch (const NumericalError&) {
+      // A line search on V along d: V costs O(elements), a factorization far
+      // more. Where V still falls at twice the step (the model, quadratic in
+      // d, underrates how far the shape d goes: from a slack start V is
+      // quartic along a sag) the step doubles while it does; where V rose,
+      // the step is cut by 4 until it falls. μ then follows the length taken
+      // (a step t d is about what the shift μ/t would have given).
+      auto energy_at = [&](double t) {
+        try {
+          const double e = potential(s, w, q + t * d);
+          return std::isfinite(e) ? e : std::numeric_limits<double>::infinity();
+        } catch (const NumericalError&) {
+          return std::numeric_limits<double>::infinity();
+        }
+      };
+      double t = 1, vt = energy_at(1);
+      if (vt < v) {
+        for (int k = 0; k < 40; ++k) {
+          const double wider = energy_at(2 * t);
+          if (!(wider < vt)) break;
+          t *= 2;
+          vt = wider;
+        }
+      } else {
+        for (int k = 0; k < 40 && !(vt < v); ++k) vt = energy_at(t *= 0.5);
+        for (int k = 0; k < 40 && vt < v; ++k) {  // and on while V still falls
+          const double shorter = energy_at(0.5 * t);
+          if (!(shorter < vt)) break;
+          t *= 0.5;
+          vt = shorter;
+        }
       }
+      if (t != 1 && vt < v) {
+        // A golden-section search in log t between t/2 and 2t, where the
+        // bracket above left the minimum along d.
+        double lo = std::log(0.5 * t), hi = std::log(2 * t);
+        const double g = 0.5 * (std::sqrt(5.0) - 1);
+        double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
+        double va = energy_at(std::exp(a)), vb = energy_at(std::exp(b));
+        for (int k = 0; k < 6; ++k) {
+          if (va < vb) {
+            hi = b;
+            b = a;
+            vb = va;
+            a = hi - g * (hi - lo);
+            va = energy_at(std::exp(a));
+          } else {
+            lo = a;
+            a = b;
+            va = vb;
+            b = lo + g * (hi - lo);
+            vb = energy_at(std::exp(b));
+          }
+        }
+        if (va < vt && va <= vb) {
+          t = std::exp(a);
+          vt = va;
+        } else if (vb < vt) {
+          t = std::exp(b);
+          vt = vb;
+        }
+      }
+      const double predicted = -(t * r.dot(d) + 0.5 * t * t * d.dot(Hd));
       const double rho = predicted > 0 && std::isfinite(vt) ? (v - vt) / predicted : -1;
-      if (NielsenDamping::taken(rho) && rt.allFinite()) {
-        q = canonical_coordinates(s, qt);
-        r = rt;
-        v = vt;
+      VectorX rt;
+      if (NielsenDamping::taken(rho)) {
+        const VectorX qt = q + t * d;
+        try {
+          rt = potential_gradient(s, w, qt);
+        } catch (const NumericalError&) {
+        }
+        if (rt.allFinite() && rt.size() == n) {
+          q = canonical_coordinates(s, qt);
+          r = rt;
+          v = vt;
+          mu /= t;
+          if (newton_step && rho > 0.5) return q;
+        }
       }
       damping.update(rho);
+      if (std::abs(rho - 1) < 0.1) mu /= 3;  // the model holds to 10 %: towards Newton faster
     }
     return q;
   };
@@ -448,8 +561,14 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     newton(q);
   }
   if (!(best.residual <= accept) && !lbfgs_done) {  // Newton stalled: damped Newton from the start, then Newton
-    const VectorX reached = damped(q);
+    const VectorX reached = damped(q, true);
     if (!(best.residual <= accept) && reached.allFinite()) newton(reached);
+    if (!(best.residual <= accept) && best.q.allFinite() && best.q.size() == n) {
+      // Handed over too early: damped again from the best point, now until
+      // the residual has fallen 10³-fold as well.
+      const VectorX again = damped(best.q, false);
+      if (!(best.residual <= accept) && again.allFinite()) newton(again);
+    }
   }
   if (!(best.residual <= accept) && !lbfgs_done) {  // still not: L-BFGS from the start, then Newton
     const VectorX reached = lbfgs(q);

@@ -412,6 +412,19 @@ MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX
 // result converted.
 const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q);  // ∇∇V
 SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q);        // M(q)
+
+// The stiffness the scene would have if every spring carried a tension per
+// unit length equal to its stiffness (T/L = k, so its 6×6 block is
+// k [I −I; −I I] in its end points instead of k uuᵀ + T/L (I − uuᵀ)), and
+// every joint spring its stiffness: Σ k Jᵀ[I −I; −I I]J + the joint springs
+// (n×n, both triangles, diagonal always stored, units of ∇∇V). Positive
+// semidefinite, with the sparsity of ∇∇V, and definite wherever every
+// coordinate is held by some chain of springs. It is the metric of the damped
+// steps of the large-scene equilibrium: unlike the identity it stiffens a
+// slack net's out-of-plane coordinates as a tensioned membrane would, so a
+// damped step from a flat start takes the shape of a membrane's sag (a
+// Poisson solve), not a uniform drop. Maps: the identity.
+SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q);
 SparseMatrix sparse_damping_matrix(const System& s, Workspace& w, const VectorX& q);     // D(q)
 
 // A scale for generalized forces at q, used to make residuals relative: the sum
