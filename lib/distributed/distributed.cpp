@@ -1120,31 +1120,21 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // (δ = 1e-6|λ_k| + ζ) below the k-th returned eigenvalue, the inertia
       // of K − bM must count no more eigenvalues below b than were returned
       // below it; else the run is repeated with more wanted (at most 4 times).
-      PetscInt nev = k;
-      for (int attempt = 0;; ++attempt) {
-        solve_nearest(nev);
-        if (options.shift || m > 0) break;
-        std::vector<double> lambdas;
-        for (const auto& number : numbers) lambdas.push_back(number[0]);
-        std::sort(lambdas.begin(), lambdas.end());
-        const double lambda_k = lambdas[static_cast<std::size_t>(k - 1)];
-        double bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
-        if (!(bound > s0)) break;  // the k-th is (near) zero: nothing to check between σ₀ and it
-        const PetscInt count = inertia_near(K, M, bound, s);  // moves b down past a singular K − bM
-        const auto found = static_cast<PetscInt>(
-            std::count_if(lambdas.begin(), lambdas.end(), [&](double lambda) { return lambda < bound; }));
-        if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
+      if (options.shift || m > 0) {
+        solve_nearest(k);
+      } else {
+        const CompletenessCheck check = check_completeness(
+            k, n, s0, zeta,
+            [&](long nev) {
+              solve_nearest(static_cast<PetscInt>(nev));
+              std::vector<double> lambdas;
+              for (const auto& number : numbers) lambdas.push_back(number[0]);
+              return lambdas;
+            },
+            [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });  // moves b down past a singular K − bM
+        if (check.outcome != CompletenessCheck::Outcome::not_needed)
           result.notes.push_back(
-              count > found
-                  ? fmt::format("the inertia counts {} eigenvalues below {:.8g} but SLEPc's Krylov–Schur iteration "
-                                "found {}: some modes in this range may be missing",
-                                count, bound, found)
-                  : fmt::format("completeness checked by the inertia of K − σM at σ = {:.8g}, just below the highest "
-                                "returned eigenvalue: exactly {} eigenvalues lie below it, as found",
-                                bound, count));
-          break;
-        }
-        nev = std::min<PetscInt>(n - 2, nev + (count - found) + 2);
+              completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
       }
       if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
         std::vector<std::size_t> order(numbers.size());

@@ -883,6 +883,54 @@ Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, doub
   return mode;
 }
 
+CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
+                                     const std::function<std::vector<double>(long nev)>& solve,
+                                     const std::function<long(double& b, bool expect_indefinite)>& count_below) {
+  CompletenessCheck check;
+  check.nev = k;
+  for (int attempt = 0;; ++attempt) {
+    std::vector<double> lambdas = solve(check.nev);
+    if (static_cast<long>(lambdas.size()) < k)
+      throw NumericalError("check_completeness: the solver returned " + std::to_string(lambdas.size()) +
+                           " eigenvalues, fewer than the " + std::to_string(k) + " wanted");
+    std::sort(lambdas.begin(), lambdas.end());
+    const double lambda_k = lambdas[static_cast<std::size_t>(k - 1)];
+    check.bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
+    if (!(check.bound > s0)) {
+      check.outcome = CompletenessCheck::Outcome::not_needed;
+      return check;
+    }
+    const auto found_below = [&](double b) {
+      return static_cast<long>(std::count_if(lambdas.begin(), lambdas.end(), [&](double l) { return l < b; }));
+    };
+    // Ritz values below b: K − bM is indefinite.
+    check.count = count_below(check.bound, found_below(check.bound) > 0);
+    check.found = found_below(check.bound);  // b may have moved
+    if (check.count <= check.found || check.nev + 1 >= n - 1 || attempt == 4) {
+      check.outcome = check.count <= check.found ? CompletenessCheck::Outcome::complete
+                                                 : CompletenessCheck::Outcome::incomplete;
+      return check;
+    }
+    check.nev = std::min(n - 2, check.nev + (check.count - check.found) + 2);
+  }
+}
+
+std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
+                              const std::string& iteration) {
+  switch (check.outcome) {
+    case CompletenessCheck::Outcome::complete:
+      return "completeness checked by the inertia of K − σM at σ = " + bound_text +
+             ", just below the highest returned eigenvalue: exactly " + std::to_string(check.count) +
+             " eigenvalues lie below it, as found";
+    case CompletenessCheck::Outcome::incomplete:
+      return "the inertia counts " + std::to_string(check.count) + " eigenvalues below " + bound_text + " but " +
+             iteration + " found " + std::to_string(check.found) + ": some modes in this range may be missing";
+    case CompletenessCheck::Outcome::not_needed:
+      break;
+  }
+  return {};
+}
+
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
                       const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below) {
   const auto format = [&](double sigma, int digits) { return detail::format_number(account.unit * sigma, digits); };
@@ -1086,38 +1134,24 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // of Ritz values found below b; then the k returned are the k lowest (the
     // true λ_k lies in [b, λ_k]; copies of the k-th eigenvalue that were not
     // returned are equally valid k-th modes). If more lie below b, the run is
-    // repeated with more wanted.
-    Index nev = k;
-    for (int attempt = 0;; ++attempt) {
-      const LanczosRun run = run_lanczos(factor, mass_op, s0, nev, options, units);
-      runs.push_back(describe_run(run, nev, units));
-      const double lambda_k = run.lambda(k - 1);
-      double bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
-      if (!(bound > s0)) {  // the k-th is (near) zero: nothing to check between σ₀ and it
-        Index kept = 0;
-        take(run, [&](double) { return kept++ < k; });
-        break;
-      }
-      const Index found = (run.lambda.array() < bound).count();
-      // Ritz values below b: K − bM is indefinite (see ShiftedFactor::factor).
-      const Index count = factor_at(bound, "completeness check", found > 0);
-      if (count <= found || nev + 1 >= n - 1 || attempt == 4) {
-        if (count > found)
-          result.notes.push_back("the inertia counts " + std::to_string(count) + " eigenvalues below " +
-                                 units(bound, 8) + " but the Lanczos iteration found " +
-                                 std::to_string(found) + ": some modes in this range may be missing");
-        else
-          complete_below = bound;
-        if (count <= found)
-          result.notes.push_back("completeness checked by the inertia of K − σM at σ = " +
-                                 units(bound, 8) + ", just below the highest returned eigenvalue: exactly " +
-                                 std::to_string(count) + " eigenvalues lie below it, as found");
-        Index kept = 0;
-        take(run, [&](double) { return kept++ < k; });
-        break;
-      }
-      nev = std::min<Index>(n - 2, nev + (count - found) + 2);
-    }
+    // repeated with more wanted (check_completeness, shared with the
+    // distributed backend).
+    std::optional<LanczosRun> last;
+    const CompletenessCheck check = check_completeness(
+        k, n, s0, zeta,
+        [&](long nev) {
+          last = run_lanczos(factor, mass_op, s0, nev, options, units);
+          runs.push_back(describe_run(*last, nev, units));
+          return std::vector<double>(last->lambda.data(), last->lambda.data() + last->lambda.size());
+        },
+        [&](double& b, bool expect_indefinite) {
+          return static_cast<long>(factor_at(b, "completeness check", expect_indefinite));
+        });
+    if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
+    if (check.outcome != CompletenessCheck::Outcome::not_needed)
+      result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
+    Index kept = 0;
+    take(*last, [&](double) { return kept++ < k; });
   } else {
     // Divergent: m eigenvalues below σ₀.
     Index negatives_found = 0;

@@ -203,6 +203,38 @@ struct InertiaAccount {
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
                       const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below);
 
+// The completeness rule for the k lowest modes of a shift-invert solver
+// (solve_sparse_modes and the distributed backend share it): a Krylov run
+// from one start vector can skip a copy of a repeated eigenvalue. With
+// b = λ_k − 1e-6|λ_k| − ζ just below the k-th returned eigenvalue, the
+// inertia of K − bM must count no more eigenvalues below b than the run
+// returned below it; otherwise the run is repeated with more wanted (the
+// shortfall plus 2, at most nev = n − 2, at most 4 repeats).
+struct CompletenessCheck {
+  enum class Outcome {
+    not_needed,  // λ_k is (near) zero: nothing to check between σ₀ and it
+    complete,    // exactly `count` eigenvalues below `bound`, as found
+    incomplete   // more below `bound` than found after the last repeat
+  };
+  Outcome outcome = Outcome::not_needed;
+  double bound = 0;         // b, as count_below left it
+  long count = 0, found = 0;  // the inertia's count below b, and the run's
+  long nev = 0;             // the number wanted in the last run
+};
+// solve(nev) runs the solver wanting nev (≥ k) modes and returns the
+// eigenvalues it found, any order, at least k of them; count_below(b,
+// expect_indefinite) is the inertia's number of eigenvalues below b and may
+// move b off a singular K − bM (expect_indefinite: the run found some below b).
+// s0: σ₀ = −ζ; n: the number of coordinates.
+CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
+                                     const std::function<std::vector<double>(long nev)>& solve,
+                                     const std::function<long(double& b, bool expect_indefinite)>& count_below);
+// The note that reports a check (complete or incomplete; empty when not
+// needed): `bound_text` is b as the caller writes it, `iteration` names the
+// solver's iteration ("the Lanczos iteration").
+std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
+                              const std::string& iteration);
+
 // Stability class (docs/design.md, "Mode kinds and stability classes") of a
 // complete set of modes, from their kinds: divergence if any mode is
 // divergent, else flutter if any flutters, else marginal if any is a zero
