@@ -674,3 +674,65 @@ TEST(SparseModes, HugeAndTinyMagnitudesAreRightOrRefused) {
       }
     }
 }
+
+// The completeness rule (modal::check_completeness) against a solver that is
+// made to skip one copy of a double eigenvalue, and an exact inertia count
+// of the same spectrum: the rule must repeat the run until the count
+// agrees, say "incomplete" when the solver never returns the copy, and not
+// check when the k-th eigenvalue is zero.
+TEST(SparseModes, CompletenessRuleRepeatsARunThatSkippedACopy) {
+  const std::vector<double> spectrum = {1.0, 2.0, 3.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0};
+  const long n = static_cast<long>(spectrum.size());
+  const double zeta = 1e-12;
+  auto exact_count = [&](double& b, bool) {
+    return static_cast<long>(std::count_if(spectrum.begin(), spectrum.end(), [&](double l) { return l < b; }));
+  };
+  // The nev lowest, but the second copy of 3 only once nev ≥ min_for_copy.
+  auto skipping = [&](long min_for_copy) {
+    return [&spectrum, min_for_copy](long nev) {
+      std::vector<double> out;
+      for (std::size_t j = 0; j < spectrum.size() && static_cast<long>(out.size()) < nev; ++j)
+        if (!(j == 3 && nev < min_for_copy)) out.push_back(spectrum[j]);
+      return out;
+    };
+  };
+  std::vector<long> wanted;
+  auto recording = [&](long min_for_copy) {
+    return [&wanted, inner = skipping(min_for_copy)](long nev) {
+      wanted.push_back(nev);
+      return inner(nev);
+    };
+  };
+
+  // k = 4: the first run returns 1, 2, 3, 4 (below b, just below 4, the
+  // inertia counts 4 and the run found 3); the second (nev = 4 + 1 + 2 = 7)
+  // returns 1, 2, 3, 3, …, whose 4th is the copy of 3: just below it 2 and 2.
+  modal::CompletenessCheck c = modal::check_completeness(4, n, -zeta, zeta, recording(5), exact_count);
+  EXPECT_EQ(c.outcome, modal::CompletenessCheck::Outcome::complete);
+  EXPECT_EQ(wanted, (std::vector<long>{4, 7}));
+  EXPECT_EQ(c.count, 2);
+  EXPECT_EQ(c.found, 2);
+  EXPECT_LT(c.bound, 3.0);  // just below the 4th returned eigenvalue, the copy of 3
+  EXPECT_GT(c.bound, 3.0 - 1e-5);
+  EXPECT_NE(modal::completeness_note(c, "b", "the iteration").find("exactly 2 eigenvalues lie below it"),
+            std::string::npos);
+
+  // A solver that never returns the copy: after the repeats, incomplete.
+  wanted.clear();
+  c = modal::check_completeness(4, n, -zeta, zeta, recording(1000), exact_count);
+  EXPECT_EQ(c.outcome, modal::CompletenessCheck::Outcome::incomplete);
+  EXPECT_GT(c.count, c.found);
+  EXPECT_LE(wanted.back(), n - 2);
+  EXPECT_NE(modal::completeness_note(c, "b", "the iteration").find("may be missing"), std::string::npos);
+
+  // No skipping: complete at once, one run.
+  wanted.clear();
+  c = modal::check_completeness(6, n, -zeta, zeta, recording(0), exact_count);
+  EXPECT_EQ(c.outcome, modal::CompletenessCheck::Outcome::complete);
+  EXPECT_EQ(wanted.size(), 1u);
+
+  // The k-th eigenvalue zero: nothing to check.
+  c = modal::check_completeness(1, n, -zeta, zeta, [](long) { return std::vector<double>{0.0}; }, exact_count);
+  EXPECT_EQ(c.outcome, modal::CompletenessCheck::Outcome::not_needed);
+  EXPECT_TRUE(modal::completeness_note(c, "b", "the iteration").empty());
+}
