@@ -411,9 +411,9 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       if (matrix_free) pencil = tree_pencil(s, w, q);
       else H = sparse_potential_hessian(s, w, q);
       // Newton's region (the model trusted with a small shift): a step with
-      // μ = 0 is tried, and once ∇∇V is positive definite and that step is
-      // taken, the truncated Newton finishes with its kept factor. (In the
-      // second round, the residual must also be down by 10³.)
+      // μ = 0 is tried by CG on the kept factor, and once such a step is
+      // taken with ρ > 0.5, the truncated Newton finishes with its kept
+      // factor. (In the second round, the residual must also be down by 10³.)
       const bool newton_trial = mu >= 0 && mu < 1e-3 && (handover_any ? newton_wait == 0 : rnorm < 1e-3 * r0);
       if (newton_trial && !handover_any) return q;
       if (newton_wait > 0) --newton_wait;
@@ -429,7 +429,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       VectorX d;
       if (newton_trial) {
         d = matrix_free ? tree_solve(*pencil, 0.0, true, r) : steps.solve_kept(H, r);
-        if (d.size() == 0) newton_wait = 2;  // ∇∇V is not positive definite yet
+        if (d.size() == 0) newton_wait = 2;  // CG met non-positive curvature or did not converge
       }
       const bool newton_step = d.size() > 0;
       if (d.size() == 0 && !matrix_free) d = steps.solve_kept(H + (mu * h) * metric, r);
@@ -444,8 +444,10 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       // more. Where V still falls at twice the step (the model, quadratic in
       // d, underrates how far the shape d goes: from a slack start V is
       // quartic along a sag) the step doubles while it does; where V rose,
-      // the step is cut by 4 until it falls. μ then follows the length taken
-      // (a step t d is about what the shift μ/t would have given).
+      // the step is halved until it falls and on while it still falls; then
+      // a golden section between half and twice that length. μ then follows
+      // the length taken (a step t d is about what the shift μ/t would have
+      // given).
       auto energy_at = [&](double t) {
         try {
           const double e = potential(s, w, q + t * d);
