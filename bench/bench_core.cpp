@@ -20,6 +20,16 @@ modal::System chain(int links) {
   return modal::build_system(modal::parse_scene(text, "bench.toml"));
 }
 
+// A flat particle net of side×side nodes, boundary fixed (scene generator
+// `[[lattice]]`), springs at their rest length (slack) unless `prestrain`.
+modal::System net(int side, double prestrain) {
+  const std::string text = "title = \"bench net\"\ngravity = [0, 0, -9.81]\n[[lattice]]\nname = \"n\"\nsize = [" +
+                           std::to_string(side) + ", " + std::to_string(side) +
+                           ", 1]\nspacing = 0.1\nmass = 0.002\nstiffness = 1000\nprestrain = " +
+                           std::to_string(prestrain) + "\nfixed = \"boundary\"\n";
+  return modal::build_system(modal::parse_scene(text, "bench.toml"));
+}
+
 Eigen::VectorXd state(const modal::System& s) {
   Eigen::VectorXd q(s.size());
   for (int i = 0; i < s.size(); ++i) q[i] = 0.3 * std::sin(0.7 * i);
@@ -48,6 +58,18 @@ void MassMatrix(benchmark::State& st) {
   const Eigen::VectorXd q = state(s);
   for (auto _ : st) benchmark::DoNotOptimize(modal::mass_matrix(s, w, q).data());
   st.SetComplexityN(st.range(0));
+}
+
+// The sparse ∇∇V of a net (the large equilibrium's and the sparse modes
+// stage's assembly) at a sagged, wrinkled configuration; argument: the side,
+// n ≈ 3·side² coordinates.
+void SparseHessianNet(benchmark::State& st) {
+  const modal::System s = net(static_cast<int>(st.range(0)), 0.0);
+  modal::Workspace w(s);
+  Eigen::VectorXd q(s.size());
+  for (int i = 0; i < s.size(); ++i) q[i] = 1e-3 * std::sin(0.7 * i) - (i % 3 == 2 ? 0.05 : 0.0);
+  for (auto _ : st) benchmark::DoNotOptimize(modal::sparse_potential_hessian(s, w, q).valuePtr());
+  st.SetComplexityN(s.size());
 }
 
 // Nested forward AD, one Hessian column per pass with B inner directions at a
@@ -81,6 +103,7 @@ void HessianNestedAD(benchmark::State& st) {
 BENCHMARK(Gradient)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
 BENCHMARK(Hessian)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
 BENCHMARK(MassMatrix)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
+BENCHMARK(SparseHessianNet)->Arg(58)->Arg(185)->Complexity()->Unit(benchmark::kMillisecond);
 BENCHMARK(HessianNestedAD)->RangeMultiplier(10)->Range(10, 100)->Complexity()->Unit(benchmark::kMicrosecond);
 
 }  // namespace

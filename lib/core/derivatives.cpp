@@ -263,6 +263,34 @@ void deposit_element(const std::array<SiteT<R>, N>& sites, Energy&& energy, Depo
       deposit(sites[static_cast<std::size_t>(i)], model::V3<R>(g.template segment<3>(3 * i)));
 }
 
+// Hands on a two-site element whose energy depends on the sites only through
+// d = x_a − x_b (a spring; `energy` of d, templated on the scalar). Its exact
+// derivatives are taken in the 3 components of d, not the 6 of (x_a, x_b):
+// ∂V/∂x_a = ∂V/∂d = −∂V/∂x_b, and the 6×6 local Hessian is
+// [H −H; −H H] with H = ∂²V/∂d². The same numbers as deposit_element<2>
+// (∂d/∂x is ±I exactly), for a quarter of the second-order AD work.
+template <class R, class Energy, class Deposit, class LocalHessian>
+void deposit_difference_element(const std::array<SiteT<R>, 2>& sites, Energy&& energy, Deposit&& deposit,
+                                LocalHessian&& local_hessian, bool second_order) {
+  const Eigen::Matrix<R, 3, 1> d = sites[0].x - sites[1].x;
+  Eigen::Matrix<R, 3, 1> g;
+  if constexpr (std::is_same_v<R, double>) {
+    if (second_order) {
+      const auto r = ad::hessian<3>(energy, d);
+      g = r.gradient;
+      Eigen::Matrix<double, 6, 6> H;
+      H << r.hessian, -r.hessian, -r.hessian, r.hessian;
+      local_hessian(sites, H);
+    } else {
+      g = ad::gradient<3>(energy, d).gradient;
+    }
+  } else {
+    g = ad::gradient<3>(energy, d).gradient;
+  }
+  if (sites[0].body >= 0) deposit(sites[0], model::V3<R>(g));
+  if (sites[1].body >= 0) deposit(sites[1], model::V3<R>(-g));
+}
+
 // The centrifugal elements of −T₀ (module comment) of every body.
 template <class R, class Deposit, class LocalHessian>
 void for_each_centrifugal_cotangent(const System& s, const TreeState<R>& st, Deposit&& deposit,
@@ -315,13 +343,12 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
     if (sp.rest_length != 0.0 && value((a.x - b.x).squaredNorm()) == 0.0)
       throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
                            " m has coincident end points: its force direction is undefined");
-    auto energy = [&sp](const auto& x) {
-      using S = std::decay_t<decltype(x[0])>;
-      const model::V3<S> a(x[0], x[1], x[2]), b(x[3], x[4], x[5]);
-      return model::spring_energy<S>(sp, a, b);
+    auto energy = [&sp](const auto& d) {
+      using S = std::decay_t<decltype(d[0])>;
+      return model::spring_stretch_energy<S>(sp, model::V3<S>(d[0], d[1], d[2]));
     };
     const std::array<SiteT<R>, 2> ends{a, b};
-    deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
+    deposit_difference_element(ends, energy, deposit, local_hessian, second_order);
   }
 }
 
@@ -515,9 +542,11 @@ void add_local_hessian(const System& s, const TreeState<double>& st, const std::
   for (std::size_t u = 0; u < N; ++u)
     for (std::size_t v = 0; v < N; ++v) {
       const Mat3 block = He.template block<3, 3>(3 * static_cast<Eigen::Index>(u), 3 * static_cast<Eigen::Index>(v));
-      for (std::size_t i = 0; i < J[u].index.size(); ++i) {
-        const Vec3 left = block.transpose() * J[u].column[i];
-        for (std::size_t j = 0; j < J[v].index.size(); ++j) add(J[u].index[i], J[v].index[j], left.dot(J[v].column[j]));
+      // Column by column, rows in order within one (what the in-place
+      // sparse adder's hint follows).
+      for (std::size_t j = 0; j < J[v].index.size(); ++j) {
+        const Vec3 right = block * J[v].column[j];
+        for (std::size_t i = 0; i < J[u].index.size(); ++i) add(J[u].index[i], J[v].index[j], J[u].column[i].dot(right));
       }
     }
 }
@@ -610,12 +639,27 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     const auto* inner = H.innerIndexPtr();
     double* values = H.valuePtr();
     bool fits = true;
+    // Entries come in runs down one column (add_local_hessian): the entry
+    // after the last one found is tried before a binary search.
+    int last_column = -1;
+    std::ptrdiff_t last = 0;
     assemble_potential_hessian(s, w, q, [&](int j, int k, double v) {
+      const std::ptrdiff_t next = last + 1;
+      if (k == last_column && next < outer[k + 1] && inner[next] == j) {
+        values[next] += v;
+        last = next;
+        return;
+      }
       const auto* begin = inner + outer[k];
       const auto* end = inner + outer[k + 1];
       const auto* at = std::lower_bound(begin, end, j);
-      if (at != end && *at == j) values[at - inner] += v;
-      else fits = false;
+      if (at != end && *at == j) {
+        values[at - inner] += v;
+        last_column = k;
+        last = at - inner;
+      } else {
+        fits = false;
+      }
     });
     if (fits) return H;
   }
@@ -1365,11 +1409,11 @@ void for_each_constraint_cotangent(const System& s, const TreeState<R>& st, cons
       auto energy = [sk, length](const auto& x) {
         using S = std::decay_t<decltype(x[0])>;
         using std::sqrt;
-        const model::V3<S> d(x[0] - x[3], x[1] - x[4], x[2] - x[5]);
+        const model::V3<S> d(x[0], x[1], x[2]);  // x_a − x_b
         return sk * (sqrt(d.squaredNorm()) - length);
       };
       const std::array<SiteT<R>, 2> ends{attachment_site(st, k.a), attachment_site(st, k.b)};
-      deposit_element<2>(ends, energy, deposit, local_hessian, second_order);
+      deposit_difference_element(ends, energy, deposit, local_hessian, second_order);
     }
     row += k.equations();
   }

@@ -228,12 +228,16 @@ template <class S> void constraint_values(const System& sys, const TreeState<S>&
 // --- elements -------------------------------------------------------------------
 
 // Spring energy ½k(|xa − xb| − L)²; for L = 0 written as ½k|d|² (smooth at d = 0).
-template <class S> S spring_energy(const Spring& sp, const V3<S>& xa, const V3<S>& xb) {
+// The energy depends on the end points only through d = xa − xb
+// (spring_stretch_energy), which is what its exact derivatives are taken in.
+template <class S> S spring_stretch_energy(const Spring& sp, const V3<S>& d) {
   using std::sqrt;
-  const V3<S> d = xa - xb;
   if (sp.rest_length == 0.0) return 0.5 * sp.stiffness * d.squaredNorm();
   const S ext = sqrt(d.squaredNorm()) - sp.rest_length;
   return 0.5 * sp.stiffness * ext * ext;
+}
+template <class S> S spring_energy(const Spring& sp, const V3<S>& xa, const V3<S>& xb) {
+  return spring_stretch_energy<S>(sp, V3<S>(xa - xb));
 }
 
 // Joint spring energy ½k|q − rest|² over the joint's coordinates.
