@@ -8,7 +8,10 @@ Usage: bench/dense_eigen.py [BUILD]     (default: build; /usr/bin/python3 with s
 For each scene: `modal analyze SCENE --timing --export-matrices DIR` (the
 eigen phase as --timing reports it: equilibration, the solver, every error
 estimate and bound, the shapes), then, in the same loop, scipy's
-eigh(K, M) (LAPACK dsygvd, driver "gvd", the same OpenBLAS) on DIR's K and M.
+eigh(K, M) (LAPACK dsygvd, driver "gvd", the same OpenBLAS) on DIR's K and M,
+and, where modal was asked for the lowest k modes (--modes k), also
+eigh(K, M, subset_by_index=[0, k-1], driver="gvx") (dsygvx: the same subset
+job).
 Runs interleaved, REPEAT times (default 5); medians. The whole process is
 reported beside it.
 """
@@ -39,7 +42,8 @@ rows = []
 with tempfile.TemporaryDirectory() as work:
     for name, args in scenes:
         out = os.path.join(work, "m")
-        eig, whole, peer, solver = [], [], [], ""
+        eig, whole, peer, subset, solver = [], [], [], [], ""
+        k = int(args[args.index("--modes") + 1]) if "--modes" in args else 0
         for _ in range(repeat):
             t = time.perf_counter()
             p = subprocess.run([modal, "analyze", *args, "--timing", "--quiet", "--export-matrices", out],
@@ -61,8 +65,13 @@ with tempfile.TemporaryDirectory() as work:
             t = time.perf_counter()
             scipy.linalg.eigh(K, M, driver="gvd")
             peer.append(time.perf_counter() - t)
+            if k > 0:
+                t = time.perf_counter()
+                scipy.linalg.eigh(K, M, driver="gvx", subset_by_index=[0, k - 1])
+                subset.append(time.perf_counter() - t)
         e, w, s = statistics.median(eig), statistics.median(whole), statistics.median(peer)
-        rows.append((name, K.shape[0], e, s, e / s, w, solver))
+        sub = statistics.median(subset) if subset else None
+        rows.append((name, K.shape[0], e, s, e / s, sub, w, solver))
 
 load = open("/proc/loadavg").read().split()[0]
 lines = [
@@ -74,11 +83,15 @@ lines = [
     "all pairs, no error estimate) on the matrices modal exported; modal's eigen phase includes",
     "equilibration, the solve, the residuals, every error estimate and bound, and the shapes.",
     "",
-    "| scene | n | modal eigen [s] | eigh [s] | ratio | whole process [s] | modal's solver |",
-    "|---|---:|---:|---:|---:|---:|---|",
+    "With `--modes k` the last peer columns are `eigh(K, M, subset_by_index=[0, k-1], driver=\"gvx\")`",
+    "(LAPACK dsygvx, the lowest k pairs only) and modal's ratio to it.",
+    "",
+    "| scene | n | modal eigen [s] | eigh [s] | ratio | eigh, lowest k [s] | ratio | whole process [s] | modal's solver |",
+    "|---|---:|---:|---:|---:|---:|---:|---:|---|",
 ]
-for name, n, e, s, r, w, solver in rows:
-    lines.append(f"| {name} | {n} | {e:.3f} | {s:.3f} | {r:.2f} | {w:.2f} | {solver} |")
+for name, n, e, s, r, sub, w, solver in rows:
+    subset_cells = f"{sub:.3f} | {e / sub:.2f}" if sub else "– | –"
+    lines.append(f"| {name} | {n} | {e:.3f} | {s:.3f} | {r:.2f} | {subset_cells} | {w:.2f} | {solver} |")
 with open(os.path.join(root, "results", "dense_eigen.md"), "w") as f:
     f.write("\n".join(lines) + "\n")
 print("\n".join(lines))

@@ -288,6 +288,11 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
 // mode divergent) of random length, point or rod links, on both dense solvers
 // (Eigen below 150 coordinates, LAPACK above); free lattices (six zero
 // modes) of random size; k random, from 1 to beyond the zero modes.
+// Above 150 coordinates the two runs use different LAPACK drivers (every
+// pair by divide and conquer; with k, every eigenvalue by dsterf and the
+// lowest vectors by MRRR), so there each λ must agree within the two error
+// estimates and each shape within its residual over the gap; below, the same
+// vectors and formulas give rounding-level differences.
 TEST_F(Pipeline, LowestModesEqualThoseOfTheFullAnalysis) {
   std::mt19937_64 rng(20261125);
   auto pick = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
@@ -320,22 +325,36 @@ TEST_F(Pipeline, LowestModesEqualThoseOfTheFullAnalysis) {
     ASSERT_EQ(l.modes.size(), static_cast<std::size_t>(some.modes));
     double largest = 0;
     for (const modal::Mode& m : f.modes) largest = std::max(largest, std::abs(m.omega2));
+    const bool same_driver = l.solver == f.solver;
+    if (model.system.size() >= 150) {
+      EXPECT_FALSE(same_driver) << l.solver;
+      EXPECT_NE(l.solver.find("MRRR"), std::string::npos) << l.solver;
+    }
     for (std::size_t j = 0; j < l.modes.size(); ++j) {
       const modal::Mode &a = l.modes[j], &b = f.modes[j];
       EXPECT_EQ(a.kind, b.kind) << "mode " << j + 1;
-      // The same vectors and the same formulas, products over fewer columns:
-      // rounding-level differences only (zero modes: their λ is rounding).
-      EXPECT_LE(std::abs(a.omega2 - b.omega2), 1e-12 * std::abs(b.omega2) + 64 * 2.2e-16 * largest) << "mode " << j + 1;
+      if (same_driver) {
+        // The same vectors and the same formulas, products over fewer
+        // columns: rounding-level differences only (zero modes: their λ is
+        // rounding).
+        EXPECT_LE(std::abs(a.omega2 - b.omega2), 1e-12 * std::abs(b.omega2) + 64 * 2.2e-16 * largest)
+            << "mode " << j + 1;
+      } else {
+        EXPECT_LE(std::abs(a.omega2 - b.omega2), a.error_estimate + b.error_estimate) << "mode " << j + 1;
+      }
       // Zero modes are one eigenspace whose basis (and order, by λ at
       // rounding level) depends on the last bits of the products: compared
       // as a kind only.
-      if (b.kind != modal::ModeKind::zero) {
+      if (b.kind != modal::ModeKind::zero && same_driver) {
         EXPECT_LE(std::abs(a.error_estimate - b.error_estimate), 0.01 * b.error_estimate) << "mode " << j + 1;
       }
       if (b.kind != modal::ModeKind::zero && j + 1 < f.modes.size() &&
           std::abs(f.modes[j + 1].omega2 - b.omega2) > 1e-6 * largest) {  // a unique shape
         ASSERT_EQ(a.shape.size(), b.shape.size());
-        EXPECT_LE((a.shape - b.shape).norm(), 1e-8 * b.shape.norm()) << "mode " << j + 1;
+        // Two drivers: each shape is within (residual / gap) of the true one
+        // (Davis–Kahan); the gap here is at least 1e-6 of the largest λ and
+        // the residual bounds at rounding level, so 1e-6 leaves a margin.
+        EXPECT_LE((a.shape - b.shape).norm(), (same_driver ? 1e-8 : 1e-6) * b.shape.norm()) << "mode " << j + 1;
       }
     }
     ++cases;

@@ -55,6 +55,7 @@
 #include <cstddef>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,25 @@
 extern "C" void dsygvd_(const int* itype, const char* jobz, const char* uplo, const int* n, double* a,
                         const int* lda, double* b, const int* ldb, double* w, double* work, const int* lwork,
                         int* iwork, const int* liwork, int* info, std::size_t jobz_length, std::size_t uplo_length);
+
+// The pieces of dsygvd, for the lowest eigenvectors alone (solve_symmetric
+// with `wanted`): the reduction to standard form with a given Cholesky factor
+// (dsygst), to tridiagonal form (dsytrd), every eigenvalue of the tridiagonal
+// matrix (dsterf, no vectors), the lowest ones' vectors (dstemr, MRRR), and
+// the back-transformation (dormtr).
+extern "C" void dsygst_(const int* itype, const char* uplo, const int* n, double* a, const int* lda, const double* b,
+                        const int* ldb, int* info, std::size_t uplo_length);
+extern "C" void dsytrd_(const char* uplo, const int* n, double* a, const int* lda, double* d, double* e, double* tau,
+                        double* work, const int* lwork, int* info, std::size_t uplo_length);
+extern "C" void dsterf_(const int* n, double* d, double* e, int* info);
+extern "C" void dstemr_(const char* jobz, const char* range, const int* n, double* d, double* e, const double* vl,
+                        const double* vu, const int* il, const int* iu, int* m, double* w, double* z, const int* ldz,
+                        const int* nzc, int* isuppz, int* tryrac, double* work, const int* lwork, int* iwork,
+                        const int* liwork, int* info, std::size_t jobz_length, std::size_t range_length);
+extern "C" void dormtr_(const char* side, const char* uplo, const char* trans, const int* m, const int* n,
+                        const double* a, const int* lda, const double* tau, double* c, const int* ldc, double* work,
+                        const int* lwork, int* info, std::size_t side_length, std::size_t uplo_length,
+                        std::size_t trans_length);
 
 // BLAS (OpenBLAS where installed, threaded for large products): the n×n
 // products and triangular solves of the error estimates below, which with
@@ -185,6 +205,77 @@ void lapack_pairs(const MatrixX& M, const MatrixX& K, VectorX& lambda, MatrixX& 
     throw NumericalError("LAPACK dsygvd did not converge (info " + std::to_string(info) + ")");
 }
 
+// K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
+// C = L⁻¹KL⁻ᵀ, with the factor L of M that the caller already has (LAPACK
+// dsygst, dsytrd: the first half of dsygvd's work). Every eigenvalue comes
+// from T alone (O(n²)); a vector of T is one of the pencil after Q and L⁻ᵀ.
+class TridiagonalPencil {
+ public:
+  TridiagonalPencil(const MatrixX& K, const Cholesky& mass) : L_(mass.matrixLLT()), A_(K) {
+    const int itype = 1;
+    int info = 0;
+    dsygst_(&itype, "L", &n_, A_.data(), &n_, L_.data(), &n_, &info, 1);
+    if (info != 0) throw NumericalError("LAPACK dsygst failed (info " + std::to_string(info) + ")");
+    d_.resize(n_);
+    e_.resize(n_);  // e_(n − 1) is dstemr's workspace
+    tau_.resize(std::max(n_ - 1, 1));
+    double size = 0;
+    int lwork = -1;
+    dsytrd_("L", &n_, A_.data(), &n_, d_.data(), e_.data(), tau_.data(), &size, &lwork, &info, 1);
+    lwork = std::max(1, static_cast<int>(size));
+    std::vector<double> work(static_cast<std::size_t>(lwork));
+    dsytrd_("L", &n_, A_.data(), &n_, d_.data(), e_.data(), tau_.data(), work.data(), &lwork, &info, 1);
+    if (info != 0) throw NumericalError("LAPACK dsytrd failed (info " + std::to_string(info) + ")");
+    e_(n_ - 1) = 0;
+  }
+  // Every eigenvalue, ascending (dsterf: implicit QL/QR without vectors).
+  VectorX eigenvalues() const {
+    VectorX d = d_, e = e_;
+    int info = 0;
+    dsterf_(&n_, d.data(), e.data(), &info);
+    if (info != 0) throw NumericalError("LAPACK dsterf did not converge (info " + std::to_string(info) + ")");
+    return d;
+  }
+  // The pencil's vectors of its p lowest eigenvalues (n×p, ΦᵀMΦ = I to
+  // rounding), or an empty matrix when dstemr fails (the caller then takes
+  // every vector by dsygvd).
+  MatrixX lowest_vectors(int p) const {
+    if (p <= 0) return MatrixX(n_, 0);
+    VectorX d = d_, e = e_, w(n_);
+    MatrixX Z(n_, p);
+    const int il = 1, iu = p;
+    const double vl = 0, vu = 0;
+    int found = 0, tryrac = 1, info = 0, lwork = -1, liwork = -1, isize = 0;
+    double size = 0;
+    std::vector<int> isuppz(static_cast<std::size_t>(2 * p));
+    dstemr_("V", "I", &n_, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n_, &p,
+            isuppz.data(), &tryrac, &size, &lwork, &isize, &liwork, &info, 1, 1);
+    if (info != 0) return {};
+    lwork = std::max(1, static_cast<int>(size));
+    liwork = std::max(1, isize);
+    std::vector<double> work(static_cast<std::size_t>(lwork));
+    std::vector<int> iwork(static_cast<std::size_t>(liwork));
+    dstemr_("V", "I", &n_, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n_, &p,
+            isuppz.data(), &tryrac, work.data(), &lwork, iwork.data(), &liwork, &info, 1, 1);
+    if (info != 0 || found != p) return {};
+    lwork = -1;
+    dormtr_("L", "L", "N", &n_, &p, A_.data(), &n_, tau_.data(), Z.data(), &n_, &size, &lwork, &info, 1, 1, 1);
+    lwork = std::max(1, static_cast<int>(size));
+    work.assign(static_cast<std::size_t>(lwork), 0.0);
+    dormtr_("L", "L", "N", &n_, &p, A_.data(), &n_, tau_.data(), Z.data(), &n_, work.data(), &lwork, &info, 1, 1, 1);
+    if (info != 0) return {};
+    const double one = 1;
+    dtrsm_("L", "L", "T", "N", &n_, &p, &one, L_.data(), &n_, Z.data(), &n_, 1, 1, 1, 1);  // Φ = L⁻ᵀ Y
+    return Z;
+  }
+
+ private:
+  const MatrixX& L_;  // its lower triangle is L
+  int n_ = static_cast<int>(L_.rows());
+  MatrixX A_;         // C, then T's Householder vectors (dsytrd)
+  VectorX d_, e_, tau_;
+};
+
 }  // namespace
 
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
@@ -195,10 +286,18 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda_all;
   MatrixX Phi;
-  if (lapack)
+  // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
+  // analyzed below (TridiagonalPencil: no divide and conquer over all n
+  // vectors, no back-transformation of them).
+  std::optional<TridiagonalPencil> reduced;
+  if (lapack && wanted >= 0 && wanted < n) {
+    reduced.emplace(K, mass);
+    lambda_all = reduced->eigenvalues();
+  } else if (lapack) {
     lapack_pairs(M, K, lambda_all, Phi);
-  else
+  } else {
     eigen_pairs(K, mass, lambda_all, Phi);
+  }
 
   // The modes analyzed below (residuals, rounding, data terms: O(n²) each, so
   // O(n³) for all): every mode, or, when only the lowest `wanted` are asked
@@ -228,7 +327,14 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   std::vector<Eigen::Index> analyzed(static_cast<std::size_t>(prefix));
   std::iota(analyzed.begin(), analyzed.end(), Eigen::Index{0});
   if (prefix == n) cheap.resize(0);
-  else Phi.conservativeResize(Eigen::NoChange, prefix);
+  if (reduced) {
+    Phi = reduced->lowest_vectors(static_cast<int>(prefix));
+    if (Phi.cols() != prefix) {  // dstemr failed: every pair by dsygvd
+      lapack_pairs(M, K, lambda_all, Phi);
+      reduced.reset();
+    }
+  }
+  if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
   const auto m = static_cast<Eigen::Index>(analyzed.size());
   VectorX lambda = lambda_all(analyzed);
 
@@ -340,8 +446,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
 
   ModalResult result;
-  result.solver = lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
-                         : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
+  result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
+                            "by dsterf, the lowest modes' vectors by MRRR dstemr)"
+                 : lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
+                          : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
   double worst_relative_residual = 0;
   Eigen::Index worst = 0;
   for (Eigen::Index j = 0, i = 0; j < n; ++j) {
