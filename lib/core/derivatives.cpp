@@ -37,6 +37,8 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <numeric>
+#include <stdexcept>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -663,11 +665,60 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     });
     if (fits) return H;
   }
-  std::vector<Eigen::Triplet<double>> t;
-  assemble_potential_hessian(s, w, q, triplet_adder(t));
-  H.resize(s.size(), s.size());
-  H.setFromTriplets(t.begin(), t.end());  // sums the elements' contributions
-  H.makeCompressed();
+  // The first assembly finds the pattern. A counting pass sizes each column
+  // (terms, duplicates included), a second pass files every term under its
+  // column, and each column is then sorted and its duplicates summed. This
+  // replaces triplets (36 per spring) with Eigen's setFromTriplets, whose
+  // row-major detour scatters over the whole matrix and touches about three
+  // times as much fresh memory: 5.8 s for a 10⁶-coordinate net against 0.5 s
+  // for an assembly in place (bench_core SparseHessianNetFirst).
+  const int n = s.size();
+  std::vector<Eigen::Index> start(static_cast<std::size_t>(n) + 1, 0);
+  assemble_potential_hessian(s, w, q, [&start](int, int k, double) { ++start[static_cast<std::size_t>(k) + 1]; });
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<int> rows(static_cast<std::size_t>(start.back()));
+  std::vector<double> terms(rows.size());
+  std::vector<Eigen::Index> next(start.begin(), start.end() - 1);
+  bool counted = true;  // the second pass visits the same (row, column) pairs
+  assemble_potential_hessian(s, w, q, [&](int j, int k, double v) {
+    Eigen::Index& at = next[static_cast<std::size_t>(k)];
+    if (at == start[static_cast<std::size_t>(k) + 1]) {
+      counted = false;
+      return;
+    }
+    rows[static_cast<std::size_t>(at)] = j;
+    terms[static_cast<std::size_t>(at)] = v;
+    ++at;
+  });
+  for (std::size_t k = 0; counted && k < next.size(); ++k) counted = next[k] == start[k + 1];
+  if (!counted) throw std::logic_error("sparse_potential_hessian: the two assembly passes differ");
+  // Sorted and summed column by column, compacted in place (a column's
+  // entries never move past its terms).
+  std::vector<std::pair<int, double>> column;
+  Eigen::Index kept = 0;
+  std::vector<Eigen::Index> outer(static_cast<std::size_t>(n) + 1, 0);
+  for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
+    column.clear();
+    for (Eigen::Index i = start[k]; i < start[k + 1]; ++i)
+      column.emplace_back(rows[static_cast<std::size_t>(i)], terms[static_cast<std::size_t>(i)]);
+    // Stable: duplicates are summed in the order of the terms, as in place.
+    std::stable_sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < column.size(); ++i) {
+      if (i > 0 && column[i].first == column[i - 1].first) {
+        terms[static_cast<std::size_t>(kept - 1)] += column[i].second;
+        continue;
+      }
+      rows[static_cast<std::size_t>(kept)] = column[i].first;
+      terms[static_cast<std::size_t>(kept)] = column[i].second;
+      ++kept;
+    }
+    outer[k + 1] = kept;
+  }
+  H.resize(n, n);
+  H.resizeNonZeros(kept);
+  std::copy(outer.begin(), outer.end(), H.outerIndexPtr());
+  std::copy_n(rows.begin(), kept, H.innerIndexPtr());
+  std::copy_n(terms.begin(), kept, H.valuePtr());
   return H;
 }
 
