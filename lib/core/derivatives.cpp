@@ -586,6 +586,65 @@ void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q,
   }
 }
 
+// A sparse matrix (n×n) of terms that `assemble(add)` hands to add(j, k, v),
+// duplicates summed in the order of the terms. A counting pass sizes each
+// column (terms, duplicates included), a second pass files every term under
+// its column, and each column is then sorted and its duplicates summed. This
+// replaces triplets (36 per spring) with Eigen's setFromTriplets, whose
+// row-major detour scatters over the whole matrix and touches about three
+// times as much fresh memory: 5.8 s for a 10⁶-coordinate net's ∇∇V against
+// 0.5 s for an assembly in place (bench_core SparseHessianNetFirst).
+// `assemble` must hand the same (j, k) pairs on both passes.
+template <class Assemble>
+void assemble_by_columns(int n, Assemble&& assemble, SparseMatrix& H) {
+  std::vector<Eigen::Index> start(static_cast<std::size_t>(n) + 1, 0);
+  assemble([&start](int, int k, double) { ++start[static_cast<std::size_t>(k) + 1]; });
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<int> rows(static_cast<std::size_t>(start.back()));
+  std::vector<double> terms(rows.size());
+  std::vector<Eigen::Index> next(start.begin(), start.end() - 1);
+  bool counted = true;  // the second pass visits the same (row, column) pairs
+  assemble([&](int j, int k, double v) {
+    Eigen::Index& at = next[static_cast<std::size_t>(k)];
+    if (at == start[static_cast<std::size_t>(k) + 1]) {
+      counted = false;
+      return;
+    }
+    rows[static_cast<std::size_t>(at)] = j;
+    terms[static_cast<std::size_t>(at)] = v;
+    ++at;
+  });
+  for (std::size_t k = 0; counted && k < next.size(); ++k) counted = next[k] == start[k + 1];
+  if (!counted) throw std::logic_error("assemble_by_columns: the two assembly passes differ");
+  // Sorted and summed column by column, compacted in place (a column's
+  // entries never move past its terms).
+  std::vector<std::pair<int, double>> column;
+  Eigen::Index kept = 0;
+  std::vector<Eigen::Index> outer(static_cast<std::size_t>(n) + 1, 0);
+  for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
+    column.clear();
+    for (Eigen::Index i = start[k]; i < start[k + 1]; ++i)
+      column.emplace_back(rows[static_cast<std::size_t>(i)], terms[static_cast<std::size_t>(i)]);
+    // Stable: duplicates are summed in the order of the terms, as in place.
+    std::stable_sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < column.size(); ++i) {
+      if (i > 0 && column[i].first == column[i - 1].first) {
+        terms[static_cast<std::size_t>(kept - 1)] += column[i].second;
+        continue;
+      }
+      rows[static_cast<std::size_t>(kept)] = column[i].first;
+      terms[static_cast<std::size_t>(kept)] = column[i].second;
+      ++kept;
+    }
+    outer[k + 1] = kept;
+  }
+  H.resize(n, n);
+  H.resizeNonZeros(kept);
+  std::copy(outer.begin(), outer.end(), H.outerIndexPtr());
+  std::copy_n(rows.begin(), kept, H.innerIndexPtr());
+  std::copy_n(terms.begin(), kept, H.valuePtr());
+}
+
 }  // namespace
 
 double potential(const System& s, Workspace& w, const VectorX& q) {
@@ -665,60 +724,8 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     });
     if (fits) return H;
   }
-  // The first assembly finds the pattern. A counting pass sizes each column
-  // (terms, duplicates included), a second pass files every term under its
-  // column, and each column is then sorted and its duplicates summed. This
-  // replaces triplets (36 per spring) with Eigen's setFromTriplets, whose
-  // row-major detour scatters over the whole matrix and touches about three
-  // times as much fresh memory: 5.8 s for a 10⁶-coordinate net against 0.5 s
-  // for an assembly in place (bench_core SparseHessianNetFirst).
-  const int n = s.size();
-  std::vector<Eigen::Index> start(static_cast<std::size_t>(n) + 1, 0);
-  assemble_potential_hessian(s, w, q, [&start](int, int k, double) { ++start[static_cast<std::size_t>(k) + 1]; });
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  std::vector<int> rows(static_cast<std::size_t>(start.back()));
-  std::vector<double> terms(rows.size());
-  std::vector<Eigen::Index> next(start.begin(), start.end() - 1);
-  bool counted = true;  // the second pass visits the same (row, column) pairs
-  assemble_potential_hessian(s, w, q, [&](int j, int k, double v) {
-    Eigen::Index& at = next[static_cast<std::size_t>(k)];
-    if (at == start[static_cast<std::size_t>(k) + 1]) {
-      counted = false;
-      return;
-    }
-    rows[static_cast<std::size_t>(at)] = j;
-    terms[static_cast<std::size_t>(at)] = v;
-    ++at;
-  });
-  for (std::size_t k = 0; counted && k < next.size(); ++k) counted = next[k] == start[k + 1];
-  if (!counted) throw std::logic_error("sparse_potential_hessian: the two assembly passes differ");
-  // Sorted and summed column by column, compacted in place (a column's
-  // entries never move past its terms).
-  std::vector<std::pair<int, double>> column;
-  Eigen::Index kept = 0;
-  std::vector<Eigen::Index> outer(static_cast<std::size_t>(n) + 1, 0);
-  for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
-    column.clear();
-    for (Eigen::Index i = start[k]; i < start[k + 1]; ++i)
-      column.emplace_back(rows[static_cast<std::size_t>(i)], terms[static_cast<std::size_t>(i)]);
-    // Stable: duplicates are summed in the order of the terms, as in place.
-    std::stable_sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (std::size_t i = 0; i < column.size(); ++i) {
-      if (i > 0 && column[i].first == column[i - 1].first) {
-        terms[static_cast<std::size_t>(kept - 1)] += column[i].second;
-        continue;
-      }
-      rows[static_cast<std::size_t>(kept)] = column[i].first;
-      terms[static_cast<std::size_t>(kept)] = column[i].second;
-      ++kept;
-    }
-    outer[k + 1] = kept;
-  }
-  H.resize(n, n);
-  H.resizeNonZeros(kept);
-  std::copy(outer.begin(), outer.end(), H.outerIndexPtr());
-  std::copy_n(rows.begin(), kept, H.innerIndexPtr());
-  std::copy_n(terms.begin(), kept, H.valuePtr());
+  // The first assembly finds the pattern (assemble_by_columns).
+  assemble_by_columns(s.size(), [&](auto&& add) { assemble_potential_hessian(s, w, q, add); }, H);
   return H;
 }
 
@@ -730,28 +737,28 @@ SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX&
     return D;
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(static_cast<std::size_t>(n));
-  for (int k = 0; k < n; ++k) t.emplace_back(k, k, 0.0);  // the diagonal, always in the pattern
-  auto add = triplet_adder(t);
-  Eigen::Matrix<double, 6, 6> He;
-  for (const Spring& sp : s.springs()) {
-    He.setZero();
-    for (int i = 0; i < 3; ++i) {
-      He(i, i) = He(i + 3, i + 3) = sp.stiffness;
-      He(i, i + 3) = He(i + 3, i) = -sp.stiffness;
-    }
-    const std::array<Site, 2> ends{attachment_site(st, sp.a), attachment_site(st, sp.b)};
-    add_local_hessian(s, st, ends, He, add);
-  }
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    if (bodies[b].stiffness == 0.0) continue;
-    const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
-  }
-  D.setFromTriplets(t.begin(), t.end());
-  D.makeCompressed();
+  assemble_by_columns(
+      n,
+      [&](auto&& add) {
+        for (int k = 0; k < n; ++k) add(k, k, 0.0);  // the diagonal, always in the pattern
+        Eigen::Matrix<double, 6, 6> He;
+        for (const Spring& sp : s.springs()) {
+          He.setZero();
+          for (int i = 0; i < 3; ++i) {
+            He(i, i) = He(i + 3, i + 3) = sp.stiffness;
+            He(i, i + 3) = He(i + 3, i) = -sp.stiffness;
+          }
+          const std::array<Site, 2> ends{attachment_site(st, sp.a), attachment_site(st, sp.b)};
+          add_local_hessian(s, st, ends, He, add);
+        }
+        const auto& bodies = s.bodies();
+        for (std::size_t b = 0; b < bodies.size(); ++b) {
+          if (bodies[b].stiffness == 0.0) continue;
+          const int k0 = s.first_coordinate(static_cast<int>(b));
+          for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
+        }
+      },
+      D);
   return D;
 }
 
