@@ -269,8 +269,8 @@ void deposit_element(const std::array<SiteT<R>, N>& sites, Energy&& energy, Depo
 // d = x_a − x_b (a spring; `energy` of d, templated on the scalar). Its exact
 // derivatives are taken in the 3 components of d, not the 6 of (x_a, x_b):
 // ∂V/∂x_a = ∂V/∂d = −∂V/∂x_b, and the 6×6 local Hessian is
-// [H −H; −H H] with H = ∂²V/∂d². The same numbers as deposit_element<2>
-// (∂d/∂x is ±I exactly), for a quarter of the second-order AD work.
+// [H −H; −H H] with H = ∂²V/∂d². Exact like deposit_element<2> (∂d/∂x is
+// ±I exactly), for a quarter of the second-order AD work.
 template <class R, class Energy, class Deposit, class LocalHessian>
 void deposit_difference_element(const std::array<SiteT<R>, 2>& sites, Energy&& energy, Deposit&& deposit,
                                 LocalHessian&& local_hessian, bool second_order) {
