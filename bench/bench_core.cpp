@@ -73,7 +73,8 @@ void SparseHessianNet(benchmark::State& st) {
   st.SetComplexityN(s.size());
 }
 
-// The first assembly in a fresh workspace: the pattern is built from triplets.
+// The first assembly in a fresh workspace, which also builds the pattern
+// (assemble_by_columns in lib/core/derivatives.cpp).
 void SparseHessianNetFirst(benchmark::State& st) {
   const modal::System s = net(static_cast<int>(st.range(0)), 0.0);
   Eigen::VectorXd q(s.size());

@@ -593,7 +593,9 @@ void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q,
 // replaces triplets (36 per spring) with Eigen's setFromTriplets, whose
 // row-major detour scatters over the whole matrix and touches about three
 // times as much fresh memory: 5.8 s for a 10⁶-coordinate net's ∇∇V against
-// 0.5 s for an assembly in place (bench_core SparseHessianNetFirst).
+// 0.5 s for an assembly in place (bench_core SparseHessianNetFirst). The
+// counting pass evaluates every term too (the elements' AD), so a first
+// assembly costs about two in place; it happens once per workspace.
 // `assemble` must hand the same (j, k) pairs on both passes.
 template <class Assemble>
 void assemble_by_columns(int n, Assemble&& assemble, SparseMatrix& H) {
