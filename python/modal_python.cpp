@@ -644,6 +644,11 @@ PYBIND11_MODULE(_modal, m) {
           "absolute error estimate of each eigenvalue: of omega2 (rad²/s²) for symmetric problems, of s (rad/s) "
           "otherwise; covers the solver and the rounding (or differences) of M and K")
       .def_property_readonly(
+          "systematic_errors",
+          [](const modal::Analysis& a) { return per_mode(a, [](const modal::Mode& x) { return x.systematic_error; }); },
+          "the part of each error estimate from systematic errors of K (an equilibrium accepted at a loose "
+          "tolerance, derivatives by differences); 0 where there are none")
+      .def_property_readonly(
           "bounds",
           [](const modal::Analysis& a) { return per_mode(a, [](const modal::Mode& x) { return x.residual_bound; }); },
           "residual bound ‖Kφ − λMφ‖_{M⁻¹} of each omega2 (rad²/s²): an eigenvalue of (K, M) as formed lies within it; "

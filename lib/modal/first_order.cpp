@@ -126,18 +126,21 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     const double first_order = eta * normA * kappa;
     const double holder = std::sqrt(eta) * normA;
     double error = std::isfinite(first_order) ? std::min(first_order, holder) : holder;
+    double systematic_part = 0;
     if (U.size() > 0) {
       const VectorX absx = x.cwiseAbs();
       VectorX moved = VectorX::Zero(n);
       if (has_K_error) moved += K_systematic_error * absx;
       if (has_C_error) moved += std::abs(s) * (C_error * absx);
       const double systematic = U.col(i).cwiseAbs().dot(moved) / (w * std::abs(yz));
-      error += std::isfinite(systematic) ? std::min(systematic, std::sqrt(delta_A * normA))
-                                         : std::sqrt(delta_A * normA);
+      systematic_part = std::isfinite(systematic) ? std::min(systematic, std::sqrt(delta_A * normA))
+                                                  : std::sqrt(delta_A * normA);
+      error += systematic_part;
     }
 
     const ModeKind kind = kind_of(s, error);
     Mode mode = make_mode(s, error, kind);
+    mode.systematic_error = systematic_part;
     const int multiplicity = s.imag() > 0 ? 2 : 1;  // eigenvalues of A this entry stands for
     if (kind == ModeKind::divergent) result.morse_index += multiplicity;
     if (kind == ModeKind::zero) result.zero_modes += multiplicity;

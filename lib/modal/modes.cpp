@@ -312,35 +312,74 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
   // neighbours each close to the next: 300 distinct eigenvalues of a long
   // chain, each within its estimate of the next, are not one eigenvalue), or
   // when they agree to rounding level normwise (64ε of the largest |λ|).
-  auto close = [&](const Mode& a, const Mode& b) {
+  // `systematic`: whether the systematic part of the estimates counts
+  // (Mode::systematic_error); without it, what separates the eigenvalues of
+  // the matrices as formed.
+  auto close = [&](const Mode& a, const Mode& b, bool systematic) {
     const double gap = std::abs(value(a) - value(b));
-    return gap <= a.error_estimate + b.error_estimate || gap <= 64 * std::numeric_limits<double>::epsilon() * scale;
+    const double ea = systematic ? a.error_estimate : std::max(0.0, a.error_estimate - a.systematic_error);
+    const double eb = systematic ? b.error_estimate : std::max(0.0, b.error_estimate - b.systematic_error);
+    return gap <= ea + eb || gap <= 64 * std::numeric_limits<double>::epsilon() * scale;
   };
-  for (std::size_t first = 0; first < modes.size();) {
-    std::size_t last = first;
-    while (last + 1 < modes.size() && close(modes[last], modes[last + 1]) && close(modes[first], modes[last + 1]))
-      ++last;
-    if (last > first) {
-      std::ostringstream out;
-      // Said as what is known: the values lie within each other's error
-      // estimates, so they cannot be told apart at the stated accuracy; a
-      // true repeat (by symmetry) and two close eigenvalues look alike here.
-      out << "modes " << first + 1 << "–" << last + 1 << " are not resolved: their eigenvalues ";
-      if (symmetric)
-        out << "(λ ≈ " << format_number(modes[first].omega2, 10)
-            << ") lie within each other's error estimates, so they may be one repeated eigenvalue; if so, their "
-               "shapes are one M-orthonormal basis of the eigenspace, not unique (any M-orthonormal combination "
-               "of them is equally valid)";
-      else
-        out << "(s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
-            << format_number(std::abs(modes[first].s.imag()), 8)
-            << "i) lie within each other's error estimates; if they are one eigenvalue, their shapes span the "
-               "invariant subspace and are not unique, and if it is defective (coalescing modes, as at critical "
-               "damping or at the onset of flutter) it is accurate only to about the square root of the rounding "
-               "level";
-      notes.push_back(out.str());
+  // Groups [first, last] of consecutive modes, as above.
+  auto groups = [&](bool systematic) {
+    std::vector<std::pair<std::size_t, std::size_t>> found;
+    for (std::size_t first = 0; first < modes.size();) {
+      std::size_t last = first;
+      while (last + 1 < modes.size() && close(modes[last], modes[last + 1], systematic) &&
+             close(modes[first], modes[last + 1], systematic))
+        ++last;
+      if (last > first) found.emplace_back(first, last);
+      first = last + 1;
     }
-    first = last + 1;
+    return found;
+  };
+  const auto unresolved = groups(false);
+  for (const auto& [first, last] : unresolved) {
+    std::ostringstream out;
+    // Said as what is known: the values lie within each other's error
+    // estimates, so they cannot be told apart at the stated accuracy; a
+    // true repeat (by symmetry) and two close eigenvalues look alike here.
+    out << "modes " << first + 1 << "–" << last + 1 << " are not resolved: their eigenvalues ";
+    if (symmetric)
+      out << "(λ ≈ " << format_number(modes[first].omega2, 10)
+          << ") lie within each other's error estimates, so they may be one repeated eigenvalue; if so, their "
+             "shapes are one M-orthonormal basis of the eigenspace, not unique (any M-orthonormal combination "
+             "of them is equally valid)";
+    else
+      out << "(s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
+          << format_number(std::abs(modes[first].s.imag()), 8)
+          << "i) lie within each other's error estimates; if they are one eigenvalue, their shapes span the "
+             "invariant subspace and are not unique, and if it is defective (coalescing modes, as at critical "
+             "damping or at the onset of flutter) it is accurate only to about the square root of the rounding "
+             "level";
+    notes.push_back(out.str());
+  }
+  // Estimates that overlap only through their systematic part (a loose
+  // equilibrium, differences): the eigenvalues of the matrices as formed are
+  // told apart, so no multiplicity is claimed; what is not known is how far
+  // apart, and in which order, they are at the exact K.
+  for (const auto& [first, last] : groups(true)) {
+    const bool one_group = std::any_of(unresolved.begin(), unresolved.end(), [&](const auto& g) {
+      return g.first == first && g.second == last;
+    });
+    if (one_group) continue;
+    double systematic = 0;
+    for (std::size_t j = first; j <= last; ++j) systematic = std::max(systematic, modes[j].systematic_error);
+    std::ostringstream out;
+    out << "modes " << first + 1 << "–" << last + 1 << ": their eigenvalues ";
+    if (symmetric)
+      out << "(λ from " << format_number(modes[first].omega2, 10) << " to " << format_number(modes[last].omega2, 10)
+          << ")";
+    else
+      out << "(|s| from " << format_number(std::abs(modes[first].s), 8) << " to "
+          << format_number(std::abs(modes[last].s), 8) << ")";
+    out << " are closer together than the systematic part of their error estimates (up to "
+        << format_number(systematic, 2)
+        << ", from an equilibrium accepted at a loose tolerance or from derivatives by differences), so their "
+           "spacing and order at the exact equilibrium are known only to within it; for the matrices as formed "
+           "the solver's error tells them apart, except where a note says they are not resolved";
+    notes.push_back(out.str());
   }
 }
 
@@ -383,8 +422,10 @@ void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric
         mode.omega2 = std::ldexp(mode.omega2, 2 * d);
         mode.error_estimate = std::ldexp(mode.error_estimate, 2 * d);
         mode.residual_bound = std::ldexp(mode.residual_bound, 2 * d);
+        mode.systematic_error = std::ldexp(mode.systematic_error, 2 * d);
       } else {
         mode.error_estimate *= root;
+        mode.systematic_error *= root;
       }
     }
     if (symmetric && m.a != 0) mode.shape *= shape;

@@ -878,6 +878,7 @@ Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, doub
   }
   mode.omega2 = lambda;
   mode.residual_bound = error + rounding + eps * std::abs(lambda);
+  mode.systematic_error = systematic;
   if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
   mode.shape = phi.cast<std::complex<double>>();
   return mode;
@@ -1304,10 +1305,12 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     const double second =
         factor_at_b ? std::min(own.shift_residual, second_order(own.shift_direction, j)) : own.shift_residual;
     mode.error_estimate += 2 * (own.shift_first + second);
+    mode.systematic_error += 2 * (own.shift_first + second);
     if (std::abs(mode.omega2) <= mode.error_estimate) {
       Mode zero = detail::make_mode(0.0, mode.error_estimate, ModeKind::zero);
       zero.omega2 = mode.omega2;
       zero.residual_bound = mode.residual_bound;
+      zero.systematic_error = mode.systematic_error;
       zero.shape = std::move(mode.shape);
       mode = std::move(zero);
     }

@@ -490,6 +490,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
     mode.omega2 = l;  // the computed λ, sign and all, whatever the kind
     mode.residual_bound = residual_bound;
+    mode.systematic_error = difference_bound;
     if (mode.kind == ModeKind::divergent) ++result.morse_index;
     if (mode.kind == ModeKind::zero) ++result.zero_modes;
 

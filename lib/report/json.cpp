@@ -63,6 +63,7 @@ Json mode_json(std::size_t index, const Mode& m) {
   j["damping_ratio"] = m.damping_ratio;
   j["error_estimate"] = m.error_estimate;
   if (std::isfinite(m.residual_bound)) j["residual_bound"] = m.residual_bound;
+  if (m.systematic_error > 0) j["systematic_error"] = m.systematic_error;
   j["kind"] = to_string(m.kind);
   j["stability"] = mode_stability(m.kind);
   std::vector<double> re, im;

@@ -55,6 +55,13 @@ struct Mode {
   // be far below this worst-case bound.
   // NaN for first-order problems (no such bound for non-normal matrices).
   double residual_bound = std::numeric_limits<double>::quiet_NaN();
+  // The part of error_estimate (same units) that comes from systematic errors
+  // of K rather than from rounding and the eigen-solver: an equilibrium
+  // accepted at a loose tolerance (K changes on the way to the exact one) and
+  // derivatives by differences; 0 when there are none. Two eigenvalues whose
+  // estimates overlap only through this part are distinct eigenvalues of the
+  // matrices as formed (their shapes are unique), known no better than it.
+  double systematic_error = 0;
   ModeKind kind = ModeKind::oscillatory;
   Eigen::VectorXcd shape;     // n; symmetric: real, M-normalized, largest |component| positive
 };
