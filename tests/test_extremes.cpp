@@ -352,8 +352,11 @@ int systematic_overlap_notes(const ModalResult& r) {
 // prestrain log-uniform over [0.005, 0.05], linearized at a point 1e-5 … 1e-3
 // m off their equilibrium and accepted there (loose tolerance), on the dense
 // and the sparse paths. A group of modes claimed "not resolved … may be one
-// repeated eigenvalue" must be one eigenvalue at the exact equilibrium
-// (reference spread within 1e-8 relative: only the symmetry's repeats).
+// repeated eigenvalue" is false where the exact equilibrium's eigenvalues of
+// the group lie further apart than twice the largest error the loose values
+// actually have (the criterion of bench/estimate_honesty.py; a pair repeated
+// for the matrices as formed may be split at the exact equilibrium by less
+// than that, as the flat net's (1,3)/(3,1) pair by its sag).
 // Before the systematic part was kept out of the grouping
 // (Mode::systematic_error), the estimates' loose-equilibrium share put
 // separated modes into such claims.
@@ -392,7 +395,11 @@ TEST(Extremes, LooseEquilibriumClaimsNoFalseMultiplicity) {
         if (last > 8) continue;
         const double a = exact.modes[static_cast<std::size_t>(first - 1)].omega2;
         const double b = exact.modes[static_cast<std::size_t>(last - 1)].omega2;
-        EXPECT_LE(std::abs(b - a), 1e-8 * std::abs(b))
+        double moved = 0;
+        for (int j = first - 1; j < last; ++j)
+          moved = std::max(moved, std::abs(r.modes[static_cast<std::size_t>(j)].omega2 -
+                                           exact.modes[static_cast<std::size_t>(j)].omega2));
+        EXPECT_LE(std::abs(b - a), 2 * moved + 1e-8 * std::abs(b))
             << what << path << ": modes " << first << "–" << last << " claimed not resolved, but at the exact "
             << "equilibrium their eigenvalues are " << a << " and " << b;
       }

@@ -378,7 +378,7 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
         << format_number(systematic, 2)
         << ", from an equilibrium accepted at a loose tolerance or from derivatives by differences), so their "
            "spacing and order at the exact equilibrium are known only to within it; for the matrices as formed "
-           "the solver's error tells them apart, except where a note says they are not resolved";
+           "the solver's error tells them apart (but for any group of them that another note names)";
     notes.push_back(out.str());
   }
 }

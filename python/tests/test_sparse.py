@@ -2,6 +2,8 @@
 scipy.sparse matrices, and scipy's own shift-invert Lanczos (ARPACK, eigsh)
 on them must give the returned ω² to within the returned error estimates."""
 
+import re
+
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
@@ -77,3 +79,28 @@ def test_dense_and_sparse_agree(models):
     assert np.all(np.abs(sparse.omega2 - dense.omega2) <= sparse.errors + dense.errors)
     np.testing.assert_allclose(sparse.M.toarray(), dense.M, rtol=0, atol=0)
     np.testing.assert_allclose(sparse.K.toarray(), dense.K, rtol=0, atol=1e-9 * abs(dense.K).max())
+
+
+def test_loose_equilibrium_systematic_part(models):
+    # The pre-tensioned net accepted at --eq-tol 1e-4 (at its flat start):
+    # its estimates carry the equilibrium's change of K, reported apart as
+    # systematic_errors, and no separated modes are claimed to be one.
+    loose = modal.analyze(models / "net.toml", modes=6, eq_tol=1e-4)
+    exact = modal.analyze(models / "net.toml", modes=6)
+    assert np.all(loose.systematic_errors > 0) and np.all(loose.systematic_errors <= loose.errors)
+    assert np.all(exact.systematic_errors == 0)
+    # A claim "modes a–b are not resolved" is false where the exact equilibrium's
+    # eigenvalues of the group lie further apart than twice the largest error
+    # the loose values actually have (the criterion of bench/estimate_honesty.py).
+    # At the flat start the claims are the membrane's repeated pairs (1,2)/(2,1)
+    # and (1,3)/(3,1); the sag splits the second pair by 0.4 %, within the error.
+    claims = [re.match(r"modes (\d+)–(\d+) are not resolved", n) for n in loose.notes]
+    claims = [c for c in claims if c]
+    assert claims
+    for c in claims:
+        note, first, last = c.string, int(c.group(1)), int(c.group(2))
+        group = slice(first - 1, last)
+        spread = exact.omega2[last - 1] - exact.omega2[first - 1]
+        moved = np.max(np.abs(loose.omega2[group] - exact.omega2[group]))
+        assert spread <= 2 * moved + 1e-8 * exact.omega2[last - 1], note
+    assert any("systematic part of their error estimates" in n for n in loose.notes)
