@@ -1488,7 +1488,7 @@ class TreeLanczosPencil {
     residual.Mphi = Mphi;
     residual.r = r;
     Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, rounding, 0.0);
-    if (mode.kind != ModeKind::zero) mode.residual_bound = residual.bound + rounding + eps * std::abs(lambda);
+    mode.residual_bound = residual.bound + rounding + eps * std::abs(lambda);  // the worst case of r's rounding
     return mode;
   }
 
