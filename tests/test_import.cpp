@@ -671,6 +671,14 @@ TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
   EXPECT_NE(broken.find("MuJoCo could not load the model"), std::string::npos) << broken;
   const std::string unknown = scene_error("<mujoco><worldbody><bogus/></worldbody></mujoco>");
   EXPECT_NE(unknown.find("MuJoCo could not load the model"), std::string::npos) << unknown;
+  // An element or attribute of a later MuJoCo (here made up): the message names the version that read it.
+  EXPECT_NE(unknown.find("this is libmujoco " + modal::mujoco_version() + ", which does not know it"), std::string::npos)
+      << unknown;
+  const std::string attribute = scene_error(
+      "<mujoco><worldbody><body><joint type=\"hinge\" laterattribute=\"1\"/><geom size=\"0.1\"/></body></worldbody>"
+      "</mujoco>");
+  EXPECT_NE(attribute.find("unrecognized attribute: 'laterattribute'"), std::string::npos) << attribute;
+  EXPECT_NE(attribute.find("which does not know it"), std::string::npos) << attribute;
   const std::string wrong_root = scene_error("<robot name=\"r\"/>", "robot.xml");
   EXPECT_NE(wrong_root.find("robot.xml:1: not an MJCF file: its root element is <robot>"), std::string::npos)
       << wrong_root;

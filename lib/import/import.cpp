@@ -520,6 +520,13 @@ ImportedScene import_model(std::string_view text, const std::string& file, Scene
     const std::size_t at2 = message.rfind("Line ");
     const std::size_t pos = at == std::string::npos ? at2 : (at2 == std::string::npos ? at : std::max(at, at2));
     if (pos != std::string::npos) line = std::atoi(message.c_str() + pos + 5);
+    // An element or attribute this libmujoco does not know is often one of a
+    // later MuJoCo (models from MuJoCo's own repository use them): say which
+    // version read it.
+    if (message.find("Schema violation: unrecognized") != std::string::npos)
+      message += " (this is libmujoco " + mujoco_version() +
+                 ", which does not know it; a model written for a later MuJoCo may use it: remove it, or convert "
+                 "the model with a MuJoCo that reads it)";
     throw SceneError({file, std::max(line, 0), 0}, "", "MuJoCo could not load the model: " + message);
   }
   if (model->nbody < 2)
