@@ -665,6 +665,30 @@ TEST(Import, ErrorsInTheConvertedSceneNameTheFileNotTheConversionsLines) {
   EXPECT_NE(message.find("sh\\x1B[31m"), std::string::npos) << message;
 }
 
+// Models written for display (ROS's urdf_tutorial: links without <inertial>,
+// or joined by fixed joints only) are refused with what is missing and where.
+TEST(Import, DisplayOnlyModelsAreRefusedWithWhatIsMissing) {
+  const std::string urdf =
+      "<robot name=\"r\">\n<link name=\"base\"/>\n<link name=\"wheel\">\n<visual><geometry><cylinder length=\"0.1\" "
+      "radius=\"0.03\"/></geometry></visual>\n</link>\n<joint name=\"axle\" type=\"continuous\">\n<parent "
+      "link=\"base\"/><child link=\"wheel\"/><axis xyz=\"0 1 0\"/>\n</joint>\n</robot>\n";
+  const std::string massless = scene_error(urdf, "display.urdf");
+  EXPECT_EQ(massless.rfind("display.urdf:3: ", 0), 0u) << massless;  // the link's line
+  EXPECT_NE(massless.find("link 'wheel' moves, but has no <inertial> with mass and inertia"), std::string::npos)
+      << massless;
+  const std::string body = scene_error(
+      "<mujoco><worldbody>\n<body name=\"arm\"><joint axis=\"0 1 0\"/><geom size=\"0.1\" mass=\"0\"/></body>\n"
+      "</worldbody></mujoco>");
+  EXPECT_NE(body.find("body 'arm' moves, but has no mass"), std::string::npos) << body;
+  const std::string fixed =
+      scene_error("<robot name=\"r\">\n<link name=\"a\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" "
+                  "izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n<link name=\"b\"><inertial><mass "
+                  "value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial>"
+                  "</link>\n<joint name=\"j\" type=\"fixed\"><parent link=\"a\"/><child link=\"b\"/></joint>\n</robot>\n",
+                  "fixed.urdf");
+  EXPECT_NE(fixed.find("links joined by fixed joints are merged into one"), std::string::npos) << fixed;
+}
+
 TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {
   const std::string broken = scene_error("<mujoco>\n<worldbody>\n<body name=\"a\">\n</worldbody>\n</mujoco>");
   EXPECT_EQ(broken.rfind("bad.xml:", 0), 0u) << broken;

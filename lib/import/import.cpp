@@ -527,12 +527,30 @@ ImportedScene import_model(std::string_view text, const std::string& file, Scene
       message += " (this is libmujoco " + mujoco_version() +
                  ", which does not know it; a model written for a later MuJoCo may use it: remove it, or convert "
                  "the model with a MuJoCo that reads it)";
+    // A body that moves without mass: in URDF, a link without <inertial>
+    // (display-only models, as ROS's tutorials); MuJoCo names the body.
+    const std::string massless = "mass and inertia of moving bodies must be larger than mjMINVAL";
+    if (const std::size_t at_name = message.find("Object name = ");
+        message.find(massless) != std::string::npos && at_name != std::string::npos) {
+      std::string body = message.substr(at_name + 14);
+      body = body.substr(0, body.find(','));
+      if (line == 0) line = line_of(text, format == SceneFormat::urdf ? "link" : "body", body);
+      message += format == SceneFormat::urdf
+                     ? " (link '" + body + "' moves, but has no <inertial> with mass and inertia: a URDF written "
+                       "for display only; give every moving link an <inertial>)"
+                     : " (body '" + body + "' moves, but has no mass: give it an <inertial>, or geoms with mass or "
+                       "density)";
+    }
     throw SceneError({file, std::max(line, 0), 0}, "", "MuJoCo could not load the model: " + message);
   }
   if (model->nbody < 2)
     throw SceneError({file, 0, 0}, "",
                      std::string("the model has no body besides the world: nothing moves, nothing to analyze (") +
-                         (format == SceneFormat::urdf ? "a URDF file needs links joined by joints" : "add a <body> to <worldbody>") + ")");
+                         (format == SceneFormat::urdf
+                              ? "a URDF file needs links joined by joints that move: revolute, continuous, "
+                                "prismatic or floating; links joined by fixed joints are merged into one"
+                              : "add a <body> to <worldbody>") +
+                         ")");
   const Importer importer(*model, text, file, format);
   ImportedScene out;
   try {
