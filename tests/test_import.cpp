@@ -687,6 +687,14 @@ TEST(Import, DisplayOnlyModelsAreRefusedWithWhatIsMissing) {
                   "</link>\n<joint name=\"j\" type=\"fixed\"><parent link=\"a\"/><child link=\"b\"/></joint>\n</robot>\n",
                   "fixed.urdf");
   EXPECT_NE(fixed.find("links joined by fixed joints are merged into one"), std::string::npos) << fixed;
+  const std::string mesh = scene_error(
+      "<robot name=\"r\">\n<link name=\"base\"/>\n<link name=\"arm\"><inertial><mass value=\"1\"/><inertia "
+      "ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial><collision><geometry><mesh "
+      "filename=\"arm.dae\"/></geometry></collision></link>\n<joint name=\"j\" type=\"revolute\"><parent "
+      "link=\"base\"/><child link=\"arm\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
+      "velocity=\"1\"/></joint>\n</robot>\n",
+      "mesh.urdf");
+  EXPECT_NE(mesh.find("MuJoCo reads STL, OBJ and MSH meshes"), std::string::npos) << mesh;
 }
 
 TEST(Import, MalformedFilesGiveMuJoCosMessageWithTheFile) {

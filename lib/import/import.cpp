@@ -541,6 +541,11 @@ ImportedScene import_model(std::string_view text, const std::string& file, Scene
                      : " (body '" + body + "' moves, but has no mass: give it an <inertial>, or geoms with mass or "
                        "density)";
     }
+    // Meshes MuJoCo cannot read (ROS models' Collada files); modal needs a
+    // link's geometry only for mass properties an <inertial> does not give.
+    if (message.find("Unknown mesh file type") != std::string::npos)
+      message += " (MuJoCo reads STL, OBJ and MSH meshes: convert it, or remove the mesh from a link whose "
+                 "<inertial> gives its mass and inertia, since modal needs no geometry there)";
     throw SceneError({file, std::max(line, 0), 0}, "", "MuJoCo could not load the model: " + message);
   }
   if (model->nbody < 2)
