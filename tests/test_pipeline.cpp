@@ -10,6 +10,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -269,6 +270,27 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   EXPECT_NE(r.err.find("is not a value it takes"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("Could not convert"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find(huge), std::string::npos) << r.err;  // cut to 40 characters
+
+  // A usage error is short: the sentence, the named option's own help line,
+  // the usage line and where the whole help is; not the 40-line help.
+  auto lines = [](const std::string& text) { return std::count(text.begin(), text.end(), '\n'); };
+  r = run({"analyze", scene, "--modes", "0"});
+  EXPECT_LE(lines(r.err), 6) << r.err;
+  EXPECT_NE(r.err.find("number of lowest modes to report"), std::string::npos) << r.err;  // --modes' own line
+  EXPECT_EQ(r.err.find("--eq-tol"), std::string::npos) << r.err;                        // no other option's
+  EXPECT_NE(r.err.find("Usage: modal analyze"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'modal analyze --help'"), std::string::npos) << r.err;
+  r = run({"analyze", scene, "--mdoes", "3"});  // misspelt: the names it may be
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("did you mean --modes?"), std::string::npos) << r.err;
+  EXPECT_LE(lines(r.err), 6) << r.err;
+  r = run({"analyze", scene, "--solver", "fast"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err.rfind("modal analyze: --solver: 'fast' is not one of auto, dense, sparse, tree", 0), 0u) << r.err;
+  r = run({"analyse", scene});  // a misspelt command
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err.rfind("modal: 'analyse' is not a command of modal; did you mean analyze?", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("equilibria"), std::string::npos) << r.err;  // the commands are listed
 
   if (fs::exists("/dev/full")) {
     const std::string cmd = modal::test::quote(MODAL_BINARY) + " analyze " + modal::test::quote(scene) +

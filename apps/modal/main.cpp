@@ -12,6 +12,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -165,10 +167,42 @@ int run_distributed_program(char** argv) {
 }
 #endif
 
+// Edit distance between two option names (insertions, deletions,
+// substitutions), for "did you mean".
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// The words of `text` that look like long option names ("--modes").
+std::vector<std::string> option_words(const std::string& text) {
+  std::vector<std::string> words;
+  for (std::size_t at = text.find("--"); at != std::string::npos; at = text.find("--", at + 2)) {
+    std::size_t end = at + 2;
+    while (end < text.size() && (std::isalnum(static_cast<unsigned char>(text[end])) != 0 || text[end] == '-')) ++end;
+    if (end > at + 2) words.push_back(text.substr(at, end - at));
+    at = end - 2;
+  }
+  return words;
+}
+
 // A usage error as a sentence naming the command ("modal analyze: --modes:
 // ..."), CLI11's own texts rewritten where they are not sentences ("Could not
 // convert: --modes = <300 digits>"), arguments shown escaped and cut to 40
-// characters; then the help of the command that failed.
+// characters. Then, instead of the command's whole help (40–60 lines that
+// bury the sentence): the help line of the option it names, or for an
+// option the command does not have the nearest names it has ("did you
+// mean"), the command's usage line and where the whole help is.
 std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
   std::string what = e.what();
   constexpr std::string_view convert = "Could not convert: ";
@@ -177,14 +211,59 @@ std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
     if (const auto eq = rest.find(" = "); eq != std::string::npos) {
       std::string value = rest.substr(eq + 3);
       if (value.size() > 40) value = value.substr(0, 37) + "...";
-      what = rest.substr(0, eq) + ": '" + value + "' is not a value it takes (a number within its range: see below)";
+      what = rest.substr(0, eq) + ": '" + value + "' is not a value it takes (a number within its range)";
     }
   } else if (what.starts_with("modal: ")) {
     what.erase(0, 7);
   }
+  // CLI11's other texts that are not sentences of this program's style.
+  if (const auto in = what.find(" not in {"); in != std::string::npos && what.ends_with("}")) {
+    std::string names = what.substr(in + 9, what.size() - in - 10);
+    for (std::size_t comma = names.find(','); comma != std::string::npos; comma = names.find(',', comma + 2))
+      names.replace(comma, 1, ", ");
+    const std::size_t colon = what.rfind(": ", in);
+    const std::size_t start = colon == std::string::npos ? 0 : colon + 2;
+    what = what.substr(0, start) + "'" + what.substr(start, in - start) + "' is not one of " + names;
+  }
+  for (const std::string_view unexpected : {"The following argument was not expected: ",
+                                            "The following arguments were not expected: "})
+    if (what.starts_with(unexpected)) what = "not an option or argument of this command: " + what.substr(unexpected.size());
+  const bool top = !app->get_subcommands({}).empty();  // the program itself: a command missing or misspelt
+  std::vector<std::string> rest = top ? app->remaining() : std::vector<std::string>{};
+  if (top && !rest.empty() && !rest.front().starts_with("-")) {
+    what = "'" + rest.front() + "' is not a command of modal";
+    for (const CLI::App* sub : app->get_subcommands({}))
+      if (edit_distance(rest.front(), sub->get_name()) <= 2) what += "; did you mean " + sub->get_name() + "?";
+  } else if (top && what == "A subcommand is required") {
+    what = "a command is required: one of those below";
+  }
   std::string command = "modal";
   if (app->get_parent() != nullptr) command += " " + app->get_name();
-  return command + ": " + modal::printable(what) + "\n" + app->help();
+  std::string out = command + ": " + modal::printable(what) + "\n";
+  const auto formatter = std::dynamic_pointer_cast<CLI::Formatter>(app->get_formatter());
+  for (const std::string& word : option_words(what)) {
+    if (word == "--help") continue;
+    if (const CLI::Option* option = app->get_option_no_throw(word); option != nullptr) {
+      if (formatter) out += formatter->make_option(option, false);
+      continue;
+    }
+    std::vector<std::string> near;
+    for (const CLI::Option* option : app->get_options())
+      for (const std::string& name : option->get_lnames())
+        if (edit_distance(word, "--" + name) <= std::max<std::size_t>(2, word.size() / 4)) near.push_back("--" + name);
+    if (!near.empty()) {
+      out += "did you mean";
+      for (std::size_t i = 0; i < near.size(); ++i) out += (i == 0 ? " " : i + 1 == near.size() ? " or " : ", ") + near[i];
+      out += "?\n";
+    }
+  }
+  if (top && formatter) {
+    out += formatter->make_usage(app, command) + formatter->make_subcommands(app, CLI::AppFormatMode::Normal);
+  } else if (formatter) {
+    out += formatter->make_usage(app, command);
+  }
+  out += "Run '" + command + " --help' for every option and its meaning.\n";
+  return out;
 }
 
 }  // namespace
