@@ -252,6 +252,44 @@ TEST(TreeModes, HangingChainsMatchTheLaguerreZeros) {
   std::printf("hanging chains: worst estimate / max(error, 1e-15 ω²) %.0f\n", worst);
 }
 
+// The dense path on the same chains, every mode: N drawn from [150, 400]
+// twice, g from [0.5, 20], in absolute link angles (M dense and positive).
+// Every ω² within its estimate of the Laguerre reference, and the estimate at
+// most 2e5 × max(error, 1e-15 ω²) (measured up to 8.8e4 ×, N = 385, where
+// the typical rounding of the quotient's dense products dominates): the
+// quotient's and the entries' rounding at their typical size
+// (detail::typical_quotient_rounding). With the worst case of the entries'
+// rounding, 4ε|λ||φ|ᵀ|M||φ|, and the quotient's √n ε|φ|ᵀ(|K| + |λ||M|)|φ|,
+// the high modes' estimates were up to 5.5e5 × (166 modes over 2e4 ×).
+TEST(TreeModes, DenseChainEstimatesAreTypicalNotWorstCase) {
+  std::mt19937_64 rng(1127);
+  double worst = 0;
+  for (int trial = 0; trial < 2; ++trial) {
+    const int N = std::uniform_int_distribution<int>(150, 400)(rng);
+    const double gravity = std::exp(std::uniform_real_distribution<double>(std::log(0.5), std::log(20.0))(rng));
+    const std::string what = "N = " + std::to_string(N) + ", g = " + std::to_string(gravity);
+    const Model model = load_model(std::string(MODAL_SOURCE_DIR) + "/models/hanging_chain.toml",
+                                   {"N=" + std::to_string(N), "g=" + exact_text(gravity)});
+    AnalysisOptions options;
+    options.solver = SolverChoice::dense;
+    const Analysis a = analyze(model, options);
+    ASSERT_TRUE(a.linear.has_value()) << what;
+    const ModalResult& r = a.result();
+    ASSERT_EQ(r.modes.size(), static_cast<std::size_t>(N)) << what;
+    const LD g = static_cast<LD>(gravity), length = 1.0L / N;
+    for (int k = 1; k <= N; ++k) {
+      const double truth = static_cast<double>(g / length * laguerre_zero(N, k));
+      const Mode& m = r.modes[static_cast<std::size_t>(k - 1)];
+      const double error = std::abs(m.omega2 - truth);
+      EXPECT_LE(error, m.error_estimate) << what << " mode " << k << ": " << m.omega2 << " against " << truth;
+      const double looseness = m.error_estimate / std::max(error, 1e-15 * truth);
+      EXPECT_LE(looseness, 2e5) << what << " mode " << k << ": error " << error;
+      worst = std::max(worst, looseness);
+    }
+  }
+  std::printf("dense chains: worst estimate / max(error, 1e-15 ω²) %.0f\n", worst);
+}
+
 // The path is chosen by the documented rule and refused in words where it
 // does not apply.
 TEST(TreeModes, TheSolverChoiceFollowsTheRule) {

@@ -117,6 +117,21 @@ void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric
 // omega2 is left NaN, shape empty; error_estimate is set to `error`.
 Mode make_mode(std::complex<double> s, double error, ModeKind kind);
 
+// The typical size of the rounding in a Rayleigh quotient λ = φᵀKφ/φᵀMφ
+// and of the assembly's rounding of K and M, for an error estimate (the
+// worst case sums the same magnitudes without square roots: residual_bound),
+// all for an M-normalized φ. Rounding errors of different entries taken as
+// independent, each at its worst size, and the sum doubled:
+//   2ε(√width·rows + √n·sums) + 2·entries,
+// rows = ‖φ∘(|K||φ| + |λ||M||φ|)‖₂ (each entry of Kφ, Mφ a sum of `width`
+// terms), sums = Σ_i |φ_i (Kφ)_i| (the n terms of φᵀ(Kφ)), entries =
+// (Σ_ij (δK_ij φ_i φ_j)²)^½ + |λ| (Σ_ij (δM_ij φ_i φ_j)²)^½ for the entries'
+// own errors δK, δM at their worst (4ε per entry unless given). On a smooth
+// mode of a net or a long chain, |φ|ᵀ|K||φ| and |φ|ᵀ|M||φ| are 10²–10⁶ × λ,
+// and the worst case made the estimates as many times the true error. Used
+// by the dense and sparse paths alike.
+double typical_quotient_rounding(double width, double n, double rows, double sums, double entries);
+
 // Notes about clusters of (nearly) repeated eigenvalues among consecutive
 // entries of `modes` (already sorted). The eigenvalue compared is λ = omega2
 // when `symmetric`, s otherwise; two neighbours belong to one cluster when they

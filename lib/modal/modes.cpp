@@ -450,6 +450,10 @@ void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric
   }
 }
 
+double typical_quotient_rounding(double width, double n, double rows, double sums, double entries) {
+  return 2 * (eps * (std::sqrt(width) * rows + std::sqrt(n) * sums) + entries);
+}
+
 Eigen::Index dominant_index(const Eigen::VectorXcd& v) {
   const double largest = v.cwiseAbs().maxCoeff();
   for (Eigen::Index i = 0; i < v.size(); ++i)

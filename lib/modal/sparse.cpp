@@ -738,10 +738,9 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K, &K2}, {&M, &M2}})
     for (Index j = 0; j < A->outerSize(); ++j)
       for (SparseMatrix::InnerIterator it(*A, j); it; ++it) *sum += std::pow(it.value() * phi(it.row()) * phi(j), 2);
-  const double typical_rounding =
-      2 * eps *
-      (std::sqrt(norms.width) * (a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm()) +
-       std::sqrt(n) * phi_sum_of_products(phi, Kphi) + 4 * (std::sqrt(K2) + std::abs(lambda) * std::sqrt(M2)));
+  const double typical_rounding = detail::typical_quotient_rounding(
+      norms.width, n, a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm(),
+      phi_sum_of_products(phi, Kphi), 4 * eps * (std::sqrt(K2) + std::abs(lambda) * std::sqrt(M2)));
   // The quotient's worst case: w terms in each entry of Kφ (and Mφ, whose
   // rounding enters through φᵀMφ = 1), then n in the sums φᵀ(Kφ), φᵀ(Mφ) of
   // the computed products, which carry no Laplacian cancellation.

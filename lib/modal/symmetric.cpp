@@ -44,7 +44,22 @@
 //     (from K at h, 2h, 4h) is systematic and is added as |x|ᵀD|x| (E then
 //     holds the rounding part only).
 //
-// A zero mode is one with |λ| ≤ its estimate: it cannot be told from 0.
+// A zero mode is one with |λ| ≤ the sum of 1 and 2 (its residual part at the
+// typical size, the data at their worst): it cannot be told from 0, and that
+// sum is its estimate. The estimate of any other mode takes the data's
+// rounding and the rounding of its Rayleigh quotient at their typical size
+// instead, as the sparse path does (detail::typical_quotient_rounding: the
+// rounding errors of different entries independent, doubled), with the
+// entries' part bounded without another product, (Σ_ij (E_ij x_i x_j)²)^½ ≤
+// ‖x∘(E|x|)‖₂ and (Σ_ij (M_ij x_i x_j)²)^½ ≤ min(‖x∘(|M||x|)‖₂, Σ_i M_ii x_i²)
+// (M_ij² ≤ M_ii M_jj), or the sum above where that is smaller. On a hanging
+// chain in absolute angles, M dense and positive, |x|ᵀ|M||x| is up to N² ×
+// xᵀMx on the high modes, and the worst case made their estimates up to
+// 5.5e5 × the true error at N = 300–400; the typical size, 8.8e4 ×
+// (tests/test_tree.cpp, TreeModes.DenseChainEstimatesAreTypicalNotWorstCase).
+// What is left there is the typical size of the products' rounding itself
+// (√n ε‖x∘(|M||x|)‖₂ |λ|): the partial sums of an oscillating mode cancel,
+// and no bound that ignores them is tighter.
 #include "detail.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -347,6 +362,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // fresh pages cost more to touch than the products cost to compute.
   MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
   VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
+  VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
   {
     MatrixX MPhi = product(M, Phi);
     VectorX rq(m);
@@ -367,6 +383,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       phiMphi = P.transpose() * phiMphi;
     }
     lambda = rq;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      sums(j) = Phi.col(j).cwiseProduct(R.col(j)).cwiseAbs().sum() +  // Σ|φ_i (Kφ)_i| + |λ| Σ|φ_i (Mφ)_i|
+                std::abs(lambda(j)) * Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
+      diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
+    }
     R -= MPhi * lambda.asDiagonal();
   }
   lambda_all(analyzed) = lambda;
@@ -383,10 +404,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     absolute = K.cwiseAbs();  // the same storage
     add_product(absolute, absPhi, rounding);
   }
-  VectorX residual_norm(m), absKM_dot(m);  // ‖R_j‖ (for the relative residual below); |φ|ᵀ(|K| + |λ||M|)|φ|
-  for (Eigen::Index j = 0; j < m; ++j) {
+  VectorX residual_norm(m), absKM_dot(m), rows(m);  // ‖R_j‖ (for the relative residual below);
+  for (Eigen::Index j = 0; j < m; ++j) {              // |φ|ᵀ(|K| + |λ||M|)|φ|; ‖φ∘(|K||φ| + |λ||M||φ|)‖₂
     residual_norm(j) = R.col(j).norm();
     absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
+    rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).norm();
   }
   solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
   solve_lower(mass.matrixLLT(), rounding);
@@ -416,7 +438,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // alone exceeds the best gap found plus the largest δ (a scan outwards,
   // O(n) in all for well separated spectra, not O(n²)).
   const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
-  auto with_gap = [&](const VectorX& delta, double rounding_factor, Eigen::Index i) {
+  auto with_gap = [&](const VectorX& delta, double quotient, Eigen::Index i) {
     const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
     double gap = std::numeric_limits<double>::infinity();
     for (Eigen::Index k = j - 1; k >= 0; --k) {
@@ -431,7 +453,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
     const double linear = delta(j);
     const double quadratic = gap > linear ? linear * linear / gap : linear;
-    return std::min(linear, quadratic) + rounding_factor * quotient_rounding(i) + eps * std::abs(lambda_all(j));
+    return std::min(linear, quadratic) + quotient + eps * std::abs(lambda_all(j));
   };
   // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
   // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
@@ -465,13 +487,32 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
     const double x2 = Phi.col(i).squaredNorm();
     // Rigorous for the matrices as formed, to first order in ε; and typical.
-    const double residual_bound = with_gap(bound, nn, i);
-    const double residual_estimate = with_gap(typical, std::sqrt(nn), i);
+    const double residual_bound = with_gap(bound, nn * quotient_rounding(i), i);
     const double rM = 4 * eps;
     const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
+    // The kind is decided with the worst case of the data's rounding, first
+    // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ| (a mode is zero when |λ| is within
+    // it); the estimate of a mode that is not zero takes the quotient's and
+    // the entries' rounding at their typical size (typical_quotient_rounding,
+    // as the sparse path), the entries' through bounds that need no further
+    // product: (Σ_ij (E_ij φ_i φ_j)²)^½ ≤ ‖φ∘(E|φ|)‖₂ (Cauchy–Schwarz by
+    // rows), and (Σ_ij (M_ij φ_i φ_j)²)^½ ≤ Σ_i M_ii φ_i² as well (M is
+    // positive definite: M_ij² ≤ M_ii M_jj). The systematic part stays at
+    // its worst, |φ|ᵀD|φ|.
     const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
                               difference_bound;
-    const double error = residual_estimate + data_bound;
+    const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
+    const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
+    const double entries =
+        absPhi.col(i).cwiseProduct(EabsPhi.col(i)).norm() / phi2 +
+        rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).norm(), diagonal_terms(i)) / phi2;
+    const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
+                                                      rows(i) / phi2, sums(i) / phi2, entries);
+    // Where that typical size (doubled) exceeds the decision's value, as it
+    // may for a few coordinates, the smaller of the two.
+    const double error = std::abs(l) <= decision
+                             ? decision
+                             : std::min(decision, with_gap(typical, quotient, i) + difference_bound);
 
     const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
     const double relative_residual = scale > 0 ? residual_norm(i) / scale : 0.0;
@@ -480,7 +521,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       worst = j;
     }
 
-    if (std::abs(l) <= error) {
+    if (std::abs(l) <= decision) {
       mode = make_mode(0.0, error, ModeKind::zero);
     } else if (l < 0) {  // divergent: δq ∝ e^{st} with s = +√(−λ) real
       mode = make_mode(std::sqrt(-l), error, ModeKind::divergent);
