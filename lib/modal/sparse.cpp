@@ -668,6 +668,24 @@ struct ModeResidual {
   double typical_part = nan;  // the residual's share of error_estimate (typical, or its Kato–Temple square)
 };
 
+// Fills the residual's part of `residual` (both paths): δ = ‖r‖_{M⁻¹} plus
+// r's own rounding, ε‖terms‖_{M⁻¹} with terms = |K||φ| + |λ||M||φ| and
+// `width` + 2 rounded operations per entry, worst case in bound, at its
+// typical size √(width + 2) in typical; r and Mφ for the pass of lanczos_modes.
+// Returns ‖r‖_{M⁻¹}.
+template <class MassSolver>
+double set_residual(ModeResidual& residual, const MassSolver& mass, const VectorX& r, const VectorX& Mphi,
+                    const VectorX& terms, double width) {
+  const double error = std::sqrt(std::max(0.0, r.dot(mass.solve(r))));
+  const double r_rounding = eps * std::sqrt(std::max(0.0, terms.dot(mass.solve(terms))));
+  residual.bound = error + (width + 2) * r_rounding;
+  residual.typical = error + std::sqrt(width + 2) * r_rounding;
+  residual.typical_part = residual.typical;
+  residual.Mphi = Mphi;
+  residual.r = r;
+  return error;
+}
+
 // Σ_i |x_i y_i|.
 double phi_sum_of_products(const VectorX& x, const VectorX& y) { return x.cwiseProduct(y).cwiseAbs().sum(); }
 
@@ -698,7 +716,6 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const VectorX Kphi = K * phi;
   const double lambda = phi.dot(Kphi);  // the Rayleigh quotient (φᵀMφ = 1)
   const VectorX r = Kphi - lambda * Mphi;
-  const double error = std::sqrt(std::max(0.0, r.dot(mass.solve(r))));
   const double x2 = phi.squaredNorm();
   const double normwise = 4 * eps * (norms.K1 + std::abs(lambda) * norms.M1) * x2;
   const double scale = (norms.K1 + std::abs(lambda) * norms.M1) * std::sqrt(x2);
@@ -707,11 +724,9 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const VectorX a = phi.cwiseAbs();
   const VectorX aK = absolute_product(K, a), aM = absolute_product(M, a);
   const VectorX terms = aK + std::abs(lambda) * aM;  // |K||φ| + |λ||M||φ|
-  const double r_rounding = eps * std::sqrt(std::max(0.0, terms.dot(mass.solve(terms))));
+  const double error = set_residual(residual, mass, r, Mphi, terms, norms.width);
   const double quotient_terms = a.dot(terms);  // |φ|ᵀ(|K| + |λ||M|)|φ|
   const double n = static_cast<double>(K.rows());
-  residual.bound = error + (norms.width + 2) * r_rounding;
-  residual.typical = error + std::sqrt(norms.width + 2) * r_rounding;
   const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
   if (shift.rows() == K.rows()) {
     const VectorX Sphi = shift * phi;
@@ -721,9 +736,6 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
         std::sqrt(std::max(0.0, residual.shift_direction.dot(mass.solve(residual.shift_direction))));
     residual.shift_first = std::abs(s);
   }
-  residual.Mphi = Mphi;
-  residual.r = r;
-  residual.typical_part = residual.typical;
   // A zero mode keeps the normwise rounding level it was decided with.
   if (std::abs(lambda) <= normwise) return sparse_mode(std::move(phi), lambda, error, normwise, systematic_part);
   // The estimate takes the rounding of φᵀKφ and the assembly's rounding of
@@ -1464,7 +1476,6 @@ class TreeLanczosPencil {
     const VectorX Kphi = tree_product(p_, 1.0, 0.0, phi);
     const double lambda = phi.dot(Kphi);
     const VectorX r = Kphi - lambda * Mphi;
-    const double error = std::sqrt(std::max(0.0, r.dot(mass_.solve(r))));
     const VectorX a = phi.cwiseAbs();
     const VectorX aK = tree_product(p_, 1.0, 0.0, a, true), aM = tree_product(p_, 0.0, 1.0, a, true);
     const double rounding = rounding_factor_ * (a.dot(aK) + std::abs(lambda) * a.dot(aM));
@@ -1478,14 +1489,7 @@ class TreeLanczosPencil {
     // δ²/g and the second-order size of r, as on the matrix path: the
     // linear δ had made the lowest modes of a 2000-link chain 10³–10⁴ ×
     // their true error.
-    const VectorX terms = aK + std::abs(lambda) * aM;
-    const double r_rounding = eps * std::sqrt(std::max(0.0, terms.dot(mass_.solve(terms))));
-    const double width = 2.0 * p_.depth + 12;
-    residual.bound = error + (width + 2) * r_rounding;
-    residual.typical = error + std::sqrt(width + 2) * r_rounding;
-    residual.typical_part = residual.typical;
-    residual.Mphi = Mphi;
-    residual.r = r;
+    set_residual(residual, mass_, r, Mphi, aK + std::abs(lambda) * aM, 2.0 * p_.depth + 12);
     Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, rounding, 0.0);
     mode.residual_bound = residual.bound + rounding + eps * std::abs(lambda);  // the worst case of r's rounding
     return mode;
