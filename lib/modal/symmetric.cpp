@@ -469,7 +469,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // Mathias, SIAM J. Matrix Anal. Appl. 19, 1998; here with the other modes'
   // intervals for the rest of the spectrum, as the single-mode gap above);
   // each mode's Rayleigh quotient then lies within |λ_k − μ_k| + δ_C²/η of its
-  // eigenvalue, matched in order. The residual bound keeps the single-mode form.
+  // eigenvalue, matched in order. The residual bound and the kind keep the
+  // single-mode form.
   VectorX clustered = VectorX::Constant(m, std::numeric_limits<double>::infinity());
   auto spacing = [&](Eigen::Index k) {  // λ_{k+1} − λ_k, ∞ beyond the ends
     return k >= 0 && k + 1 < n ? lambda_all(k + 1) - lambda_all(k) : std::numeric_limits<double>::infinity();
@@ -536,8 +537,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     const double rM = 4 * eps;
     const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
     // The kind is decided with the worst case of the data's rounding, first
-    // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ| (a mode is zero when |λ| is within
-    // it); the estimate of a mode that is not zero takes the quotient's and
+    // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
+    // mode is zero when |λ| is within it: a group's bound never turns a zero
+    // mode of a free body into a vibration); the estimate of a mode that is not zero takes the quotient's and
     // the entries' rounding at their typical size (typical_quotient_rounding,
     // as the sparse path), the entries' through bounds that need no further
     // product: (Σ_ij (E_ij φ_i φ_j)²)^½ ≤ ‖φ∘(E|φ|)‖₂ (Cauchy–Schwarz by
@@ -546,7 +548,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // its worst, |φ|ᵀD|φ|.
     const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
                               difference_bound;
-    const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i, clustered(i)) + data_bound;
+    const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
     const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
     const double entries =
         absPhi.col(i).cwiseProduct(EabsPhi.col(i)).norm() / phi2 +
