@@ -438,20 +438,26 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // alone exceeds the best gap found plus the largest δ (a scan outwards,
   // O(n) in all for well separated spectra, not O(n²)).
   const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
+  // The distance from [λ_first, λ_last] to the nearest interval λ_k ± δ_k
+  // of a mode outside first…last.
+  auto separation = [&](const VectorX& delta, Eigen::Index first, Eigen::Index last) {
+    double gap = std::numeric_limits<double>::infinity();
+    for (Eigen::Index k = first - 1; k >= 0; --k) {
+      const double d = std::abs(lambda_all(first) - lambda_all(k));
+      if (d - largest_delta > gap) break;
+      gap = std::min(gap, d - delta(k));
+    }
+    for (Eigen::Index k = last + 1; k < n; ++k) {
+      const double d = std::abs(lambda_all(k) - lambda_all(last));
+      if (d - largest_delta > gap) break;
+      gap = std::min(gap, d - delta(k));
+    }
+    return gap;
+  };
   auto with_gap = [&](const VectorX& delta, double quotient, Eigen::Index i,
                       double clustered = std::numeric_limits<double>::infinity()) {
     const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
-    double gap = std::numeric_limits<double>::infinity();
-    for (Eigen::Index k = j - 1; k >= 0; --k) {
-      const double d = std::abs(lambda_all(k) - lambda_all(j));
-      if (d - largest_delta > gap) break;
-      gap = std::min(gap, d - delta(k));
-    }
-    for (Eigen::Index k = j + 1; k < n; ++k) {
-      const double d = std::abs(lambda_all(k) - lambda_all(j));
-      if (d - largest_delta > gap) break;
-      gap = std::min(gap, d - delta(k));
-    }
+    const double gap = separation(delta, j, j);
     const double linear = delta(j);
     const double quadratic = gap > linear ? linear * linear / gap : linear;
     return std::min({linear, quadratic, clustered}) + quotient + eps * std::abs(lambda_all(j));
@@ -483,12 +489,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     while (last + 1 < m && linked(last)) ++last;
     const Eigen::Index size = last - first + 1;
     if (size >= 2 && size <= 8) {
-      double eta = std::numeric_limits<double>::infinity(), delta2 = 0;
+      const double eta = separation(typical, first, last);
+      double delta2 = 0;
       for (Eigen::Index k = first; k <= last; ++k) delta2 += typical(k) * typical(k);
-      for (Eigen::Index k = first - 1; k >= 0 && lambda_all(first) - lambda_all(k) - largest_delta <= eta; --k)
-        eta = std::min(eta, lambda_all(first) - lambda_all(k) - typical(k));
-      for (Eigen::Index k = last + 1; k < n && lambda_all(k) - lambda_all(last) - largest_delta <= eta; ++k)
-        eta = std::min(eta, lambda_all(k) - lambda_all(last) - typical(k));
       if (eta > 0 && eta * eta > delta2) {
         const MatrixX X = Phi.middleCols(first, size);
         const MatrixX A = X.transpose() * (K * X), B = X.transpose() * (M * X);
@@ -539,9 +542,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // The kind is decided with the worst case of the data's rounding, first
     // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
     // mode is zero when |λ| is within it: a group's bound never turns a zero
-    // mode of a free body into a vibration); the estimate of a mode that is not zero takes the quotient's and
-    // the entries' rounding at their typical size (typical_quotient_rounding,
-    // as the sparse path), the entries' through bounds that need no further
+    // mode of a free body into a vibration); the estimate of a mode that is
+    // not zero takes the quotient's and the entries' rounding at their
+    // typical size (typical_quotient_rounding, as the sparse path), the
+    // entries' through bounds that need no further
     // product: (Σ_ij (E_ij φ_i φ_j)²)^½ ≤ ‖φ∘(E|φ|)‖₂ (Cauchy–Schwarz by
     // rows), and (Σ_ij (M_ij φ_i φ_j)²)^½ ≤ Σ_i M_ii φ_i² as well (M is
     // positive definite: M_ij² ≤ M_ii M_jj). The systematic part stays at
