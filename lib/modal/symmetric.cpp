@@ -63,6 +63,7 @@
 #include "detail.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include <algorithm>
@@ -291,6 +292,82 @@ class TridiagonalPencil {
   VectorX d_, e_, tau_;
 };
 
+// Refinement of the modes the eigen-solver left unresolved. The solver's
+// error is normwise, about ε‖C‖ for C = L⁻¹KL⁻ᵀ, so in a stiff scene (ω²
+// over 30 decades: a graded chain of balls and slides) the low modes' λ are
+// off by more than themselves although K and M, entry by entry, determine
+// them to many digits: the vectors are right normwise, but their tiny
+// components along the stiff directions are not, and those dominate φᵀKφ.
+// Inverse iteration, x ← (K − σM)⁻¹Mx with σ its Rayleigh quotient, damps
+// exactly those components (the solve is graded like K), and the quotient
+// of the new vector is then accurate to what the data allow. Applied to the
+// modes whose estimate is more than 10 × what their data and quotient
+// justify (unresolved, from the analysis), the worst first, within a budget
+// of about 4n³ flops (at least 3e8: every mode of a small scene); three steps
+// each, one LU factorization (partial pivoting) per step (details below).
+// The analysis is then repeated on the vectors; its
+// bounds hold for whatever vectors it is given. Returns whether any vector
+// changed.
+bool refine_unresolved(const MatrixX& M, const MatrixX& K, const VectorX& unresolved, MatrixX& Phi) {
+  const Eigen::Index n = M.rows(), m = Phi.cols();
+  std::vector<Eigen::Index> candidates;
+  for (Eigen::Index i = 0; i < m && i < unresolved.size(); ++i)
+    if (unresolved(i) > 10) candidates.push_back(i);
+  if (candidates.empty()) return false;
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return unresolved(a) > unresolved(b); });
+  constexpr int steps = 3;
+  const double nd = static_cast<double>(n), per_mode = steps * (2.0 / 3.0) * nd * nd * nd;
+  const auto budget = static_cast<std::size_t>(std::max(1.0, std::max(3e8, 4 * nd * nd * nd) / per_mode));
+  if (candidates.size() > budget) candidates.resize(budget);
+  MatrixX MPhi = M * Phi;
+  VectorX norms(m);  // ‖φ_k‖_M
+  for (Eigen::Index k = 0; k < m; ++k) norms(k) = std::sqrt(std::max(Phi.col(k).dot(MPhi.col(k)), 0.0));
+  // Before each solve, the iterate is made M-orthogonal to the vectors
+  // refined before it (the solve then finds the eigenvector nearest σ among
+  // those not yet taken, as LAPACK's dstein does within a cluster; only
+  // refined vectors are subtracted, whose components along the stiff
+  // directions are as small as the iterate's). A refined vector that still
+  // turns towards another mode's (M-cosine over 0.5: from a badly wrong σ,
+  // a neighbour's eigenvalue) is discarded, so no eigenvalue is claimed
+  // twice.
+  std::vector<Eigen::Index> refined;
+  std::vector<char> waiting(static_cast<std::size_t>(m), 0);
+  for (const Eigen::Index i : candidates) waiting[static_cast<std::size_t>(i)] = 1;
+  bool changed = false;
+  for (const Eigen::Index i : candidates) {
+    waiting[static_cast<std::size_t>(i)] = 0;
+    VectorX x = Phi.col(i);
+    double sigma = x.dot(K * x) / x.dot(MPhi.col(i));
+    bool ok = std::isfinite(sigma);
+    for (int step = 0; step < steps && ok; ++step) {
+      for (int pass = 0; pass < 2; ++pass)  // twice is enough (Kahan, in Parlett §6.9)
+        for (const Eigen::Index k : refined) x -= MPhi.col(k).dot(x) * Phi.col(k);
+      const Eigen::PartialPivLU<MatrixX> lu(K - sigma * M);
+      const VectorX y = lu.solve(VectorX(M * x));
+      const double size = y.norm();
+      if (!y.allFinite() || !(size > 0) || !std::isfinite(size)) break;  // σ an eigenvalue to working precision
+      x = y / size;
+      sigma = x.dot(K * x) / x.dot(M * x);
+      ok = std::isfinite(sigma);
+    }
+    const VectorX Mx = M * x;
+    const double norm = std::sqrt(x.dot(Mx));
+    if (!ok || !(norm > 0)) continue;
+    bool turned = false;  // against the resolved and the refined vectors (not those still waiting)
+    for (Eigen::Index k = 0; k < m && !turned; ++k)
+      turned = k != i && !waiting[static_cast<std::size_t>(k)] && norms(k) > 0 &&
+               std::abs(Phi.col(k).dot(Mx)) > 0.5 * norm * norms(k);
+    if (turned) continue;
+    Phi.col(i) = x / norm;
+    MPhi.col(i) = Mx / norm;
+    norms(i) = 1;
+    refined.push_back(i);
+    changed = true;
+  }
+  return changed;
+}
+
 }  // namespace
 
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
@@ -350,252 +427,268 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
   }
   if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
-  const auto m = static_cast<Eigen::Index>(analyzed.size());
-  VectorX lambda = lambda_all(analyzed);
+  // The analysis of the computed pairs (Φ, λ_all): residuals, bounds,
+  // estimates, kinds. unresolved(i): the estimate of analyzed mode i over
+  // what its data and quotient alone justify (refinement, below).
+  VectorX unresolved;
+  auto analyze = [&]() -> ModalResult {
+    const auto m = static_cast<Eigen::Index>(analyzed.size());
+    VectorX lambda = lambda_all(analyzed);
+    unresolved = VectorX::Zero(m);
 
-  // The Rayleigh quotients λ = φᵀKφ/φᵀMφ of the computed vectors replace the
-  // solver's values: they are accurate to the square of the vectors' error
-  // for the matrices as formed, while the solver's λ carries the error of its
-  // transformation (L⁻¹KL⁻ᵀ, or LAPACK's, with an ill-conditioned M: 5e-7
-  // relative on a 320-link cantilever in relative angles). Re-sorted.
-  // The n×n work matrices below are few and freed as soon as they are used:
-  // fresh pages cost more to touch than the products cost to compute.
-  MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
-  VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
-  VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
-  {
-    MatrixX MPhi = product(M, Phi);
-    VectorX rq(m);
-    for (Eigen::Index j = 0; j < m; ++j) {
-      phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
-      rq(j) = Phi.col(j).dot(R.col(j)) / phiMphi(j);
-    }
-    std::vector<Eigen::Index> order(static_cast<std::size_t>(m));
-    std::iota(order.begin(), order.end(), Eigen::Index{0});
-    std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return rq(a) < rq(b); });
-    if (!std::is_sorted(order.begin(), order.end())) {
-      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(m);
-      for (Eigen::Index k = 0; k < m; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
-      Phi = Phi * P;  // column k ← column order[k] (in place)
-      R = R * P;
-      MPhi = MPhi * P;
-      rq = P.transpose() * rq;
-      phiMphi = P.transpose() * phiMphi;
-    }
-    lambda = rq;
-    for (Eigen::Index j = 0; j < m; ++j) {
-      sums(j) = Phi.col(j).cwiseProduct(R.col(j)).cwiseAbs().sum() +  // Σ|φ_i (Kφ)_i| + |λ| Σ|φ_i (Mφ)_i|
-                std::abs(lambda(j)) * Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
-      diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
-    }
-    R -= MPhi * lambda.asDiagonal();
-  }
-  lambda_all(analyzed) = lambda;
-
-  // Beside the residuals R = KΦ − MΦΛ, the rounding of R itself, |fl(R) − R|
-  // ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|) componentwise (Higham, Accuracy and
-  // Stability, §3.5): both carried through L⁻¹ by triangular solves.
-  const MatrixX absPhi = Phi.cwiseAbs();
-  MatrixX absMPhi, rounding;  // |M||Φ| (also for the data term below); |K||Φ| + |M||Φ||Λ|
-  {
-    MatrixX absolute = M.cwiseAbs();
-    absMPhi = product(absolute, absPhi);
-    rounding = absMPhi * lambda.cwiseAbs().asDiagonal();
-    absolute = K.cwiseAbs();  // the same storage
-    add_product(absolute, absPhi, rounding);
-  }
-  VectorX residual_norm(m), absKM_dot(m), rows(m);  // ‖R_j‖ (for the relative residual below);
-  for (Eigen::Index j = 0; j < m; ++j) {              // |φ|ᵀ(|K| + |λ||M|)|φ|; ‖φ∘(|K||φ| + |λ||M||φ|)‖₂
-    residual_norm(j) = R.col(j).norm();
-    absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
-    rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).norm();
-  }
-  solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
-  solve_lower(mass.matrixLLT(), rounding);
-
-  // Per mode, the linear residual bound δ (rigorous for the matrices as
-  // formed) and its typical-size counterpart (see the header comment), then
-  // the quadratic one for the Rayleigh quotient: where the intervals λ_k ± δ_k
-  // of the other eigenvalues leave a gap g_j = min_k (|λ_k − λ_j| − δ_k) > δ_j
-  // around λ_j, |λ_j − λ_true| ≤ δ_j²/g_j (Kato–Temple; Parlett, thm 11.7.1),
-  // plus the rounding of evaluating the quotient, (n + 2)ε|φ|ᵀ(|K| + |λ||M|)|φ|/φᵀMφ.
-  // bound and typical are indexed by all modes: the cheap estimate stands for
-  // the modes not analyzed.
-  VectorX bound = cheap.size() == n ? cheap : VectorX(VectorX::Zero(n)), typical = bound, quotient_rounding(m);
-  const double nn = static_cast<double>(n + 2);
-  for (Eigen::Index i = 0; i < m; ++i) {
-    const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
-    const double norm = std::sqrt(phiMphi(i));
-    const double residual = R.col(i).norm() / norm, rounded = eps * rounding.col(i).norm() / norm;
-    bound(j) = residual + nn * rounded;
-    typical(j) = residual + std::sqrt(nn) * rounded;
-    quotient_rounding(i) = eps * absKM_dot(i) / phiMphi(i);
-  }
-  R.resize(0, 0);
-  rounding.resize(0, 0);
-  // The nearest other eigenvalue's interval: λ is sorted, so the minimum of
-  // |λ_k − λ_j| − δ_k is attained among the neighbours until |λ_k − λ_j|
-  // alone exceeds the best gap found plus the largest δ (a scan outwards,
-  // O(n) in all for well separated spectra, not O(n²)).
-  const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
-  // The distance from [λ_first, λ_last] to the nearest interval λ_k ± δ_k
-  // of a mode outside first…last.
-  auto separation = [&](const VectorX& delta, Eigen::Index first, Eigen::Index last) {
-    double gap = std::numeric_limits<double>::infinity();
-    for (Eigen::Index k = first - 1; k >= 0; --k) {
-      const double d = std::abs(lambda_all(first) - lambda_all(k));
-      if (d - largest_delta > gap) break;
-      gap = std::min(gap, d - delta(k));
-    }
-    for (Eigen::Index k = last + 1; k < n; ++k) {
-      const double d = std::abs(lambda_all(k) - lambda_all(last));
-      if (d - largest_delta > gap) break;
-      gap = std::min(gap, d - delta(k));
-    }
-    return gap;
-  };
-  auto with_gap = [&](const VectorX& delta, double quotient, Eigen::Index i,
-                      double clustered = std::numeric_limits<double>::infinity()) {
-    const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
-    const double gap = separation(delta, j, j);
-    const double linear = delta(j);
-    const double quadratic = gap > linear ? linear * linear / gap : linear;
-    return std::min({linear, quadratic, clustered}) + quotient + eps * std::abs(lambda_all(j));
-  };
-  // Close pairs and small clusters (for the estimate). Where the intervals
-  // λ_k ± δ_k (typical) of consecutive analyzed modes overlap, no single
-  // mode has a gap and each kept its linear δ, however far the group lies
-  // from the rest of the spectrum: two modes 7e-5 apart relative, of a
-  // graded chain, kept an estimate of 5e-3 relative where their true errors
-  // were 1e-19. For a group C of 2–8 modes whose range [λ_first, λ_last] is
-  // separated from the other modes' intervals by η > δ_C = (Σ_C δ_k²)^½
-  // (≥ the 2-norm of the block residual L⁻¹R_C), the Ritz values μ of the
-  // group's projected pencil (Φ_CᵀKΦ_C, Φ_CᵀMΦ_C) lie within δ_C²/η of the
-  // group's eigenvalues (the quadratic residual bound for a cluster:
-  // Mathias, SIAM J. Matrix Anal. Appl. 19, 1998; here with the other modes'
-  // intervals for the rest of the spectrum, as the single-mode gap above);
-  // each mode's Rayleigh quotient then lies within |λ_k − μ_k| + δ_C²/η of its
-  // eigenvalue, matched in order. The residual bound and the kind keep the
-  // single-mode form.
-  VectorX clustered = VectorX::Constant(m, std::numeric_limits<double>::infinity());
-  auto spacing = [&](Eigen::Index k) {  // λ_{k+1} − λ_k, ∞ beyond the ends
-    return k >= 0 && k + 1 < n ? lambda_all(k + 1) - lambda_all(k) : std::numeric_limits<double>::infinity();
-  };
-  auto linked = [&](Eigen::Index k) {  // k and k + 1 in one group: overlapping, or 10 × closer than to the others
-    return spacing(k) <= typical(k) + typical(k + 1) || 10 * spacing(k) <= std::min(spacing(k - 1), spacing(k + 1));
-  };
-  for (Eigen::Index first = 0; first < m;) {
-    Eigen::Index last = first;
-    while (last + 1 < m && linked(last)) ++last;
-    const Eigen::Index size = last - first + 1;
-    if (size >= 2 && size <= 8) {
-      const double eta = separation(typical, first, last);
-      double delta2 = 0;
-      for (Eigen::Index k = first; k <= last; ++k) delta2 += typical(k) * typical(k);
-      if (eta > 0 && eta * eta > delta2) {
-        const MatrixX X = Phi.middleCols(first, size);
-        const MatrixX A = X.transpose() * (K * X), B = X.transpose() * (M * X);
-        Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(0.5 * (A + A.transpose()), 0.5 * (B + B.transpose()),
-                                                               Eigen::EigenvaluesOnly);
-        if (ritz.info() == Eigen::Success)
-          for (Eigen::Index k = first; k <= last; ++k)
-            clustered(k) = std::abs(lambda_all(k) - ritz.eigenvalues()(k - first)) + delta2 / eta;
+    // The Rayleigh quotients λ = φᵀKφ/φᵀMφ of the computed vectors replace the
+    // solver's values: they are accurate to the square of the vectors' error
+    // for the matrices as formed, while the solver's λ carries the error of its
+    // transformation (L⁻¹KL⁻ᵀ, or LAPACK's, with an ill-conditioned M: 5e-7
+    // relative on a 320-link cantilever in relative angles). Re-sorted.
+    // The n×n work matrices below are few and freed as soon as they are used:
+    // fresh pages cost more to touch than the products cost to compute.
+    MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
+    VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
+    VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
+    {
+      MatrixX MPhi = product(M, Phi);
+      VectorX rq(m);
+      for (Eigen::Index j = 0; j < m; ++j) {
+        phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
+        rq(j) = Phi.col(j).dot(R.col(j)) / phiMphi(j);
       }
+      std::vector<Eigen::Index> order(static_cast<std::size_t>(m));
+      std::iota(order.begin(), order.end(), Eigen::Index{0});
+      std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return rq(a) < rq(b); });
+      if (!std::is_sorted(order.begin(), order.end())) {
+        Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Eigen::Index> P(m);
+        for (Eigen::Index k = 0; k < m; ++k) P.indices()(k) = order[static_cast<std::size_t>(k)];
+        Phi = Phi * P;  // column k ← column order[k] (in place)
+        R = R * P;
+        MPhi = MPhi * P;
+        rq = P.transpose() * rq;
+        phiMphi = P.transpose() * phiMphi;
+      }
+      lambda = rq;
+      for (Eigen::Index j = 0; j < m; ++j) {
+        sums(j) = Phi.col(j).cwiseProduct(R.col(j)).cwiseAbs().sum() +  // Σ|φ_i (Kφ)_i| + |λ| Σ|φ_i (Mφ)_i|
+                  std::abs(lambda(j)) * Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
+        diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
+      }
+      R -= MPhi * lambda.asDiagonal();
     }
-    first = last + 1;
-  }
-  // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
-  // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
-  const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
-  const bool given = K_error.rows() == n && K_error.cols() == n;
-  const MatrixX EabsPhi = given && !differences
-                              ? product(K_error, absPhi)
-                              : product(given ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0))
-                                              : MatrixX(4 * eps * K.cwiseAbs()),
-                                        absPhi);
-  const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
-  const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
+    lambda_all(analyzed) = lambda;
 
-  ModalResult result;
-  result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
-                            "by dsterf, the lowest modes' vectors by MRRR dstemr)"
-                 : lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
-                          : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
-  double worst_relative_residual = 0;
-  Eigen::Index worst = 0;
-  for (Eigen::Index j = 0, i = 0; j < n; ++j) {
-    const double l = lambda_all(j);
-    Mode mode;
-    if (i == m || analyzed[static_cast<std::size_t>(i)] != j) {  // not analyzed: oscillatory beyond doubt
-      mode = make_mode({0.0, std::sqrt(l)}, cheap(j), ModeKind::oscillatory);
-      mode.damping_ratio = 0;
-      mode.omega2 = l;
-      mode.residual_bound = cheap(j);
+    // Beside the residuals R = KΦ − MΦΛ, the rounding of R itself, |fl(R) − R|
+    // ≤ (n + 2)ε (|K||Φ| + |M||Φ||Λ|) componentwise (Higham, Accuracy and
+    // Stability, §3.5): both carried through L⁻¹ by triangular solves.
+    const MatrixX absPhi = Phi.cwiseAbs();
+    MatrixX absMPhi, rounding;  // |M||Φ| (also for the data term below); |K||Φ| + |M||Φ||Λ|
+    {
+      MatrixX absolute = M.cwiseAbs();
+      absMPhi = product(absolute, absPhi);
+      rounding = absMPhi * lambda.cwiseAbs().asDiagonal();
+      absolute = K.cwiseAbs();  // the same storage
+      add_product(absolute, absPhi, rounding);
+    }
+    VectorX residual_norm(m), absKM_dot(m), rows(m);  // ‖R_j‖ (for the relative residual below);
+    for (Eigen::Index j = 0; j < m; ++j) {              // |φ|ᵀ(|K| + |λ||M|)|φ|; ‖φ∘(|K||φ| + |λ||M||φ|)‖₂
+      residual_norm(j) = R.col(j).norm();
+      absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
+      rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).norm();
+    }
+    solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
+    solve_lower(mass.matrixLLT(), rounding);
+
+    // Per mode, the linear residual bound δ (rigorous for the matrices as
+    // formed) and its typical-size counterpart (see the header comment), then
+    // the quadratic one for the Rayleigh quotient: where the intervals λ_k ± δ_k
+    // of the other eigenvalues leave a gap g_j = min_k (|λ_k − λ_j| − δ_k) > δ_j
+    // around λ_j, |λ_j − λ_true| ≤ δ_j²/g_j (Kato–Temple; Parlett, thm 11.7.1),
+    // plus the rounding of evaluating the quotient, (n + 2)ε|φ|ᵀ(|K| + |λ||M|)|φ|/φᵀMφ.
+    // bound and typical are indexed by all modes: the cheap estimate stands for
+    // the modes not analyzed.
+    VectorX bound = cheap.size() == n ? cheap : VectorX(VectorX::Zero(n)), typical = bound, quotient_rounding(m);
+    const double nn = static_cast<double>(n + 2);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
+      const double norm = std::sqrt(phiMphi(i));
+      const double residual = R.col(i).norm() / norm, rounded = eps * rounding.col(i).norm() / norm;
+      bound(j) = residual + nn * rounded;
+      typical(j) = residual + std::sqrt(nn) * rounded;
+      quotient_rounding(i) = eps * absKM_dot(i) / phiMphi(i);
+    }
+    R.resize(0, 0);
+    rounding.resize(0, 0);
+    // The nearest other eigenvalue's interval: λ is sorted, so the minimum of
+    // |λ_k − λ_j| − δ_k is attained among the neighbours until |λ_k − λ_j|
+    // alone exceeds the best gap found plus the largest δ (a scan outwards,
+    // O(n) in all for well separated spectra, not O(n²)).
+    const double largest_delta = n > 0 ? std::max(bound.maxCoeff(), typical.maxCoeff()) : 0.0;
+    // The distance from [λ_first, λ_last] to the nearest interval λ_k ± δ_k
+    // of a mode outside first…last.
+    auto separation = [&](const VectorX& delta, Eigen::Index first, Eigen::Index last) {
+      double gap = std::numeric_limits<double>::infinity();
+      for (Eigen::Index k = first - 1; k >= 0; --k) {
+        const double d = std::abs(lambda_all(first) - lambda_all(k));
+        if (d - largest_delta > gap) break;
+        gap = std::min(gap, d - delta(k));
+      }
+      for (Eigen::Index k = last + 1; k < n; ++k) {
+        const double d = std::abs(lambda_all(k) - lambda_all(last));
+        if (d - largest_delta > gap) break;
+        gap = std::min(gap, d - delta(k));
+      }
+      return gap;
+    };
+    auto with_gap = [&](const VectorX& delta, double quotient, Eigen::Index i,
+                        double clustered = std::numeric_limits<double>::infinity()) {
+      const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
+      const double gap = separation(delta, j, j);
+      const double linear = delta(j);
+      const double quadratic = gap > linear ? linear * linear / gap : linear;
+      return std::min({linear, quadratic, clustered}) + quotient + eps * std::abs(lambda_all(j));
+    };
+    // Close pairs and small clusters (for the estimate). Where the intervals
+    // λ_k ± δ_k (typical) of consecutive analyzed modes overlap, no single
+    // mode has a gap and each kept its linear δ, however far the group lies
+    // from the rest of the spectrum: two modes 7e-5 apart relative, of a
+    // graded chain, kept an estimate of 5e-3 relative where their true errors
+    // were 1e-19. For a group C of 2–8 modes whose range [λ_first, λ_last] is
+    // separated from the other modes' intervals by η > δ_C = (Σ_C δ_k²)^½
+    // (≥ the 2-norm of the block residual L⁻¹R_C), the Ritz values μ of the
+    // group's projected pencil (Φ_CᵀKΦ_C, Φ_CᵀMΦ_C) lie within δ_C²/η of the
+    // group's eigenvalues (the quadratic residual bound for a cluster:
+    // Mathias, SIAM J. Matrix Anal. Appl. 19, 1998; here with the other modes'
+    // intervals for the rest of the spectrum, as the single-mode gap above);
+    // each mode's Rayleigh quotient then lies within |λ_k − μ_k| + δ_C²/η of its
+    // eigenvalue, matched in order. The residual bound and the kind keep the
+    // single-mode form.
+    VectorX clustered = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    auto spacing = [&](Eigen::Index k) {  // λ_{k+1} − λ_k, ∞ beyond the ends
+      return k >= 0 && k + 1 < n ? lambda_all(k + 1) - lambda_all(k) : std::numeric_limits<double>::infinity();
+    };
+    auto linked = [&](Eigen::Index k) {  // k and k + 1 in one group: overlapping, or 10 × closer than to the others
+      return spacing(k) <= typical(k) + typical(k + 1) || 10 * spacing(k) <= std::min(spacing(k - 1), spacing(k + 1));
+    };
+    for (Eigen::Index first = 0; first < m;) {
+      Eigen::Index last = first;
+      while (last + 1 < m && linked(last)) ++last;
+      const Eigen::Index size = last - first + 1;
+      if (size >= 2 && size <= 8) {
+        const double eta = separation(typical, first, last);
+        double delta2 = 0;
+        for (Eigen::Index k = first; k <= last; ++k) delta2 += typical(k) * typical(k);
+        if (eta > 0 && eta * eta > delta2) {
+          const MatrixX X = Phi.middleCols(first, size);
+          const MatrixX A = X.transpose() * (K * X), B = X.transpose() * (M * X);
+          Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(0.5 * (A + A.transpose()), 0.5 * (B + B.transpose()),
+                                                                 Eigen::EigenvaluesOnly);
+          if (ritz.info() == Eigen::Success)
+            for (Eigen::Index k = first; k <= last; ++k)
+              clustered(k) = std::abs(lambda_all(k) - ritz.eigenvalues()(k - first)) + delta2 / eta;
+        }
+      }
+      first = last + 1;
+    }
+    // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
+    // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
+    const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
+    const bool given = K_error.rows() == n && K_error.cols() == n;
+    const MatrixX EabsPhi = given && !differences
+                                ? product(K_error, absPhi)
+                                : product(given ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0))
+                                                : MatrixX(4 * eps * K.cwiseAbs()),
+                                          absPhi);
+    const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
+    const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
+
+    ModalResult result;
+    result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
+                              "by dsterf, the lowest modes' vectors by MRRR dstemr)"
+                   : lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
+                            : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
+    double worst_relative_residual = 0;
+    Eigen::Index worst = 0;
+    for (Eigen::Index j = 0, i = 0; j < n; ++j) {
+      const double l = lambda_all(j);
+      Mode mode;
+      if (i == m || analyzed[static_cast<std::size_t>(i)] != j) {  // not analyzed: oscillatory beyond doubt
+        mode = make_mode({0.0, std::sqrt(l)}, cheap(j), ModeKind::oscillatory);
+        mode.damping_ratio = 0;
+        mode.omega2 = l;
+        mode.residual_bound = cheap(j);
+        result.modes.push_back(std::move(mode));
+        continue;
+      }
+      const double x2 = Phi.col(i).squaredNorm();
+      // Rigorous for the matrices as formed, to first order in ε; and typical.
+      const double residual_bound = with_gap(bound, nn * quotient_rounding(i), i);
+      const double rM = 4 * eps;
+      const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
+      // The kind is decided with the worst case of the data's rounding, first
+      // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
+      // mode is zero when |λ| is within it: a group's bound never turns a zero
+      // mode of a free body into a vibration); the estimate of a mode that is
+      // not zero takes the quotient's and the entries' rounding at their
+      // typical size (typical_quotient_rounding, as the sparse path), the
+      // entries' through bounds that need no further
+      // product: (Σ_ij (E_ij φ_i φ_j)²)^½ ≤ ‖φ∘(E|φ|)‖₂ (Cauchy–Schwarz by
+      // rows), and (Σ_ij (M_ij φ_i φ_j)²)^½ ≤ Σ_i M_ii φ_i² as well (M is
+      // positive definite: M_ij² ≤ M_ii M_jj). The systematic part stays at
+      // its worst, |φ|ᵀD|φ|.
+      const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
+                                difference_bound;
+      const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
+      const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
+      const double entries =
+          absPhi.col(i).cwiseProduct(EabsPhi.col(i)).norm() / phi2 +
+          rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).norm(), diagonal_terms(i)) / phi2;
+      const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
+                                                        rows(i) / phi2, sums(i) / phi2, entries);
+      // Where that typical size (doubled) exceeds the decision's value, as it
+      // may for a few coordinates, the smaller of the two.
+      const double error = std::abs(l) <= decision
+                               ? decision
+                               : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
+      // The solver's share of the estimate against what the data and the
+      // quotient's rounding alone justify.
+      const double solver_part = with_gap(typical, 0.0, i, clustered(i)) - eps * std::abs(l);
+      const double justified =
+          quotient + difference_bound + eps * std::abs(l) + (std::abs(l) <= decision ? data_bound : 0.0);
+      unresolved(i) = justified > 0 ? solver_part / justified : (solver_part > 0 ? 1e300 : 0.0);
+
+      const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
+      const double relative_residual = scale > 0 ? residual_norm(i) / scale : 0.0;
+      if (relative_residual > worst_relative_residual) {
+        worst_relative_residual = relative_residual;
+        worst = j;
+      }
+
+      if (std::abs(l) <= decision) {
+        mode = make_mode(0.0, error, ModeKind::zero);
+      } else if (l < 0) {  // divergent: δq ∝ e^{st} with s = +√(−λ) real
+        mode = make_mode(std::sqrt(-l), error, ModeKind::divergent);
+      } else {             // oscillatory: s = i√λ
+        mode = make_mode({0.0, std::sqrt(l)}, error, ModeKind::oscillatory);
+        mode.damping_ratio = 0;
+      }
+      mode.omega2 = l;  // the computed λ, sign and all, whatever the kind
+      mode.residual_bound = residual_bound;
+      mode.systematic_error = difference_bound;
+      if (mode.kind == ModeKind::divergent) ++result.morse_index;
+      if (mode.kind == ModeKind::zero) ++result.zero_modes;
+
+      VectorX shape = Phi.col(i) / std::sqrt(phiMphi(i));  // M-normalized to rounding
+      if (shape(dominant_index(shape.cast<std::complex<double>>())) < 0) shape = -shape;
+      mode.shape = shape.cast<std::complex<double>>();
       result.modes.push_back(std::move(mode));
-      continue;
+      ++i;
     }
-    const double x2 = Phi.col(i).squaredNorm();
-    // Rigorous for the matrices as formed, to first order in ε; and typical.
-    const double residual_bound = with_gap(bound, nn * quotient_rounding(i), i);
-    const double rM = 4 * eps;
-    const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
-    // The kind is decided with the worst case of the data's rounding, first
-    // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
-    // mode is zero when |λ| is within it: a group's bound never turns a zero
-    // mode of a free body into a vibration); the estimate of a mode that is
-    // not zero takes the quotient's and the entries' rounding at their
-    // typical size (typical_quotient_rounding, as the sparse path), the
-    // entries' through bounds that need no further
-    // product: (Σ_ij (E_ij φ_i φ_j)²)^½ ≤ ‖φ∘(E|φ|)‖₂ (Cauchy–Schwarz by
-    // rows), and (Σ_ij (M_ij φ_i φ_j)²)^½ ≤ Σ_i M_ii φ_i² as well (M is
-    // positive definite: M_ij² ≤ M_ii M_jj). The systematic part stays at
-    // its worst, |φ|ᵀD|φ|.
-    const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
-                              difference_bound;
-    const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
-    const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
-    const double entries =
-        absPhi.col(i).cwiseProduct(EabsPhi.col(i)).norm() / phi2 +
-        rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).norm(), diagonal_terms(i)) / phi2;
-    const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
-                                                      rows(i) / phi2, sums(i) / phi2, entries);
-    // Where that typical size (doubled) exceeds the decision's value, as it
-    // may for a few coordinates, the smaller of the two.
-    const double error = std::abs(l) <= decision
-                             ? decision
-                             : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
-
-    const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
-    const double relative_residual = scale > 0 ? residual_norm(i) / scale : 0.0;
-    if (relative_residual > worst_relative_residual) {
-      worst_relative_residual = relative_residual;
-      worst = j;
-    }
-
-    if (std::abs(l) <= decision) {
-      mode = make_mode(0.0, error, ModeKind::zero);
-    } else if (l < 0) {  // divergent: δq ∝ e^{st} with s = +√(−λ) real
-      mode = make_mode(std::sqrt(-l), error, ModeKind::divergent);
-    } else {             // oscillatory: s = i√λ
-      mode = make_mode({0.0, std::sqrt(l)}, error, ModeKind::oscillatory);
-      mode.damping_ratio = 0;
-    }
-    mode.omega2 = l;  // the computed λ, sign and all, whatever the kind
-    mode.residual_bound = residual_bound;
-    mode.systematic_error = difference_bound;
-    if (mode.kind == ModeKind::divergent) ++result.morse_index;
-    if (mode.kind == ModeKind::zero) ++result.zero_modes;
-
-    VectorX shape = Phi.col(i) / std::sqrt(phiMphi(i));  // M-normalized to rounding
-    if (shape(dominant_index(shape.cast<std::complex<double>>())) < 0) shape = -shape;
-    mode.shape = shape.cast<std::complex<double>>();
-    result.modes.push_back(std::move(mode));
-    ++i;
-  }
-  if (worst_relative_residual > 1e-10)
-    result.notes.push_back("mode " + std::to_string(worst + 1) + " has a relative residual ‖Kφ − λMφ‖/((‖K‖ + |λ|‖M‖)‖φ‖) of " +
-                           format_number(worst_relative_residual, 2) +
-                           ", far above rounding level: M is probably ill-conditioned; trust its error estimate");
+    if (worst_relative_residual > 1e-10)
+      result.notes.push_back("mode " + std::to_string(worst + 1) + " has a relative residual ‖Kφ − λMφ‖/((‖K‖ + |λ|‖M‖)‖φ‖) of " +
+                             format_number(worst_relative_residual, 2) +
+                             ", far above rounding level: M is probably ill-conditioned; trust its error estimate");
+    return result;
+  };
+  ModalResult result = analyze();
+  if (refine_unresolved(M, K, unresolved, Phi)) result = analyze();
   return result;
 }
 
