@@ -156,13 +156,13 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
   // digits on the same masses and springs), was missing.
   Eigen::GeneralizedSelfAdjointEigenSolver<MatLD> eig(Ks, Ms, Eigen::ComputeEigenvectors);
   std::vector<LD> out(static_cast<std::size_t>(n));
-  std::vector<VecLD> found;  // the refined vectors so far, M-normalized
+  std::vector<VecLD> found, found_M;  // the refined vectors so far, M-normalized, and M times them
   for (int j = 0; j < n; ++j) {
     VecLD x = eig.eigenvectors().col(j);
     LD lambda = eig.eigenvalues()[j];
     for (int step = 0; step < 12; ++step) {
       for (int pass = 0; pass < 2; ++pass)
-        for (const VecLD& v : found) x -= v.dot(Ms * x) * v;
+        for (std::size_t k = 0; k < found.size(); ++k) x -= found_M[k].dot(x) * found[k];
       const Eigen::PartialPivLU<MatLD> lu(Ks - lambda * Ms);  // no rank decision: a huge y is the point
       const VecLD y = lu.solve(VecLD(Ms * x));
       if (!y.allFinite() || y.norm() == 0) break;
@@ -173,6 +173,7 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
       if (step >= 1 && settled) break;
     }
     found.push_back(x / std::sqrt(x.dot(Ms * x)));
+    found_M.push_back(Ms * found.back());
     out[static_cast<std::size_t>(j)] = lambda;
   }
   std::sort(out.begin(), out.end());
