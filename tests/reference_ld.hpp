@@ -12,6 +12,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
+#include <limits>
 #include <vector>
 
 namespace {
@@ -177,6 +179,85 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
     out[static_cast<std::size_t>(j)] = lambda;
   }
   std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The eigenvalues s of (s²M + sD + K)x = 0 (M, K, D symmetric, M positive
+// definite), solved in long double: 2n values, complex pairs given once
+// (Im s > 0), real ones each. Start: the companion matrix in the basis
+// z = [x; s x / w] (w = √‖M⁻¹K‖, balancing its blocks), by Eigen's real
+// Schur solver in long double, after scaling the pencil by diag(M)^{-1/2}.
+// Its error is normwise (ε_LD‖A‖), too large for the small |s| of a graded
+// scene, so each start is refined in complex long double: inverse iteration
+// x ← Q(σ)⁻¹Q'(σ)x, and σ the root nearest σ of xᵀQ(p)x = 0 (the two-sided
+// Rayleigh functional: Q(p) is complex symmetric, so the left null vector is
+// x̄), until σ settles (16 ε_LD relative, at most 12 steps). The refined
+// values must be distinct: two starts that converged to one eigenvalue
+// return an empty vector (the caller fails).
+inline std::vector<std::complex<LD>> reference_quadratic(const MatLD& M_in, const MatLD& K_in, const MatLD& D_in) {
+  using C = std::complex<LD>;
+  using MatC = Eigen::Matrix<C, Eigen::Dynamic, Eigen::Dynamic>;
+  using VecC = Eigen::Matrix<C, Eigen::Dynamic, 1>;
+  const Eigen::Index n = M_in.rows();
+  VecLD d(n);
+  for (Eigen::Index i = 0; i < n; ++i) d[i] = 1 / std::sqrt(M_in(i, i));
+  const MatLD M = d.asDiagonal() * M_in * d.asDiagonal(), K = d.asDiagonal() * K_in * d.asDiagonal(),
+              D = d.asDiagonal() * D_in * d.asDiagonal();
+  const Eigen::LLT<MatLD> llt(M);
+  const MatLD MinvK = llt.solve(K), MinvD = llt.solve(D);
+  LD w = std::sqrt(MinvK.norm());
+  if (!(w > 0) || !std::isfinite(w)) w = 1;
+  MatLD A = MatLD::Zero(2 * n, 2 * n);
+  A.topRightCorner(n, n).diagonal().setConstant(w);
+  A.bottomLeftCorner(n, n) = -MinvK / w;
+  A.bottomRightCorner(n, n) = -MinvD;
+  // Balanced (Parlett and Reinsch: a diagonal similarity by powers of two
+  // that evens each row's and column's off-diagonal norms), so that the
+  // solver's normwise error is that of a graded scene's own scales.
+  VecLD balance = VecLD::Ones(2 * n);
+  for (int sweep = 0, changed = 1; changed && sweep < 100; ++sweep) {
+    changed = 0;
+    for (Eigen::Index i = 0; i < 2 * n; ++i) {
+      const LD c = A.col(i).cwiseAbs().sum() - std::abs(A(i, i)), r = A.row(i).cwiseAbs().sum() - std::abs(A(i, i));
+      if (!(c > 0) || !(r > 0)) continue;
+      int e = 0;
+      std::frexp(std::sqrt(r / c), &e);
+      const LD f = std::ldexp(LD(1), e);
+      if (!((c * f + r / f) < LD(0.95) * (c + r))) continue;  // only a clear gain (it ends)
+      A.col(i) *= f;
+      A.row(i) /= f;
+      balance[i] *= f;
+      changed = 1;
+    }
+  }
+  const Eigen::EigenSolver<MatLD> eig(A, true);
+  const MatC Mc = M.cast<C>(), Kc = K.cast<C>(), Dc = D.cast<C>();
+  std::vector<C> out;
+  for (Eigen::Index j = 0; j < 2 * n; ++j) {
+    C s = eig.eigenvalues()[j];
+    if (s.imag() < 0) continue;
+    VecC x = (balance.cast<C>().asDiagonal() * eig.eigenvectors().col(j)).head(n);
+    for (int step = 0; step < 12; ++step) {
+      const Eigen::PartialPivLU<MatC> lu(MatC(s * s * Mc + s * Dc + Kc));
+      const VecC y = lu.solve(VecC((LD(2) * s * Mc + Dc) * x));
+      if (!y.allFinite() || y.norm() == 0) break;
+      x = y / y.norm();
+      const C a = x.transpose() * Mc * x, b = x.transpose() * Dc * x, c = x.transpose() * Kc * x;
+      const C root = std::sqrt(b * b - LD(4) * a * c);
+      // The two roots without cancellation: q = −(b + sign·root)/2, p₁ = q/a, p₂ = c/q.
+      const C q = -(b + (std::real(std::conj(b) * root) >= 0 ? root : -root)) / LD(2);
+      const C p1 = q / a, p2 = q != C(0) ? c / q : p1;
+      const C next = std::abs(p1 - s) <= std::abs(p2 - s) ? p1 : p2;
+      const bool settled = std::abs(next - s) <= 16 * std::numeric_limits<LD>::epsilon() * std::abs(next);
+      s = next;
+      if (step >= 1 && settled) break;
+    }
+    if (eig.eigenvalues()[j].imag() == 0) s = s.real();  // a real start stays real (real Q: its null vector is real)
+    out.push_back(s);
+  }
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (std::size_t k = 0; k < i; ++k)
+      if (std::abs(out[i] - out[k]) <= 1e-12L * std::abs(out[i])) return {};
   return out;
 }
 

@@ -235,7 +235,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
       if (G_error.size() > 0 && G_error.allFinite()) model.G_error = G_error;
     }
   }
-  if (!s.is_map() && !s.has_constraints() && !s.has_follower_loads() && !s.has_frame_coupling() && !model.has_damping &&
+  if (!s.is_map() && !s.has_constraints() && !s.has_follower_loads() && !s.has_frame_coupling() &&
       options.derivatives == DerivativeMethod::exact) {
     const std::vector<int> parents = absolute_angle_parents(s, ws, q);
     if (std::any_of(parents.begin(), parents.end(), [](int p) { return p >= 0; })) {
@@ -243,15 +243,28 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
       model.absolute.K_magnitude *= 4 * std::numeric_limits<double>::epsilon();
       require_finite(model.absolute.M, "mass matrix in absolute angles", model.coordinates);
       require_finite(model.absolute.K, "stiffness matrix in absolute angles", model.coordinates);
-      if (model.K_systematic_error.size() > 0) {  // |T|ᵀ A |T|, T = I − (parent links)
-        const MatrixX& E = model.K_systematic_error;
+      // XᵀEX for T = I − (parent links), q = Tθ: X = T (sign −1) or |T| (+1).
+      auto congruence = [&](const MatrixX& E, double sign) {
         MatrixX A = E;
         for (int c = 0; c < n; ++c)
-          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) A.col(p) += E.col(c);
+          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) A.col(p) += sign * E.col(c);
         MatrixX B = A;
         for (int c = 0; c < n; ++c)
-          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) B.row(p) += A.row(c);
-        model.absolute_systematic_error = B;
+          if (const int p = parents[static_cast<std::size_t>(c)]; p >= 0) B.row(p) += sign * A.row(c);
+        return B;
+      };
+      if (model.K_systematic_error.size() > 0) model.absolute_systematic_error = congruence(model.K_systematic_error, 1);
+      if (model.has_damping) {
+        // TᵀDT. An entry is a sum of at most (1 + c)² of D's (c: the most
+        // links to one parent), each rounded once in D: its rounding is at
+        // most ((1 + c)² + 1)ε|T|ᵀ|D||T|, taken as at least 4ε.
+        std::vector<int> links(static_cast<std::size_t>(n), 0);
+        for (const int p : parents)
+          if (p >= 0) ++links[static_cast<std::size_t>(p)];
+        const double c = *std::max_element(links.begin(), links.end());
+        model.absolute.D = symmetric_part(congruence(model.D, -1));
+        model.absolute.D_rounding = std::max(4.0, (1 + c) * (1 + c) + 1) * std::numeric_limits<double>::epsilon() *
+                                    congruence(model.D.cwiseAbs(), 1);
       }
     }
   }

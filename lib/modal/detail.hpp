@@ -87,11 +87,14 @@ bool lapack_wins(Eigen::Index n);
 // M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
 // first-order system. Fills modes (ascending ω, then σ), morse_index,
 // zero_modes, solver, notes (not the cluster notes, as above).
-// `K_systematic_error` and `C_error` (n×n or empty) are measured entrywise
-// errors of K and C (differences: LinearModel::K_systematic_error, G_error),
-// whose effect the estimates include.
+// `K_error` (n×n or empty: 4ε|K|) bounds K's entries' errors as in
+// solve_symmetric; `K_systematic_error` and `C_error` (n×n or empty) are
+// measured entrywise errors of K and C (differences: LinearModel::
+// K_systematic_error, G_error), whose effect the estimates include;
+// `C_rounding` (n×n or empty: 4ε|C|) bounds the rounding of C's entries.
 ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C, const Cholesky& mass,
-                              const MatrixX& K_systematic_error = {}, const MatrixX& C_error = {});
+                              const MatrixX& K_error = {}, const MatrixX& K_systematic_error = {},
+                              const MatrixX& C_error = {}, const MatrixX& C_rounding = {});
 
 // Exact rescaling by powers of two of the magnitudes of a solved pencil:
 // the solvers ran on (αM, √(αβ)C, βK) with α = 4^a, β = 4^b, so that no

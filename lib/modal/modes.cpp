@@ -87,6 +87,7 @@ void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector
       if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
     const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
     if (real && top.real() < 0) m.shape = -m.shape;
+    if (!real && top != std::complex<double>(0)) m.shape /= top;  // largest component 1, as solve_first_order's
   }
 }
 
@@ -206,7 +207,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   // its pencil assembled there (LinearModel::absolute); shapes are mapped back.
   const AbsoluteAngleModel& abs = model.absolute;
   const bool absolute = !abs.empty() && !model.constrained() && abs.M.rows() == n && abs.K.rows() == n &&
-                        static_cast<Eigen::Index>(abs.parent.size()) == n && model.symmetric();
+                        static_cast<Eigen::Index>(abs.parent.size()) == n && !model.has_gyroscopic &&
+                        !model.circulatory && (!model.has_damping || (abs.D.rows() == n && abs.D.cols() == n));
   const MatrixX& M_in = absolute ? abs.M : model.M;
   const MatrixX& K_in = absolute ? abs.K : model.K;
   const MatrixX& K_error_in = absolute ? abs.K_magnitude : model.K_error;
@@ -220,8 +222,10 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   MatrixX Ms = M_in, Ks = K_in, K_error = square(K_error_in) ? K_error_in : MatrixX(),
           K_systematic = square(K_systematic_in) ? K_systematic_in : MatrixX(),
           G_error = square(model.G_error) ? model.G_error : MatrixX();
-  MatrixX Cs = velocity_matrix(model, n);  // empty when the model has neither D nor G
-  for (MatrixX* A : {&Ms, &Ks, &K_error, &K_systematic, &G_error, &Cs})
+  // C = D + G (empty when the model has neither); in θ, D = TᵀDT and its rounding bound.
+  MatrixX Cs = absolute ? (model.has_damping ? abs.D : MatrixX()) : velocity_matrix(model, n),
+          C_rounding = absolute && model.has_damping && square(abs.D_rounding) ? abs.D_rounding : MatrixX();
+  for (MatrixX* A : {&Ms, &Ks, &K_error, &K_systematic, &G_error, &Cs, &C_rounding})
     if (A->size() != 0) detail::scale_symmetric_in_place(*A, scale);
   if (!symmetric_within_rounding(Ms))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
@@ -243,8 +247,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   detail::Magnitudes magnitude = detail::magnitudes(Ms.cwiseAbs().maxCoeff(), Ks.cwiseAbs().maxCoeff());
   {
     const int a = 2 * magnitude.a, b = 2 * magnitude.b, ab = magnitude.a + magnitude.b;
-    const std::pair<MatrixX*, int> scaled[] = {{&Ms, a}, {&Ks, b}, {&Cs, ab},
-                                               {&K_error, b}, {&K_systematic, b}, {&G_error, ab}};
+    const std::pair<MatrixX*, int> scaled[] = {{&Ms, a}, {&Ks, b}, {&Cs, ab}, {&K_error, b},
+                                               {&K_systematic, b}, {&G_error, ab}, {&C_rounding, ab}};
     bool exact = true;
     for (const auto& [A, p] : scaled) exact = exact && detail::scales_exactly(*A, p);
     if (exact)
@@ -260,7 +264,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
                                                options.modes)
-                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_systematic, G_error);
+                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding);
   detail::restore_magnitudes(result, magnitude, symmetric);
   // Classify with every mode, then keep the lowest ones asked for (the
   // symmetric solver analyzes the others only as far as their kind needs:

@@ -466,6 +466,8 @@ struct AbsoluteAngleModel {
   MatrixX K;                // Tᵀ∇∇V T (n×n, symmetric)
   MatrixX K_magnitude;      // Σ|terms| of each entry of K, as potential_hessian_magnitude
   VectorX inertia_scale;    // n: as inertia_scale, for θ
+  MatrixX D;                // TᵀDT (n×n) when the scene has dampers (linearize fills it), else empty
+  MatrixX D_rounding;       // entrywise bound of D's rounding: 4ε|T|ᵀ|D_q||T| (n×n, or empty)
   bool empty() const { return parent.empty(); }
 };
 // M, ∇∇V and their companions assembled in θ (trees only: no map; the
