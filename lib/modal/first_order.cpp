@@ -104,6 +104,7 @@ ModeKind kind_of(Complex s, double error) {
 Eigen::MatrixXcd quadratic(const Eigen::MatrixXcd& M, const Eigen::MatrixXcd& C, const Eigen::MatrixXcd& K, Complex s) {
   return (s * s) * M + s * C + K;
 }
+Eigen::MatrixXcd derivative(const Eigen::MatrixXcd& M, const Eigen::MatrixXcd& C, Complex s) { return (2.0 * s) * M + C; }
 
 // The data of Q as complex matrices and their magnitudes (for the rounding
 // of Q(s)x).
@@ -128,7 +129,7 @@ struct Quadratic {
 bool refine_pair(const Quadratic& q, bool real, Complex& s, Eigen::VectorXcd& x, Eigen::VectorXcd& l) {
   for (int step = 0; step < 8; ++step) {
     const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(quadratic(q.M, q.C, q.K, s));  // no rank decision: a huge x is the point
-    const Eigen::MatrixXcd dQ = (2.0 * s) * q.M + q.C;
+    const Eigen::MatrixXcd dQ = derivative(q.M, q.C, s);
     const Eigen::VectorXcd xn = lu.solve(dQ * x), ln = lu.transpose().solve(dQ.transpose() * l);
     if (!xn.allFinite() || !ln.allFinite() || xn.norm() == 0 || ln.norm() == 0) return false;
     x = xn / xn.norm();
@@ -137,7 +138,7 @@ bool refine_pair(const Quadratic& q, bool real, Complex& s, Eigen::VectorXcd& x,
       x = x.real().cast<Complex>();
       l = l.real().cast<Complex>();
     }
-    const Complex den = (l.transpose() * (((2.0 * s) * q.M + q.C) * x)).value();
+    const Complex den = (l.transpose() * (dQ * x)).value();
     const Complex num = (l.transpose() * (quadratic(q.M, q.C, q.K, s) * x)).value();
     if (den == Complex(0)) return false;
     const Complex next = real ? Complex((s - num / den).real(), 0.0) : s - num / den;
@@ -275,6 +276,8 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
   {
     Quadratic q{Mc, Cc, Kc, M.cwiseAbs(), C.cwiseAbs(), K.cwiseAbs()};
     auto error_of = [](const Pair& p) { return p.solver + p.t.data + p.t.systematic; };
+    // Two pairs are told apart when their values lie further apart than their estimates together.
+    auto apart = [&](const Pair& a, const Pair& b) { return std::abs(a.s - b.s) > error_of(a) + error_of(b); };
     std::vector<std::size_t> candidates;
     // Unresolved: the solver's share over 10 × the data's. Also tried (with
     // their own start only): estimates over 1e6 ε|s|, whose data term came
@@ -303,7 +306,7 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     // normwise, so r is of the size of ε × the largest entries of Q, nearly
     // all of it along directions l does not see.
     auto analyze_refined = [&](Pair& r) {
-      const double den = std::abs((r.l.transpose() * (((2.0 * r.s) * Mc + Cc) * r.x)).value());
+      const double den = std::abs((r.l.transpose() * (derivative(Mc, Cc, r.s) * r.x)).value());
       const Eigen::VectorXcd residual = quadratic(Mc, Cc, Kc, r.s).lazyProduct(r.x);
       r.solver = (std::abs((r.l.transpose() * residual).value()) + r.l.cwiseAbs().dot(q.rounding(r.s, r.x))) / den;
       r.t = terms(r.s, r.x, r.l, den);
@@ -313,15 +316,14 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     auto attempt = [&](std::size_t k, Complex s, bool real, const Eigen::VectorXcd& x,
                        const Eigen::VectorXcd& l) -> std::optional<Pair> {
       Pair r{s, x, l, 0, {}};
-      if (!refine_pair(q, real, r.s, r.x, r.l)) return std::nullopt;
-      if (real) r.s = r.s.real();
+      if (!refine_pair(q, real, r.s, r.x, r.l)) return std::nullopt;  // a real start stays real
       analyze_refined(r);
       const double new_error = error_of(r);
       if (!(new_error < error_of(pairs[k])) || !(std::abs(r.s - pairs[k].s) <= error_of(pairs[k]) + new_error))
         return std::nullopt;
       if (pairs[k].s.imag() > 0 && !(r.s.imag() > 0)) return std::nullopt;  // a pair stays a pair
       for (const std::size_t j : kept)
-        if (std::abs(r.s - pairs[j].s) <= new_error + error_of(pairs[j])) return std::nullopt;
+        if (!apart(r, pairs[j])) return std::nullopt;
       return r;
     };
     // Refines mode k from a start; a real mode refined to a complex pair
@@ -445,10 +447,9 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
           }
           if (!whole) break;
           analyze_refined(r);
-          for (const Pair& o : replacement) whole = whole && std::abs(r.s - o.s) > error_of(r) + error_of(o);
+          for (const Pair& o : replacement) whole = whole && apart(r, o);
           for (std::size_t j = 0; j < pairs.size(); ++j)  // distinct from every other pair, and within the group's estimates
-            if (!removed[j] && std::find(group.begin(), group.end(), j) == group.end())
-              whole = whole && std::abs(r.s - pairs[j].s) > error_of(r) + error_of(pairs[j]);
+            if (!removed[j] && std::find(group.begin(), group.end(), j) == group.end()) whole = whole && apart(r, pairs[j]);
           bool inside = false;
           for (const std::size_t k : group) inside = inside || std::abs(r.s - pairs[k].s) <= error_of(pairs[k]);
           whole = whole && inside;
