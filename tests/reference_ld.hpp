@@ -182,16 +182,21 @@ inline std::vector<LD> reference_omega2(const System& s, const VectorX& q) {
   return out;
 }
 
-// The eigenvalues s of (s²M + sD + K)x = 0 (M, K, D symmetric, M positive
-// definite), solved in long double: 2n values, complex pairs given once
+// The eigenvalues s of (s²M + sD + K)x = 0 (M, K symmetric, M positive
+// definite; D any real matrix: dampers, and gyroscopic terms as its skew
+// part), solved in long double: 2n values, complex pairs given once
 // (Im s > 0), real ones each. Start: the companion matrix in the basis
 // z = [x; s x / w] (w = √‖M⁻¹K‖, balancing its blocks), by Eigen's real
 // Schur solver in long double, after scaling the pencil by diag(M)^{-1/2}.
 // Its error is normwise (ε_LD‖A‖), too large for the small |s| of a graded
 // scene, so each start is refined in complex long double: inverse iteration
-// x ← Q(σ)⁻¹Q'(σ)x, and σ the root nearest σ of xᵀQ(p)x = 0 (the two-sided
-// Rayleigh functional: Q(p) is complex symmetric, so the left null vector is
-// x̄), until σ settles (16 ε_LD relative, at most 12 steps). The refined
+// x ← Q(σ)⁻¹Q'(σ)x on the right and l ← Q(σ)⁻ᵀQ'(σ)ᵀl on the left, and σ
+// the root nearest σ of lᵀQ(p)x = 0 (the two-sided Rayleigh functional),
+// until σ settles (16 ε_LD relative, at most 12 steps). l starts as Q's left
+// null vector from the companion's left eigenvector y (yᵀA = s yᵀ gives
+// lᵀQ(s) = 0 for l = M⁻¹y_velocity), not as x: with a skew (gyroscopic) D,
+// Q(p) is not symmetric, and from l = x the two vectors of a close pair (a
+// splitting of 2Ω) converged to different members and σ went astray. The refined
 // values must be distinct: two starts that converged to one eigenvalue
 // return an empty vector (the caller fails).
 inline std::vector<std::complex<LD>> reference_quadratic(const MatLD& M_in, const MatLD& K_in, const MatLD& D_in) {
@@ -232,17 +237,22 @@ inline std::vector<std::complex<LD>> reference_quadratic(const MatLD& M_in, cons
   }
   const Eigen::EigenSolver<MatLD> eig(A, true);
   const MatC Mc = M.cast<C>(), Kc = K.cast<C>(), Dc = D.cast<C>();
+  const MatC left = eig.eigenvectors().partialPivLu().inverse();  // rows: the balanced A's left eigenvectors
+  const MatC Minv = llt.solve(MatLD::Identity(n, n)).cast<C>();
   std::vector<C> out;
   for (Eigen::Index j = 0; j < 2 * n; ++j) {
     C s = eig.eigenvalues()[j];
     if (s.imag() < 0) continue;
     VecC x = (balance.cast<C>().asDiagonal() * eig.eigenvectors().col(j)).head(n);
+    VecC l = Minv * VecC((balance.cast<C>().cwiseInverse().asDiagonal() * left.row(j).transpose()).tail(n));
     for (int step = 0; step < 12; ++step) {
       const Eigen::PartialPivLU<MatC> lu(MatC(s * s * Mc + s * Dc + Kc));
-      const VecC y = lu.solve(VecC((LD(2) * s * Mc + Dc) * x));
-      if (!y.allFinite() || y.norm() == 0) break;
+      const MatC dQ = LD(2) * s * Mc + Dc;
+      const VecC y = lu.solve(VecC(dQ * x)), z = lu.transpose().solve(VecC(dQ.transpose() * l));
+      if (!y.allFinite() || y.norm() == 0 || !z.allFinite() || z.norm() == 0) break;
       x = y / y.norm();
-      const C a = x.transpose() * Mc * x, b = x.transpose() * Dc * x, c = x.transpose() * Kc * x;
+      l = z / z.norm();
+      const C a = l.transpose() * Mc * x, b = l.transpose() * Dc * x, c = l.transpose() * Kc * x;
       const C root = std::sqrt(b * b - LD(4) * a * c);
       // The two roots without cancellation: q = −(b + sign·root)/2, p₁ = q/a, p₂ = c/q.
       const C q = -(b + (std::real(std::conj(b) * root) >= 0 ? root : -root)) / LD(2);
