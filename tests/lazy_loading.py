@@ -67,7 +67,7 @@ def loads(args, expected, expect=0):
     return p
 
 
-# A lattice of a few hundred coordinates goes to LAPACK (dsygvd); its modes
+# A lattice of a few hundred coordinates goes to LAPACK (dsyevd); its modes
 # are checked against references elsewhere: here, that it answers.
 lattice = loads(["analyze", os.path.join(models, "lattice.toml"), "--modes", "3"], ["lapack"])
 check("Stability" in lattice.stdout, "lattice: no stability verdict")

@@ -70,24 +70,25 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <optional>
 #include <string>
 #include <vector>
 
 // LAPACK (Debian's liblapack3 interface; OpenBLAS's implementation where it is
-// installed): the symmetric-definite generalized eigenproblem by divide and
-// conquer. Character arguments carry their lengths as trailing hidden
-// arguments (gfortran's convention).
-extern "C" void dsygvd_(const int* itype, const char* jobz, const char* uplo, const int* n, double* a,
-                        const int* lda, double* b, const int* ldb, double* w, double* work, const int* lwork,
-                        int* iwork, const int* liwork, int* info, std::size_t jobz_length, std::size_t uplo_length);
-
-// The pieces of dsygvd, for the lowest eigenvectors alone (solve_symmetric
-// with `wanted`): the reduction to standard form with a given Cholesky factor
-// (dsygst), to tridiagonal form (dsytrd), every eigenvalue of the tridiagonal
-// matrix (dsterf, no vectors), the lowest ones' vectors (dstemr, MRRR), and
-// the back-transformation (dormtr).
+// installed): the pieces of dsygvd, with the Cholesky factor of M the caller
+// already has (factor_mass): the reduction to standard form C = L⁻¹KL⁻ᵀ
+// (dsygst), then for every pair the symmetric eigenproblem of C by divide and
+// conquer (dsyevd) and Φ = L⁻ᵀY (dtrsm); for the lowest eigenvectors alone
+// (solve_symmetric with `wanted`), C to tridiagonal form (dsytrd), every
+// eigenvalue of the tridiagonal matrix (dsterf, no vectors), the lowest ones'
+// vectors (dstemr, MRRR), and the back-transformation (dormtr). Character
+// arguments carry their lengths as trailing hidden arguments (gfortran's
+// convention).
+extern "C" void dsyevd_(const char* jobz, const char* uplo, const int* n, double* a, const int* lda, double* w,
+                        double* work, const int* lwork, int* iwork, const int* liwork, int* info,
+                        std::size_t jobz_length, std::size_t uplo_length);
 extern "C" void dsygst_(const int* itype, const char* uplo, const int* n, double* a, const int* lda, const double* b,
                         const int* ldb, int* info, std::size_t uplo_length);
 extern "C" void dsytrd_(const char* uplo, const int* n, double* a, const int* lda, double* d, double* e, double* tau,
@@ -198,27 +199,30 @@ void eigen_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, Matrix
   Phi = mass.matrixU().solve(eig.eigenvectors());
 }
 
-// LAPACK dsygvd (itype 1: K φ = λ M φ, its own Cholesky of M, ΦᵀMΦ = I).
-void lapack_pairs(const MatrixX& M, const MatrixX& K, VectorX& lambda, MatrixX& Phi) {
+// Every pair of K φ = λ M φ (ΦᵀMΦ = I) by LAPACK, as dsygvd computes them
+// but with the caller's factor L of M (dsygvd would factor M again): C =
+// L⁻¹KL⁻ᵀ (dsygst), CY = YΛ by divide and conquer (dsyevd), Φ = L⁻ᵀY.
+void lapack_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, MatrixX& Phi) {
   const int n = static_cast<int>(K.rows()), itype = 1;
-  Phi = K;  // overwritten by the eigenvectors
-  MatrixX B = M;
+  const MatrixX& L = mass.matrixLLT();  // its lower triangle is L
+  Phi = K;  // C, then Y, then Φ
   lambda.resize(n);
-  int lwork = -1, liwork = -1, info = 0, iwork_size = 0;
+  int info = 0;
+  dsygst_(&itype, "L", &n, Phi.data(), &n, L.data(), &n, &info, 1);
+  if (info != 0) throw NumericalError("LAPACK dsygst failed (info " + std::to_string(info) + ")");
+  int lwork = -1, liwork = -1, iwork_size = 0;
   double work_size = 0;
-  dsygvd_(&itype, "V", "L", &n, Phi.data(), &n, B.data(), &n, lambda.data(), &work_size, &lwork, &iwork_size,
-          &liwork, &info, 1, 1);  // workspace query
-  lwork = static_cast<int>(work_size);
-  liwork = iwork_size;
-  std::vector<double> work(static_cast<std::size_t>(std::max(lwork, 1)));
-  std::vector<int> iwork(static_cast<std::size_t>(std::max(liwork, 1)));
-  dsygvd_(&itype, "V", "L", &n, Phi.data(), &n, B.data(), &n, lambda.data(), work.data(), &lwork, iwork.data(),
-          &liwork, &info, 1, 1);
-  if (info > n)
-    throw NumericalError("LAPACK dsygvd: the mass matrix is not positive definite (leading minor " +
-                         std::to_string(info - n) + ")");
-  if (info != 0)
-    throw NumericalError("LAPACK dsygvd did not converge (info " + std::to_string(info) + ")");
+  dsyevd_("V", "L", &n, Phi.data(), &n, lambda.data(), &work_size, &lwork, &iwork_size, &liwork, &info, 1,
+          1);  // workspace query
+  lwork = std::max(1, static_cast<int>(work_size));
+  liwork = std::max(1, iwork_size);
+  // Not value-initialized: dsyevd writes before it reads, and zeroing 2n² doubles touched every page first.
+  const std::unique_ptr<double[]> work(new double[static_cast<std::size_t>(lwork)]);
+  const std::unique_ptr<int[]> iwork(new int[static_cast<std::size_t>(liwork)]);
+  dsyevd_("V", "L", &n, Phi.data(), &n, lambda.data(), work.get(), &lwork, iwork.get(), &liwork, &info, 1, 1);
+  if (info != 0) throw NumericalError("LAPACK dsyevd did not converge (info " + std::to_string(info) + ")");
+  const double one = 1;
+  dtrsm_("L", "L", "T", "N", &n, &n, &one, L.data(), &n, Phi.data(), &n, 1, 1, 1, 1);  // Φ = L⁻ᵀY
 }
 
 // K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
@@ -254,7 +258,7 @@ class TridiagonalPencil {
   }
   // The pencil's vectors of its p lowest eigenvalues (n×p, ΦᵀMΦ = I to
   // rounding), or an empty matrix when dstemr fails (the caller then takes
-  // every vector by dsygvd).
+  // every vector by lapack_pairs).
   MatrixX lowest_vectors(int p) const {
     if (p <= 0) return MatrixX(n_, 0);
     VectorX d = d_, e = e_, w(n_);
@@ -386,7 +390,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     reduced.emplace(K, mass);
     lambda_all = reduced->eigenvalues();
   } else if (lapack) {
-    lapack_pairs(M, K, lambda_all, Phi);
+    lapack_pairs(K, mass, lambda_all, Phi);
   } else {
     eigen_pairs(K, mass, lambda_all, Phi);
   }
@@ -421,8 +425,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   if (prefix == n) cheap.resize(0);
   if (reduced) {
     Phi = reduced->lowest_vectors(static_cast<int>(prefix));
-    if (Phi.cols() != prefix) {  // dstemr failed: every pair by dsygvd
-      lapack_pairs(M, K, lambda_all, Phi);
+    if (Phi.cols() != prefix) {  // dstemr failed: every pair by divide and conquer
+      lapack_pairs(K, mass, lambda_all, Phi);
       reduced.reset();
     }
   }
@@ -446,6 +450,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
     VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
     VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
+    // The pencil projected on neighbouring vectors, for the close pairs and
+    // clusters below (groups of at most `group` consecutive modes), taken
+    // while KΦ and MΦ are at hand: band(w, j) = ½(φ_jᵀKφ_{j+w} + φ_{j+w}ᵀKφ_j),
+    // and the same with M (O(n·m·group), not a product with K per group: a
+    // lattice's many repeated eigenvalues made those a third of its phase).
+    constexpr Eigen::Index group = 8;
+    MatrixX bandK = MatrixX::Zero(group, m), bandM = MatrixX::Zero(group, m);
     {
       MatrixX MPhi = product(M, Phi);
       VectorX rq(m);
@@ -471,6 +482,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
                   std::abs(lambda(j)) * Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
         diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
       }
+      for (Eigen::Index j = 0; j < m; ++j)
+        for (Eigen::Index w = 0; w < group && j + w < m; ++w) {
+          bandK(w, j) = 0.5 * (Phi.col(j).dot(R.col(j + w)) + Phi.col(j + w).dot(R.col(j)));
+          bandM(w, j) = 0.5 * (Phi.col(j).dot(MPhi.col(j + w)) + Phi.col(j + w).dot(MPhi.col(j)));
+        }
       R -= MPhi * lambda.asDiagonal();
     }
     lambda_all(analyzed) = lambda;
@@ -571,15 +587,18 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       Eigen::Index last = first;
       while (last + 1 < m && linked(last)) ++last;
       const Eigen::Index size = last - first + 1;
-      if (size >= 2 && size <= 8) {
+      if (size >= 2 && size <= group) {
         const double eta = separation(typical, first, last);
         double delta2 = 0;
         for (Eigen::Index k = first; k <= last; ++k) delta2 += typical(k) * typical(k);
         if (eta > 0 && eta * eta > delta2) {
-          const MatrixX X = Phi.middleCols(first, size);
-          const MatrixX A = X.transpose() * (K * X), B = X.transpose() * (M * X);
-          Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(0.5 * (A + A.transpose()), 0.5 * (B + B.transpose()),
-                                                                 Eigen::EigenvaluesOnly);
+          MatrixX A(size, size), B(size, size);  // X_CᵀKX_C and X_CᵀMX_C, symmetric
+          for (Eigen::Index a = 0; a < size; ++a)
+            for (Eigen::Index b = a; b < size; ++b) {
+              A(a, b) = A(b, a) = bandK(b - a, first + a);
+              B(a, b) = B(b, a) = bandM(b - a, first + a);
+            }
+          Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(A, B, Eigen::EigenvaluesOnly);
           if (ritz.info() == Eigen::Success)
             for (Eigen::Index k = first; k <= last; ++k)
               clustered(k) = std::abs(lambda_all(k) - ritz.eigenvalues()(k - first)) + delta2 / eta;
@@ -602,7 +621,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     ModalResult result;
     result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
                               "by dsterf, the lowest modes' vectors by MRRR dstemr)"
-                   : lapack ? "dense symmetric-definite (LAPACK dsygvd: Cholesky of M, divide and conquer)"
+                   : lapack ? "dense symmetric-definite (LAPACK: Cholesky of M, dsygst, divide and conquer dsyevd)"
                             : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
     double worst_relative_residual = 0;
     Eigen::Index worst = 0;
