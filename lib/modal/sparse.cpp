@@ -652,6 +652,12 @@ double column_width(const SparseMatrix& K, const SparseMatrix& M) {
 struct Norms {
   double K1 = 0, M1 = 0;
   double width = 1;  // the most nonzeros in a column of K or M: the terms of an entry of Kφ or Mφ
+  // For the worst case of r's rounding through M⁻¹ where M is not diagonal
+  // (set_residual): D^{-1/2} (D = diag M) and a lower bound on the smallest
+  // eigenvalue of D^{-1/2}MD^{-1/2} (equilibrated_mass_floor). Empty where
+  // M is diagonal, or on the matrix-free path (not taken there).
+  VectorX inverse_root_diagonal;
+  double mass_floor = 0;
 };
 
 // How far each mode's eigenvalue may be from the exact one beyond its own
@@ -672,13 +678,21 @@ struct ModeResidual {
 // r's own rounding, ε‖terms‖_{M⁻¹} with terms = |K||φ| + |λ||M||φ| and
 // `width` + 2 rounded operations per entry, worst case in bound, at its
 // typical size √(width + 2) in typical; r and Mφ for the pass of lanczos_modes.
-// Returns ‖r‖_{M⁻¹}.
+// Where M is not diagonal, ‖terms‖_{M⁻¹} is not the worst case of ‖e‖_{M⁻¹}
+// over |e| ≤ terms (M⁻¹'s signs cancel in it); the bound takes
+// ‖D^{-1/2}terms‖₂/√μ instead where larger, μ ≤ λ_min(D^{-1/2}MD^{-1/2})
+// (Norms). Returns ‖r‖_{M⁻¹}.
 template <class MassSolver>
 double set_residual(ModeResidual& residual, const MassSolver& mass, const VectorX& r, const VectorX& Mphi,
-                    const VectorX& terms, double width) {
+                    const VectorX& terms, double width, const Norms& norms) {
   const double error = std::sqrt(std::max(0.0, r.dot(mass.solve(r))));
   const double r_rounding = eps * std::sqrt(std::max(0.0, terms.dot(mass.solve(terms))));
-  residual.bound = error + (width + 2) * r_rounding;
+  double worst = r_rounding;
+  if (norms.inverse_root_diagonal.size() == terms.size())
+    worst = std::max(worst, norms.mass_floor > 0
+                                ? eps * norms.inverse_root_diagonal.cwiseProduct(terms).norm() / std::sqrt(norms.mass_floor)
+                                : std::numeric_limits<double>::infinity());
+  residual.bound = error + (width + 2) * worst;
   residual.typical = error + std::sqrt(width + 2) * r_rounding;
   residual.typical_part = residual.typical;
   residual.Mphi = Mphi;
@@ -724,7 +738,7 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const VectorX a = phi.cwiseAbs();
   const VectorX aK = absolute_product(K, a), aM = absolute_product(M, a);
   const VectorX terms = aK + std::abs(lambda) * aM;  // |K||φ| + |λ||M||φ|
-  const double error = set_residual(residual, mass, r, Mphi, terms, norms.width);
+  const double error = set_residual(residual, mass, r, Mphi, terms, norms.width, norms);
   const double quotient_terms = a.dot(terms);  // |φ|ᵀ(|K| + |λ||M|)|φ|
   const double n = static_cast<double>(K.rows());
   const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
@@ -806,6 +820,51 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
   return result;
 }
 
+// Whether M has no nonzero entry off its diagonal.
+bool is_diagonal(const SparseMatrix& M) {
+  for (Index j = 0; j < M.outerSize(); ++j)
+    for (SparseMatrix::InnerIterator it(M, j); it; ++it)
+      if (it.row() != j && it.value() != 0) return false;
+  return true;
+}
+
+// A lower bound μ on the smallest eigenvalue of A = D^{-1/2}MD^{-1/2}
+// (d = D^{-1/2}), for the worst case of rounding through M⁻¹
+// (set_residual): Gershgorin's, 1 − max_i Σ_{j≠i} |A_ij|, where positive;
+// else the largest of ν/2, ν/8, ν/32, ν/128 (ν: the smallest eigenvalue's
+// estimate by inverse iteration with M's factor) at which A − μI has a
+// Cholesky factorization (then λ_min ≥ μ, to first order in ε); 0 when
+// none does.
+double equilibrated_mass_floor(const SparseMatrix& M, const CholmodFactor& mass, const VectorX& d) {
+  const Index n = M.rows();
+  SparseMatrix A = d.asDiagonal() * M * d.asDiagonal();
+  VectorX radius = VectorX::Zero(n);
+  for (Index j = 0; j < n; ++j)
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it)
+      if (it.row() != j) radius(it.row()) += std::abs(it.value());
+  const double gershgorin = n > 0 ? (A.diagonal() - radius).minCoeff() : 1.0;
+  if (gershgorin > 0) return gershgorin;
+  VectorX x = VectorX::Ones(n).normalized();
+  double rho = 0;  // the largest eigenvalue of A⁻¹ = D^{1/2}M⁻¹D^{1/2}, from below
+  for (int step = 0; step < 8; ++step) {
+    const VectorX y = d.cwiseInverse().cwiseProduct(mass.solve(VectorX(d.cwiseInverse().cwiseProduct(x))));
+    rho = x.dot(y);
+    const double size = y.norm();
+    if (!(size > 0) || !std::isfinite(size)) return 0.0;
+    x = y / size;
+  }
+  if (!(rho > 0) || !std::isfinite(rho)) return 0.0;
+  SparseMatrix identity(n, n);
+  identity.setIdentity();
+  for (const double fraction : {0.5, 0.125, 1.0 / 32, 1.0 / 128}) {
+    const double mu = fraction / rho;
+    CholmodFactor shifted(Eigen::CholmodSimplicialLLt);
+    shifted.compute(SparseMatrix(A - mu * identity));
+    if (shifted.info() == Eigen::Success) return mu;
+  }
+  return 0.0;
+}
+
 // The pencil K − σM as the Lanczos path uses it, assembled sparse: K and M
 // on one pattern, their factorizations (ShiftedFactor; CHOLMOD for M, for
 // the error estimates), M's products. The matrix-free TreeLanczosPencil
@@ -815,8 +874,13 @@ class SparsePencil {
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
                const SparseMatrix& shift, const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift),
-        mass_(factor_sparse_mass(M_, coordinate_scale)), norms_{norm1(K_), norm1(M_), column_width(K_, M_)},
-        mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {}
+        mass_(factor_sparse_mass(M_, coordinate_scale)), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
+        mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {
+    if (!is_diagonal(M_)) {
+      norms_.inverse_root_diagonal = M_.diagonal().cwiseSqrt().cwiseInverse();
+      norms_.mass_floor = equilibrated_mass_floor(M_, *mass_, norms_.inverse_root_diagonal);
+    }
+  }
   Index size() const { return K_.rows(); }
   ShiftedFactor& factor() { return factor_; }
   MassProduct& mass_op() { return mass_op_; }
@@ -1439,7 +1503,8 @@ class TreeLanczosPencil {
  public:
   explicit TreeLanczosPencil(const TreePencil& p) : p_(p), factor_(p), mass_op_(p) {
     const VectorX ones = VectorX::Ones(p.size());
-    norms_ = {tree_product(p, 1.0, 0.0, ones, true).maxCoeff(), tree_product(p, 0.0, 1.0, ones, true).maxCoeff()};
+    norms_.K1 = tree_product(p, 1.0, 0.0, ones, true).maxCoeff();
+    norms_.M1 = tree_product(p, 0.0, 1.0, ones, true).maxCoeff();
     if (!mass_.factor(p, 0.0, 1.0) || mass_.negative_pivots() > 0) {
       const VectorX d = tree_diagonal(p, 0.0, 1.0);
       Index worst = 0;
@@ -1489,7 +1554,7 @@ class TreeLanczosPencil {
     // δ²/g and the second-order size of r, as on the matrix path: the
     // linear δ had made the lowest modes of a 2000-link chain 10³–10⁴ ×
     // their true error.
-    set_residual(residual, mass_, r, Mphi, aK + std::abs(lambda) * aM, 2.0 * p_.depth + 12);
+    set_residual(residual, mass_, r, Mphi, aK + std::abs(lambda) * aM, 2.0 * p_.depth + 12, norms_);
     Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, rounding, 0.0);
     mode.residual_bound = residual.bound + rounding + eps * std::abs(lambda);  // the worst case of r's rounding
     return mode;
