@@ -436,7 +436,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // what its data and quotient alone justify (refinement, below).
   VectorX unresolved;
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
-  // formed once (n³/3 flops): the residual bound's worst case of rounding.
+  // formed once (a triangular solve with the identity, about n³ flops): the
+  // residual bound's worst case of rounding.
   const double inverse_norm = [&] {
     MatrixX inverse = MatrixX::Identity(n, n);
     solve_lower(mass.matrixLLT(), inverse);
