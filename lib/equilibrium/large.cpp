@@ -18,8 +18,10 @@
 // convergence as ∇V → 0); ∇∇V is factored afresh (CHOLMOD supernodal LLᵀ; a
 // simplicial LDLᵀ when ∇∇V is not positive definite) at the first step, when
 // the conjugate gradients break down (∇∇V not positive definite along a
-// direction) or need more than 40 iterations, and after a step that needed
-// more than 15. A factorization costs O(n^1.5) flops for a 2-D net of n
+// direction) or need more than 40 iterations, after a step that needed
+// more than 15 (a factorization costs about 15 iterations' worth), and when
+// the rate of the last converged run predicts more than 15 for the forcing
+// asked (the last steps, where η is small). A factorization costs O(n^1.5) flops for a 2-D net of n
 // coordinates with nested-dissection ordering (tens of solves' worth), so
 // reusing it is what keeps the equilibrium of a 10⁶-coordinate net within
 // seconds per step. The symbolic analysis is done once (and kept after a
@@ -116,6 +118,7 @@ class NewtonSteps {
     }
     ++factorizations;
     llt_.factorize(A);
+    rate_ = 0;
     if (llt_.info() != Eigen::Success) return {};
     VectorX d = -llt_.solve(r);
     if (!d.allFinite()) return {};
@@ -138,7 +141,7 @@ class NewtonSteps {
   // coordinate has no stiffness at all).
   VectorX step(const SparseMatrix& H, const VectorX& r, double forcing) {
     if (has_vanishing_row(H)) return {};
-    if (have_factor_ && !refactor_) {
+    if (have_factor_ && !refactor_ && !(predicted_iterations(forcing) > aged_after)) {
       if (VectorX d = preconditioned_cg(H, r, forcing); d.size() > 0) return d;
     }
     return exact(H, r);
@@ -174,7 +177,8 @@ class NewtonSteps {
       res -= alpha * Hp;
       ++cg_iterations;
       if (res.norm() <= target) {
-        if (it > 15) refactor_ = true;  // the kept factor has aged
+        if (it > aged_after) refactor_ = true;  // the kept factor has aged
+        if (const double reached = res.norm() / r.norm(); reached > 0) rate_ = std::pow(reached, 1.0 / it);
         return d;
       }
       z = llt_.solve(res);
@@ -207,9 +211,25 @@ class NewtonSteps {
            std::equal(inner_.begin(), inner_.end(), H.innerIndexPtr());
   }
 
+  // The conjugate gradients' iterations from which a fresh factorization is
+  // cheaper: one costs about 15 of them (a solve with the factor and a
+  // product with ∇∇V each) on 2-D nets, measured 14 at 10⁵ and 20 at 10⁶
+  // coordinates (the factorization's O(n^1.5) flops run at BLAS-3 rates, the
+  // solves' O(n log n) at memory speed).
+  static constexpr int aged_after = 15;
+
+  // The iterations predicted to reach ‖H d + r‖ ≤ forcing·‖r‖ with the kept
+  // factor, at the rate (residual reduction per iteration) of its last
+  // converged run; 0 when none has converged since the factorization.
+  double predicted_iterations(double forcing) const {
+    if (!(rate_ > 0 && rate_ < 1) || !(forcing > 0 && forcing < 1)) return 0;
+    return std::log(forcing) / std::log(rate_);
+  }
+
   SupernodalLlt llt_;
   std::vector<SparseMatrix::StorageIndex> outer_, inner_;
   bool have_factor_ = false, refactor_ = false;
+  double rate_ = 0;
 };
 
 // D scaled to a mean diagonal of 1, every empty diagonal entry (a coordinate
