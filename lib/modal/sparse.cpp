@@ -654,8 +654,8 @@ struct Norms {
   double width = 1;  // the most nonzeros in a column of K or M: the terms of an entry of Kφ or Mφ
   // For the worst case of r's rounding through M⁻¹ where M is not diagonal
   // (set_residual): D^{-1/2} (D = diag M) and a lower bound on the smallest
-  // eigenvalue of D^{-1/2}MD^{-1/2} (equilibrated_mass_floor). Empty where
-  // M is diagonal, or on the matrix-free path (not taken there).
+  // eigenvalue of D^{-1/2}MD^{-1/2} (equilibrated_mass_floor,
+  // tree_mass_floor). Empty where M is diagonal.
   VectorX inverse_root_diagonal;
   double mass_floor = 0;
 };
@@ -828,41 +828,69 @@ bool is_diagonal(const SparseMatrix& M) {
   return true;
 }
 
-// A lower bound μ on the smallest eigenvalue of A = D^{-1/2}MD^{-1/2}
-// (d = D^{-1/2}), for the worst case of rounding through M⁻¹
-// (set_residual): Gershgorin's, 1 − max_i Σ_{j≠i} |A_ij|, where positive;
-// else the largest of ν/2, ν/8, ν/32, ν/128 (ν: the smallest eigenvalue's
-// estimate by inverse iteration with M's factor) at which A − μI has a
-// Cholesky factorization (then λ_min ≥ μ, to first order in ε); 0 when
-// none does.
-double equilibrated_mass_floor(const SparseMatrix& M, const CholmodFactor& mass, const VectorX& d) {
-  const Index n = M.rows();
-  SparseMatrix A = d.asDiagonal() * M * d.asDiagonal();
-  VectorX radius = VectorX::Zero(n);
-  for (Index j = 0; j < n; ++j)
+// Gershgorin's radii of diag(d)·A·diag(d): Σ_{j≠i} |d_i A_ij d_j| for every
+// row i (A holding both triangles).
+VectorX scaled_radii(const SparseMatrix& A, const VectorX& d) {
+  VectorX radius = VectorX::Zero(A.rows());
+  for (Index j = 0; j < A.outerSize(); ++j)
     for (SparseMatrix::InnerIterator it(A, j); it; ++it)
-      if (it.row() != j) radius(it.row()) += std::abs(it.value());
-  const double gershgorin = n > 0 ? (A.diagonal() - radius).minCoeff() : 1.0;
+      if (it.row() != j) radius(it.row()) += std::abs(it.value()) * d(it.row()) * d(j);
+  return radius;
+}
+
+// The scale s = max K_ii/M_ii of the pencil's spectrum (see the header
+// comment), from K's and M's diagonals; where no K_ii is positive, the
+// largest |K_ii|/M_ii, else ‖K‖₁/max M_ii, else 1.
+double spectrum_scale(const VectorX& dK, const VectorX& dM, double K1) {
+  double scale = (dK.array() / dM.array()).maxCoeff();
+  if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
+  if (!(scale > 0)) scale = K1 > 0 ? K1 / dM.maxCoeff() : 0.0;
+  if (!(scale > 0)) scale = 1.0;
+  return scale;
+}
+
+// A lower bound μ on the smallest eigenvalue of A = D^{-1/2}MD^{-1/2}
+// (d = D^{-1/2}, D = diag M; Norms::mass_floor), for the worst case of rounding through M⁻¹
+// (set_residual): `gershgorin` (a Gershgorin bound of A) where positive;
+// else the largest of ν/2, ν/8, ν/32, ν/128 (ν: the smallest eigenvalue's
+// estimate by inverse iteration, x ↦ d⁻¹ ∘ M⁻¹(d⁻¹ ∘ x) with
+// solve_mass(y) = M⁻¹y) at which definite(μ), a factorization showing
+// M − μD (equivalently A − μI) positive definite, succeeds (then
+// λ_min ≥ μ, to first order in ε); 0 when none does.
+template <class SolveMass, class Definite>
+double equilibrated_floor(double gershgorin, const VectorX& d, SolveMass&& solve_mass, Definite&& definite) {
   if (gershgorin > 0) return gershgorin;
+  const Index n = d.size();
   VectorX x = VectorX::Ones(n).normalized();
   double rho = 0;  // the largest eigenvalue of A⁻¹ = D^{1/2}M⁻¹D^{1/2}, from below
   for (int step = 0; step < 8; ++step) {
-    const VectorX y = d.cwiseInverse().cwiseProduct(mass.solve(VectorX(d.cwiseInverse().cwiseProduct(x))));
+    const VectorX y = d.cwiseInverse().cwiseProduct(solve_mass(VectorX(d.cwiseInverse().cwiseProduct(x))));
     rho = x.dot(y);
     const double size = y.norm();
     if (!(size > 0) || !std::isfinite(size)) return 0.0;
     x = y / size;
   }
   if (!(rho > 0) || !std::isfinite(rho)) return 0.0;
-  SparseMatrix identity(n, n);
-  identity.setIdentity();
-  for (const double fraction : {0.5, 0.125, 1.0 / 32, 1.0 / 128}) {
-    const double mu = fraction / rho;
-    CholmodFactor shifted(Eigen::CholmodSimplicialLLt);
-    shifted.compute(SparseMatrix(A - mu * identity));
-    if (shifted.info() == Eigen::Success) return mu;
-  }
+  for (const double fraction : {0.5, 0.125, 1.0 / 32, 1.0 / 128})
+    if (definite(fraction / rho)) return fraction / rho;
   return 0.0;
+}
+
+// equilibrated_floor for the assembled M, with M's factor `mass`:
+// Gershgorin's bound of A, else shifted Cholesky factorizations of A − μI.
+double equilibrated_mass_floor(const SparseMatrix& M, const CholmodFactor& mass, const VectorX& d) {
+  const Index n = M.rows();
+  const SparseMatrix A = d.asDiagonal() * M * d.asDiagonal();
+  const double gershgorin = n > 0 ? (A.diagonal() - scaled_radii(M, d)).minCoeff() : 1.0;
+  return equilibrated_floor(
+      gershgorin, d, [&](const VectorX& y) { return VectorX(mass.solve(y)); },
+      [&](double mu) {
+        SparseMatrix identity(n, n);
+        identity.setIdentity();
+        CholmodFactor shifted(Eigen::CholmodSimplicialLLt);
+        shifted.compute(SparseMatrix(A - mu * identity));
+        return shifted.info() == Eigen::Success;
+      });
 }
 
 // The pencil K − σM as the Lanczos path uses it, assembled sparse: K and M
@@ -886,21 +914,11 @@ class SparsePencil {
   MassProduct& mass_op() { return mass_op_; }
   // s = max K_ii/M_ii (see the header comment) and the Gershgorin bound of D^{-1/2}KD^{-1/2}.
   std::pair<double, double> scale_and_gershgorin() const {
-    const Index n = size();
-    double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
     const VectorX dM = M_.diagonal(), dK = K_.diagonal();
-    VectorX radius = VectorX::Zero(n);
-    for (Index j = 0; j < n; ++j)
-      for (SparseMatrix::InnerIterator it(K_, j); it; ++it)
-        if (it.row() != j) radius(it.row()) += std::abs(it.value()) / std::sqrt(dM(it.row()) * dM(j));
-    for (Index i = 0; i < n; ++i) {
-      scale = std::max(scale, dK(i) / dM(i));
-      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius(i));
-    }
-    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
-    if (!(scale > 0)) scale = K_.nonZeros() > 0 ? norms_.K1 / dM.maxCoeff() : 0.0;
-    if (!(scale > 0)) scale = 1.0;
-    return {scale, gershgorin};
+    const VectorX radius = scaled_radii(K_, dM.cwiseSqrt().cwiseInverse());
+    const double gershgorin =
+        size() > 0 ? (dK.array() / dM.array() - radius.array()).minCoeff() : std::numeric_limits<double>::infinity();
+    return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, std::move(phi), residual);
@@ -939,6 +957,30 @@ template <class Pencil>
 ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& options, const Units& units);
 
 }  // namespace
+
+// equilibrated_floor for the tree's M, with its factor `mass`: Gershgorin's
+// bound of A from the magnitude recursion (tree_product: row i of |M|d is at
+// most its result, so d_i times it less A_ii bounds row i's off-diagonal
+// sum), else LDLᵀ factorizations through the tree of M − μD (the pencil
+// with μD_kk taken from every armature term) without a negative pivot.
+double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& d) {
+  const VectorX dM = tree_diagonal(p, 0.0, 1.0);
+  const VectorX rows = tree_product(p, 0.0, 1.0, d, true);
+  double gershgorin = p.size() > 0 ? std::numeric_limits<double>::infinity() : 1.0;
+  for (Index i = 0; i < p.size(); ++i) {
+    const double diagonal = d(i) * d(i) * dM(i);
+    gershgorin = std::min(gershgorin, diagonal - std::max(0.0, d(i) * rows(i) - diagonal));
+  }
+  return equilibrated_floor(
+      gershgorin, d, [&](const VectorX& y) { return mass.solve(y); },
+      [&](double mu) {
+        TreePencil shifted = p;
+        shifted.M_diagonal -= mu * dM;
+        TreeFactor f;
+        return f.factor(shifted, 0.0, 1.0) && f.negative_pivots() == 0;
+      });
+}
+
 
 Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic) {
   Mode mode;
@@ -1513,6 +1555,8 @@ class TreeLanczosPencil {
                                "meets a pivot that is not positive (coordinate q" + std::to_string(worst + 1) +
                                " has the least inertia)");
     }
+    norms_.inverse_root_diagonal = tree_diagonal(p, 0.0, 1.0).cwiseSqrt().cwiseInverse();
+    norms_.mass_floor = detail::tree_mass_floor(p, mass_, norms_.inverse_root_diagonal);
     rounding_factor_ = 4 * eps * (1 + 2 * std::sqrt(static_cast<double>(p.depth)));
   }
   Index size() const { return p_.size(); }
@@ -1522,16 +1566,12 @@ class TreeLanczosPencil {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
     const VectorX v = dM.cwiseSqrt().cwiseInverse();
     const VectorX bound = tree_product(p_, 1.0, 0.0, v, true);  // ≥ Σ_j |K_ij| v_j
-    double scale = 0, gershgorin = std::numeric_limits<double>::infinity();
+    double gershgorin = std::numeric_limits<double>::infinity();
     for (Index i = 0; i < size(); ++i) {
-      scale = std::max(scale, dK(i) / dM(i));
       const double radius = std::max(0.0, bound(i) * v(i) - std::abs(dK(i)) / dM(i));
       gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius);
     }
-    if (!(scale > 0)) scale = (dK.cwiseAbs().array() / dM.array()).maxCoeff();
-    if (!(scale > 0)) scale = norms_.K1 > 0 ? norms_.K1 / dM.maxCoeff() : 0.0;
-    if (!(scale > 0)) scale = 1.0;
-    return {scale, gershgorin};
+    return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     VectorX Mphi = tree_product(p_, 0.0, 1.0, phi);
