@@ -849,9 +849,25 @@ double spectrum_scale(const VectorX& dK, const VectorX& dM, double K1) {
   return scale;
 }
 
+// Gershgorin's lower bound on the eigenvalues of diag(d)·H·diag(d), H = αK +
+// βM of the tree: min_i d_i²H_ii − (d_i(|H|d)_i − |d_i²H_ii|), with (|H|d)_i
+// from above by the magnitude recursion (tree_product), so the radius is an
+// upper bound of row i's off-diagonal sum.
+double tree_gershgorin(const TreePencil& p, double alpha, double beta, const VectorX& d) {
+  const VectorX diagonal = tree_diagonal(p, alpha, beta);
+  const VectorX rows = tree_product(p, alpha, beta, d, true);
+  double bound = std::numeric_limits<double>::infinity();
+  for (Index i = 0; i < p.size(); ++i) {
+    const double entry = d(i) * d(i) * diagonal(i);
+    bound = std::min(bound, entry - std::max(0.0, d(i) * rows(i) - std::abs(entry)));
+  }
+  return bound;
+}
+
 // A lower bound μ on the smallest eigenvalue of A = D^{-1/2}MD^{-1/2}
-// (d = D^{-1/2}, D = diag M; Norms::mass_floor), for the worst case of rounding through M⁻¹
-// (set_residual): `gershgorin` (a Gershgorin bound of A) where positive;
+// (d = D^{-1/2}, D = diag M; Norms::mass_floor), for the worst case of
+// rounding through M⁻¹ (set_residual): `gershgorin` (a Gershgorin bound
+// of A) where positive;
 // else the largest of ν/2, ν/8, ν/32, ν/128 (ν: the smallest eigenvalue's
 // estimate by inverse iteration, x ↦ d⁻¹ ∘ M⁻¹(d⁻¹ ∘ x) with
 // solve_mass(y) = M⁻¹y) at which definite(μ), a factorization showing
@@ -959,18 +975,12 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
 }  // namespace
 
 // equilibrated_floor for the tree's M, with its factor `mass`: Gershgorin's
-// bound of A from the magnitude recursion (tree_product: row i of |M|d is at
-// most its result, so d_i times it less A_ii bounds row i's off-diagonal
-// sum), else LDLᵀ factorizations through the tree of M − μD (the pencil
-// with μD_kk taken from every armature term) without a negative pivot.
+// bound of A through the magnitude recursion (tree_gershgorin), else LDLᵀ
+// factorizations through the tree of M − μD (the pencil with μD_kk taken
+// from every armature term) without a negative pivot.
 double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& d) {
   const VectorX dM = tree_diagonal(p, 0.0, 1.0);
-  const VectorX rows = tree_product(p, 0.0, 1.0, d, true);
-  double gershgorin = p.size() > 0 ? std::numeric_limits<double>::infinity() : 1.0;
-  for (Index i = 0; i < p.size(); ++i) {
-    const double diagonal = d(i) * d(i) * dM(i);
-    gershgorin = std::min(gershgorin, diagonal - std::max(0.0, d(i) * rows(i) - diagonal));
-  }
+  const double gershgorin = p.size() > 0 ? tree_gershgorin(p, 0.0, 1.0, d) : 1.0;
   return equilibrated_floor(
       gershgorin, d, [&](const VectorX& y) { return mass.solve(y); },
       [&](double mu) {
@@ -980,7 +990,6 @@ double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, cons
         return f.factor(shifted, 0.0, 1.0) && f.negative_pivots() == 0;
       });
 }
-
 
 Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic) {
   Mode mode;
@@ -1564,14 +1573,7 @@ class TreeLanczosPencil {
   TreeMassProduct& mass_op() { return mass_op_; }
   std::pair<double, double> scale_and_gershgorin() const {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
-    const VectorX v = dM.cwiseSqrt().cwiseInverse();
-    const VectorX bound = tree_product(p_, 1.0, 0.0, v, true);  // ≥ Σ_j |K_ij| v_j
-    double gershgorin = std::numeric_limits<double>::infinity();
-    for (Index i = 0; i < size(); ++i) {
-      const double radius = std::max(0.0, bound(i) * v(i) - std::abs(dK(i)) / dM(i));
-      gershgorin = std::min(gershgorin, dK(i) / dM(i) - radius);
-    }
-    return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
+    return {spectrum_scale(dK, dM, norms_.K1), tree_gershgorin(p_, 1.0, 0.0, dM.cwiseSqrt().cwiseInverse())};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     VectorX Mphi = tree_product(p_, 0.0, 1.0, phi);
