@@ -24,10 +24,11 @@
 // asked (the last steps, where η is small). A factorization costs
 // O(n^1.5) flops for a 2-D net of n coordinates with nested-dissection
 // ordering (tens of solves' worth), so reusing it is what keeps the
-// equilibrium of a 10⁶-coordinate net within seconds per step. The symbolic analysis is done once (and kept after a
-// failed factorization). Where a row of ∇∇V vanishes (a coordinate with no
-// stiffness, as a slack net's out-of-plane coordinates at its flat start) no
-// Newton step is attempted: the damped method below starts at once.
+// equilibrium of a 10⁶-coordinate net within seconds per step. The symbolic
+// analysis is done once (and kept after a failed factorization). Where a
+// row of ∇∇V vanishes (a coordinate with no stiffness, as a slack net's
+// out-of-plane coordinates at its flat start) no Newton step is attempted:
+// the damped method below starts at once.
 #include "equilibrium/problem.hpp"
 
 #include <nlopt.hpp>
