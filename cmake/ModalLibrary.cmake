@@ -53,6 +53,7 @@ modal_dependency(NLopt::nlopt_cxx PRIVATE
   FIND NLopt CONFIG HINTS "${NLopt_DIR}" /usr/lib/\${CMAKE_LIBRARY_ARCHITECTURE}/cmake/nlopt_cxx
   PKG_CONFIG nlopt_cxx LAZY nlopt_cxx)
 modal_dependency(GSL::gsl PRIVATE FIND GSL PKG_CONFIG gsl LAZY gsl)
+modal_dependency(Threads::Threads PRIVATE FIND Threads LIBS -pthread)
 modal_dependency(LAPACK::LAPACK PRIVATE FIND LAPACK PKG_CONFIG lapack LAZY lapack blas)
 modal_dependency(tomlplusplus::tomlplusplus PRIVATE FIND tomlplusplus PKG_CONFIG tomlplusplus)
 modal_dependency(fmt::fmt PRIVATE FIND fmt PKG_CONFIG fmt)

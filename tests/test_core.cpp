@@ -14,9 +14,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numbers>
 #include <random>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -90,6 +92,93 @@ TEST(Core, SparseHessianMatchesNestedADOnFirstAndLaterAssemblies) {
   const System s = everything_tree();
   Workspace w(s);
   for (int call = 0; call < 3; ++call) check(s, w, random_state(s, rng, 1.2), "everything tree call " + std::to_string(call));
+}
+
+// Large scenes' elements are evaluated in two parts on two threads (from
+// 16384 springs on, lib/core/derivatives.cpp, element_parts). ∇V and the
+// sparse ∇∇V of slack and pre-tensioned particle nets on both sides of that
+// threshold against the closed form of their springs and weights (V =
+// ½k(L − L0)² − Σ m g·x: per spring ∂V/∂x_a = k(L − L0)u, ∂²V/∂x_a² =
+// k[uuᵀ + (1 − L0/L)(I − uuᵀ)]), at random sagged configurations, on the
+// first assembly (the pattern) and in place. The same q twice gives the same
+// bits: the parts' sums are added in a fixed order whatever the timing.
+// Tolerance 1e-12 of the largest entry (an entry sums at most 5 terms).
+TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
+  std::mt19937 rng(2711);
+  bool below = false, above = false;
+  for (const int side : {40, 91, 92, 130}) {
+    const double prestrain = side % 2 == 0 ? 0.0 : 0.02;
+    const std::string text = "gravity = [0, 0, -9.81]\n[[lattice]]\nname = \"n\"\nsize = [" + std::to_string(side) +
+                             ", " + std::to_string(side) + ", 1]\nspacing = 0.1\nmass = 0.002\nstiffness = 1000\n"
+                             "prestrain = " + std::to_string(prestrain) + "\nfixed = \"boundary\"\n";
+    const System s = build_system(parse_scene(text, "net.toml"));
+    (s.springs().size() >= 16384 ? above : below) = true;
+    Workspace w(s);
+    std::uniform_real_distribution<double> u(-0.01, 0.01);
+    for (int call = 0; call < 3; ++call) {
+      VectorX q(s.size());
+      for (int i = 0; i < s.size(); ++i) q[i] = u(rng) - (i % 3 == 2 ? 0.02 * (call + 1) : 0.0);
+      // The closed form, from the bodies' world positions.
+      const std::vector<Pose> poses = body_poses(s, w, q);
+      VectorX g = VectorX::Zero(s.size());
+      std::vector<Eigen::Triplet<double>> t;
+      auto coordinate = [&](int body) {
+        if (body < 0 || s.joint_size(body) == 0) return -1;
+        EXPECT_EQ(s.bodies()[static_cast<std::size_t>(body)].joint, JointType::particle);
+        EXPECT_EQ(s.joint_size(body), 3);
+        return s.first_coordinate(body);
+      };
+      for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+        const int k = coordinate(static_cast<int>(b));
+        if (k >= 0) g.segment<3>(k) -= s.bodies()[b].mass * s.gravity();
+      }
+      for (const Spring& sp : s.springs()) {
+        auto position = [&](const Attachment& a) {
+          if (a.body < 0) return a.point;
+          const Pose& p = poses[static_cast<std::size_t>(a.body)];
+          return Vec3(p.position + p.rotation * a.point);
+        };
+        const Vec3 d = position(sp.a) - position(sp.b);
+        const double L = d.norm();
+        const Vec3 e = d / L;
+        const Mat3 B = sp.stiffness * (e * e.transpose() + (1 - sp.rest_length / L) * (Mat3::Identity() - e * e.transpose()));
+        const int ka = coordinate(sp.a.body), kb = coordinate(sp.b.body);
+        const Vec3 f = sp.stiffness * (L - sp.rest_length) * e;
+        auto block = [&](int r, int c, const Mat3& m) {
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) t.emplace_back(r + i, c + j, m(i, j));
+        };
+        if (ka >= 0) {
+          g.segment<3>(ka) += f;
+          block(ka, ka, B);
+        }
+        if (kb >= 0) {
+          g.segment<3>(kb) -= f;
+          block(kb, kb, B);
+        }
+        if (ka >= 0 && kb >= 0) {
+          block(ka, kb, -B);
+          block(kb, ka, -B);
+        }
+      }
+      SparseMatrix reference(s.size(), s.size());
+      reference.setFromTriplets(t.begin(), t.end());
+      const std::string what = "net " + std::to_string(side) + "² (" + std::to_string(s.springs().size()) +
+                               " springs) call " + std::to_string(call);
+      const SparseMatrix H = sparse_potential_hessian(s, w, q);
+      const double scale = reference.coeffs().cwiseAbs().maxCoeff();
+      EXPECT_LE(SparseMatrix(H - reference).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
+      const VectorX gradient = potential_gradient(s, w, q);
+      EXPECT_LE((gradient - g).cwiseAbs().maxCoeff(), 1e-12 * g.cwiseAbs().maxCoeff()) << what;
+      // The same q again: the same bits.
+      const SparseMatrix again = sparse_potential_hessian(s, w, q);
+      if (call > 0) {
+        EXPECT_TRUE(std::equal(H.valuePtr(), H.valuePtr() + H.nonZeros(), again.valuePtr())) << what;
+      }
+      EXPECT_TRUE(potential_gradient(s, w, q) == gradient) << what;
+    }
+  }
+  EXPECT_TRUE(below && above) << "the nets must lie on both sides of the two-part threshold";
 }
 
 TEST(Core, DerivativesMatchCentralDifferences) {

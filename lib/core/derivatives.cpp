@@ -42,7 +42,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <limits>
 #include <optional>
@@ -69,6 +71,11 @@ template <class R> struct SubtreeSums {
 
 struct KinematicsCache : SubtreeSums<double> {
   model::TreeState<double> st;
+  // The second part's scratch where a large scene's elements are evaluated
+  // in two parts (element_parts): its subtree sums and its share of the
+  // sparse Hessian's values. Allocated on first use, kept for the next call.
+  SubtreeSums<double> second;
+  std::vector<double> second_values;
 };
 
 Workspace::Workspace(const System& system) : cache_(new KinematicsCache) {
@@ -100,6 +107,55 @@ void check_size(const System& s, const VectorX& q, const char* what) {
   if (q.size() != s.size())
     throw std::invalid_argument(std::string(what) + ": expected " + std::to_string(s.size()) +
                                 " coordinates, got " + std::to_string(q.size()));
+}
+
+// Large scenes' elements in two parts, the second on a thread of its own
+// (docs/design.md, "Threads for the elements"): from `parallel_springs`
+// springs on, the springs are cut in two halves; part 0 also takes the
+// bodies' weights, the dead loads and the centrifugal elements. Each part
+// deposits into subtree sums (and Hessian values) of its own, added after
+// both have finished, so the result depends on the scene only, never on the
+// machine's cores or on timing. Below it, one part: no thread is started
+// and every sum is taken in the order written.
+constexpr std::size_t parallel_springs = 16384;
+
+std::size_t element_parts(const System& s) { return s.springs().size() >= parallel_springs ? 2 : 1; }
+
+// The springs of `part` (of `parts`): [first, last).
+std::pair<std::size_t, std::size_t> spring_range(const System& s, std::size_t part, std::size_t parts) {
+  const std::size_t count = s.springs().size();
+  return {count * part / parts, count * (part + 1) / parts};
+}
+
+// f(0) and, with two parts, f(1) on a thread of its own (in turn where the
+// machine has one core); an exception of either is rethrown here after both
+// have finished.
+template <class F> void in_parts(std::size_t parts, F&& f) {
+  if (parts < 2) {
+    f(std::size_t{0});
+    return;
+  }
+  if (std::thread::hardware_concurrency() < 2) {
+    f(std::size_t{0});
+    f(std::size_t{1});
+    return;
+  }
+  std::exception_ptr failure;
+  std::thread second([&f, &failure] {
+    try {
+      f(std::size_t{1});
+    } catch (...) {
+      failure = std::current_exception();
+    }
+  });
+  try {
+    f(std::size_t{0});
+  } catch (...) {
+    second.join();
+    throw;
+  }
+  second.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 const TreeState<double>& kinematics(const System& s, Workspace& w, const VectorX& q) {
@@ -327,20 +383,25 @@ void for_each_centrifugal_cotangent(const System& s, const TreeState<R>& st, Dep
 // The element cotangents e = ∂V_e/∂x at sites, handed to `deposit(site, e)`;
 // elements with a local Hessian (springs: 6×6 in (xa, xb); centrifugal
 // elements) hand it to `local_hessian(sites, H)` when second_order.
+// With `parts`, only those of `part` (element_parts).
 template <class R, class Deposit, class LocalHessian>
 void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& deposit, LocalHessian&& local_hessian,
-                        bool second_order) {
+                        bool second_order, std::size_t part = 0, std::size_t parts = 1) {
   using V = model::V3<R>;
   const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const Body& body = bodies[b];
-    if (body.mass == 0.0) continue;
-    deposit(attachment_site(st, Attachment{static_cast<int>(b), body.com}), V((-body.mass * s.gravity()).cast<R>()));
+  if (part == 0) {
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const Body& body = bodies[b];
+      if (body.mass == 0.0) continue;
+      deposit(attachment_site(st, Attachment{static_cast<int>(b), body.com}), V((-body.mass * s.gravity()).cast<R>()));
+    }
+    for (const DeadLoad& l : s.loads())
+      deposit(attachment_site(st, l.at), V((-l.force).cast<R>()));
+    if (s.rotating()) for_each_centrifugal_cotangent(s, st, deposit, local_hessian, second_order);
   }
-  for (const DeadLoad& l : s.loads())
-    deposit(attachment_site(st, l.at), V((-l.force).cast<R>()));
-  if (s.rotating()) for_each_centrifugal_cotangent(s, st, deposit, local_hessian, second_order);
-  for (const Spring& sp : s.springs()) {
+  const auto [first, last] = spring_range(s, part, parts);
+  for (std::size_t i = first; i < last; ++i) {
+    const Spring& sp = s.springs()[i];
     const SiteT<R> a = attachment_site(st, sp.a), b = attachment_site(st, sp.b);
     if (sp.rest_length != 0.0 && value((a.x - b.x).squaredNorm()) == 0.0)
       throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
@@ -354,27 +415,33 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
   }
 }
 
-// Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
-// to deposit(site, e) (a direction adds nothing to F), τ and P about each
-// body's joint centre: a site adds r × e and r eᵀ, a child c shifts into its
-// parent with its offset d: τ += τ_c + d × F_c, P += P_c + d F_cᵀ.
-template <class R, class Source>
-void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order, Source&& source,
-                     const std::vector<char>* held = nullptr) {
-  const auto nb = s.bodies().size();
-  c.resize(nb);
-  for (std::size_t b = 0; b < nb; ++b) {
+// Subtree sums: zeroed for `bodies` bodies; the depositor of a site's
+// cotangent e (a direction adds nothing to F), adding r × e to τ and r eᵀ to P
+// about the site's body's joint centre; and the shift of every child c into
+// its parent with its offset d: τ += τ_c + d × F_c, P += P_c + d F_cᵀ.
+template <class R> void zero_sums(SubtreeSums<R>& c, std::size_t bodies) {
+  c.resize(bodies);
+  for (std::size_t b = 0; b < bodies; ++b) {
     c.F[b].setZero();
     c.tau[b].setZero();
     c.P[b].setZero();
   }
-  source([&](const SiteT<R>& site, const model::V3<R>& e) {
+}
+
+template <class R> auto depositor(SubtreeSums<R>& c, bool second_order) {
+  return [&c, second_order](const SiteT<R>& site, const model::V3<R>& e) {
     if (site.body < 0) return;
     const auto b = static_cast<std::size_t>(site.body);
     if (!site.direction) c.F[b] += e;
     c.tau[b] += site.r.cross(e);
     if (second_order) c.P[b] += site.r * e.transpose();
-  });
+  };
+}
+
+template <class R>
+void sum_subtrees(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order,
+                  const std::vector<char>* held) {
+  const auto nb = s.bodies().size();
   if (held) {
     c.region_F = c.F;
     c.region_P = c.P;
@@ -396,13 +463,51 @@ void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c,
   }
 }
 
-// The subtree sums of the potential's element cotangents e = ∂V_e/∂x.
-template <class LocalHessian>
-void accumulate(const System& s, Workspace& w, bool second_order, LocalHessian&& local_hessian,
-                const std::vector<char>* held = nullptr) {
-  accumulate_sums(
-      s, w.cache().st, w.cache(), second_order,
-      [&](auto&& deposit) { for_each_cotangent(s, w.cache().st, deposit, local_hessian, second_order); }, held);
+// Fills the subtree sums F, τ, P of the cotangents that `source(deposit)` hands
+// to deposit(site, e) (zero_sums, depositor, sum_subtrees).
+template <class R, class Source>
+void accumulate_sums(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order, Source&& source,
+                     const std::vector<char>* held = nullptr) {
+  zero_sums(c, s.bodies().size());
+  source(depositor(c, second_order));
+  sum_subtrees(s, st, c, second_order, held);
+}
+
+// The same in `parts` parts (element_parts, in_parts): `source(deposit,
+// part)`, part 1 into `second`, whose deposits are added to c's before the
+// subtree sums.
+template <class Source>
+void accumulate_sums_in_parts(const System& s, const TreeState<double>& st, SubtreeSums<double>& c,
+                              SubtreeSums<double>& second, bool second_order, std::size_t parts, Source&& source,
+                              const std::vector<char>* held = nullptr) {
+  const auto nb = s.bodies().size();
+  in_parts(parts, [&](std::size_t part) {
+    SubtreeSums<double>& mine = part == 0 ? c : second;
+    zero_sums(mine, nb);
+    source(depositor(mine, second_order), part);
+  });
+  if (parts > 1)
+    for (std::size_t b = 0; b < nb; ++b) {
+      c.F[b] += second.F[b];
+      c.tau[b] += second.tau[b];
+      if (second_order) c.P[b] += second.P[b];
+    }
+  sum_subtrees(s, st, c, second_order, held);
+}
+
+// The subtree sums of the potential's element cotangents e = ∂V_e/∂x, in
+// `parts` parts (element_parts); `local_hessian_of(part)` is the local-Hessian
+// callback of that part's elements.
+template <class LocalHessianOf>
+void accumulate(const System& s, Workspace& w, bool second_order, LocalHessianOf&& local_hessian_of,
+                const std::vector<char>* held = nullptr, std::size_t parts = 1) {
+  KinematicsCache& c = w.cache();
+  accumulate_sums_in_parts(
+      s, c.st, c, c.second, second_order, parts,
+      [&](auto&& deposit, std::size_t part) {
+        for_each_cotangent(s, c.st, deposit, local_hessian_of(part), second_order, part, parts);
+      },
+      held);
 }
 
 // World force of a follower load at the current kinematics: R_b · (body-frame force).
@@ -441,13 +546,21 @@ void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>
 // The gradient of the potential plus whatever `extra(deposit)` deposits, at
 // the kinematics st of q (scalar R): one accumulation of every cotangent, the
 // tree gradient, and the joint springs ½k(q − rest)².
+// In double, with two `parts` (element_parts), part 1 into `second`; `extra`
+// deposits with part 0.
 template <class R, class Extra>
 void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeSums<R>& c, model::VX<R>& g,
-                   Extra&& extra) {
-  accumulate_sums(s, st, c, false, [&](auto&& deposit) {
-    for_each_cotangent(s, st, deposit, [](auto&&...) {}, false);
-    extra(deposit);
-  });
+                   Extra&& extra, std::size_t parts = 1, SubtreeSums<R>* second = nullptr) {
+  auto source = [&](auto&& deposit, std::size_t part) {
+    for_each_cotangent(s, st, deposit, [](auto&&...) {}, false, part, parts);
+    if (part == 0) extra(deposit);
+  };
+  if constexpr (std::is_same_v<R, double>) {
+    if (parts > 1 && second) accumulate_sums_in_parts(s, st, c, *second, false, parts, source);
+    else accumulate_sums(s, st, c, false, [&](auto&& deposit) { source(deposit, 0); });
+  } else {
+    accumulate_sums(s, st, c, false, [&](auto&& deposit) { source(deposit, 0); });
+  }
   tree_gradient(s, st, c, g);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -565,12 +678,19 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
 // Hessians (Jᵀ H_e J), the tree terms, and the joint springs. With `held`:
 // Tᵀ∇∇V T in the absolute angles of parallel hinges (a held body's spring
 // acts on θ_b − θ_parent).
-template <class Add>
-void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add,
-                                const std::vector<char>* held = nullptr) {
+// In `parts` parts (element_parts): `add_of(part)` is the adder of that
+// part's elements; the tree terms and joint springs go to add_of(0).
+template <class AddOf>
+void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const VectorX& q, AddOf&& add_of,
+                                         std::size_t parts, const std::vector<char>* held = nullptr) {
   const TreeState<double>& st = kinematics(s, w, q);
   accumulate(
-      s, w, true, [&](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add, held); }, held);
+      s, w, true,
+      [&](std::size_t part) {
+        return [&, part](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add_of(part), held); };
+      },
+      held, parts);
+  auto&& add = add_of(0);
   tree_hessian(s, st, w.cache(), q, add, held);
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -584,6 +704,13 @@ void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q,
       add(k0, p, -bodies[b].stiffness);
     }
   }
+}
+
+// In one part: every term to `add`.
+template <class Add>
+void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add,
+                                const std::vector<char>* held = nullptr) {
+  assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, held);
 }
 
 // A sparse matrix (n×n) of terms that `assemble(add)` hands to add(j, k, v),
@@ -628,7 +755,19 @@ void assemble_by_columns(int n, Assemble&& assemble, SparseMatrix& H) {
     for (Eigen::Index i = start[k]; i < start[k + 1]; ++i)
       column.emplace_back(rows[static_cast<std::size_t>(i)], terms[static_cast<std::size_t>(i)]);
     // Stable: duplicates are summed in the order of the terms, as in place.
-    std::stable_sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    // A short column (a net's: 24 terms) by insertion, which needs no buffer
+    // (std::stable_sort allocates one per call: a million at 10⁶
+    // coordinates); a long one (a chain's dense ∇∇V) by merging.
+    if (column.size() <= 64) {
+      for (std::size_t i = 1; i < column.size(); ++i) {
+        const std::pair<int, double> term = column[i];
+        std::size_t j = i;
+        for (; j > 0 && column[j - 1].first > term.first; --j) column[j] = column[j - 1];
+        column[j] = term;
+      }
+    } else {
+      std::stable_sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    }
     for (std::size_t i = 0; i < column.size(); ++i) {
       if (i > 0 && column[i].first == column[i - 1].first) {
         terms[static_cast<std::size_t>(kept - 1)] += column[i].second;
@@ -664,7 +803,7 @@ const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& 
     return w.gradient;
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  gradient_with(s, st, q.data(), w.cache(), w.gradient, [](auto&&) {});
+  gradient_with(s, st, q.data(), w.cache(), w.gradient, [](auto&&) {}, element_parts(s), &w.cache().second);
   return w.gradient;
 }
 
@@ -697,34 +836,46 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
   // assembly each entry is added in place (binary search in its column),
   // which avoids sorting one triplet per term (36 per spring) every time.
   if (H.rows() == s.size() && H.cols() == s.size() && H.isCompressed() && H.nonZeros() > 0) {
-    std::fill_n(H.valuePtr(), H.nonZeros(), 0.0);
+    const std::size_t parts = element_parts(s);
+    const auto nonzeros = static_cast<std::size_t>(H.nonZeros());
+    std::fill_n(H.valuePtr(), nonzeros, 0.0);
+    std::vector<double>& second = w.cache().second_values;  // part 1's terms (element_parts)
+    if (parts > 1) second.assign(nonzeros, 0.0);
     const auto* outer = H.outerIndexPtr();
     const auto* inner = H.innerIndexPtr();
-    double* values = H.valuePtr();
-    bool fits = true;
-    // Entries come in runs down one column (add_local_hessian): the entry
-    // after the last one found is tried before a binary search.
-    int last_column = -1;
-    std::ptrdiff_t last = 0;
-    assemble_potential_hessian(s, w, q, [&](int j, int k, double v) {
-      const std::ptrdiff_t next = last + 1;
-      if (k == last_column && next < outer[k + 1] && inner[next] == j) {
-        values[next] += v;
-        last = next;
-        return;
-      }
-      const auto* begin = inner + outer[k];
-      const auto* end = inner + outer[k + 1];
-      const auto* at = std::lower_bound(begin, end, j);
-      if (at != end && *at == j) {
-        values[at - inner] += v;
-        last_column = k;
-        last = at - inner;
-      } else {
-        fits = false;
-      }
-    });
-    if (fits) return H;
+    // An adder into `values` on H's pattern. Entries come in runs down one
+    // column (add_local_hessian): the entry after the last one found is tried
+    // before a binary search.
+    auto in_place = [outer, inner](double* values, bool& fits) {
+      return [outer, inner, values, &fits, last_column = -1, last = std::ptrdiff_t{0}](int j, int k, double v) mutable {
+        const std::ptrdiff_t next = last + 1;
+        if (k == last_column && next < outer[k + 1] && inner[next] == j) {
+          values[next] += v;
+          last = next;
+          return;
+        }
+        const auto* begin = inner + outer[k];
+        const auto* end = inner + outer[k + 1];
+        const auto* at = std::lower_bound(begin, end, j);
+        if (at != end && *at == j) {
+          values[at - inner] += v;
+          last_column = k;
+          last = at - inner;
+        } else {
+          fits = false;
+        }
+      };
+    };
+    bool fits = true, second_fits = true;
+    auto add = in_place(H.valuePtr(), fits);
+    auto add_second = in_place(second.data(), second_fits);
+    assemble_potential_hessian_in_parts(
+        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts);
+    if (parts > 1) {
+      double* values = H.valuePtr();
+      for (std::size_t i = 0; i < nonzeros; ++i) values[i] += second[i];
+    }
+    if (fits && second_fits) return H;
   }
   // The first assembly finds the pattern (assemble_by_columns).
   assemble_by_columns(s.size(), [&](auto&& add) { assemble_potential_hessian(s, w, q, add); }, H);
@@ -1088,7 +1239,7 @@ std::optional<std::string> tree_pencil_unsupported(const System& s) {
 TreePencil tree_pencil(const System& s, Workspace& w, const VectorX& q) {
   if (const auto why = tree_pencil_unsupported(s)) throw std::invalid_argument("tree_pencil: " + *why);
   const TreeState<double>& st = kinematics(s, w, q);
-  accumulate(s, w, true, [](auto&&...) {});  // gravity and dead loads: no local Hessians
+  accumulate(s, w, true, [](std::size_t) { return [](auto&&...) {}; });  // gravity and dead loads: no local Hessians
   const auto& bodies = s.bodies();
   const std::size_t nb = bodies.size();
   const model::Inertias<double> Ic = model::composite_inertias(s, st);
