@@ -179,6 +179,26 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
     }
   }
   EXPECT_TRUE(below && above) << "the nets must lie on both sides of the two-part threshold";
+
+  // An element's failure in the second part (on its thread) reaches the
+  // caller: the last spring between two free particles (in the second half),
+  // its ends made to coincide.
+  const std::string text = "gravity = [0, 0, -9.81]\n[[lattice]]\nname = \"n\"\nsize = [100, 100, 1]\nspacing = 0.1\n"
+                           "mass = 0.002\nstiffness = 1000\nprestrain = 0.02\nfixed = \"boundary\"\n";
+  const System s = build_system(parse_scene(text, "net.toml"));
+  ASSERT_GE(s.springs().size(), 16384u);
+  Workspace w(s);
+  VectorX q = VectorX::Zero(s.size());
+  sparse_potential_hessian(s, w, q);  // the pattern; what follows is in place
+  auto it = std::find_if(s.springs().rbegin(), s.springs().rend(), [&](const Spring& sp) {
+    return sp.a.body >= 0 && sp.b.body >= 0 && s.joint_size(sp.a.body) == 3 && s.joint_size(sp.b.body) == 3;
+  });
+  ASSERT_NE(it, s.springs().rend());
+  const std::vector<Pose> poses = body_poses(s, w, q);
+  q.segment<3>(s.first_coordinate(it->b.body)) += poses[static_cast<std::size_t>(it->a.body)].position -
+                                                   poses[static_cast<std::size_t>(it->b.body)].position;
+  EXPECT_THROW(sparse_potential_hessian(s, w, q), NumericalError);
+  EXPECT_THROW(potential_gradient(s, w, q), NumericalError);
 }
 
 TEST(Core, DerivativesMatchCentralDifferences) {

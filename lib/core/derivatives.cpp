@@ -44,6 +44,7 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <tuple>
 #include <limits>
@@ -128,26 +129,32 @@ std::pair<std::size_t, std::size_t> spring_range(const System& s, std::size_t pa
 }
 
 // f(0) and, with two parts, f(1) on a thread of its own (in turn where the
-// machine has one core); an exception of either is rethrown here after both
-// have finished.
+// machine has one core or no thread can be started); an exception of either
+// is rethrown here after both have finished.
 template <class F> void in_parts(std::size_t parts, F&& f) {
   if (parts < 2) {
     f(std::size_t{0});
     return;
   }
-  if (std::thread::hardware_concurrency() < 2) {
+  std::exception_ptr failure;
+  std::thread second;
+  if (std::thread::hardware_concurrency() >= 2) {
+    try {
+      second = std::thread([&f, &failure] {
+        try {
+          f(std::size_t{1});
+        } catch (...) {
+          failure = std::current_exception();
+        }
+      });
+    } catch (const std::system_error&) {  // no thread to be had: the parts in turn
+    }
+  }
+  if (!second.joinable()) {
     f(std::size_t{0});
     f(std::size_t{1});
     return;
   }
-  std::exception_ptr failure;
-  std::thread second([&f, &failure] {
-    try {
-      f(std::size_t{1});
-    } catch (...) {
-      failure = std::current_exception();
-    }
-  });
   try {
     f(std::size_t{0});
   } catch (...) {
