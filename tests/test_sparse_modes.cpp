@@ -16,6 +16,7 @@
 #include "modal/equilibrium.hpp"
 #include "modal/modes.hpp"
 #include "modal/scene.hpp"
+#include "modal/mumps.hpp"
 
 #include <gtest/gtest.h>
 
@@ -735,4 +736,60 @@ TEST(SparseModes, CompletenessRuleRepeatsARunThatSkippedACopy) {
   c = modal::check_completeness(1, n, -zeta, zeta, [](long) { return std::vector<double>{0.0}; }, exact_count);
   EXPECT_EQ(c.outcome, modal::CompletenessCheck::Outcome::not_needed);
   EXPECT_TRUE(modal::completeness_note(c, "b", "the iteration").empty());
+}
+
+// MUMPS's LDLᵀ (the inertia and the estimates' solves with the factor at b)
+// with several right-hand sides at once, as the estimates use it: on
+// indefinite 2-D Laplacians shifted into their spectrum (random sizes and
+// shifts, random right-hand sides), every column against its own one-vector
+// solve and against the residual ‖AY − X‖ ≤ 1e-10 ‖A‖₁‖Y‖ (a backward-stable
+// solve).
+TEST(SparseModes, MumpsSolvesSeveralRightHandSidesAsOneAtATime) {
+  std::mt19937 rng(1127);
+  for (int trial = 0; trial < 6; ++trial) {
+    const int a = std::uniform_int_distribution<int>(5, 40)(rng), b = std::uniform_int_distribution<int>(5, 40)(rng);
+    const int n = a * b;
+    std::vector<Eigen::Triplet<double>> t;
+    auto index = [a](int i, int j) { return i + a * j; };
+    // The Laplacian's eigenvalues 4 − 2cos(πp/(a + 1)) − 2cos(πq/(b + 1)): a
+    // shift at least 0.01 from each (the condition at most 800 relative to ‖A‖).
+    double shift = 0, nearest = 0;
+    do {
+      shift = std::uniform_real_distribution<double>(0.5, 7.5)(rng);
+      nearest = std::numeric_limits<double>::infinity();
+      for (int p = 1; p <= a; ++p)
+        for (int q = 1; q <= b; ++q)
+          nearest = std::min(nearest, std::abs(4 - 2 * std::cos(std::numbers::pi * p / (a + 1)) -
+                                               2 * std::cos(std::numbers::pi * q / (b + 1)) - shift));
+    } while (nearest < 0.01);
+    for (int j = 0; j < b; ++j)
+      for (int i = 0; i < a; ++i) {
+        t.emplace_back(index(i, j), index(i, j), 4.0 - shift);
+        if (i + 1 < a) {
+          t.emplace_back(index(i, j), index(i + 1, j), -1.0);
+          t.emplace_back(index(i + 1, j), index(i, j), -1.0);
+        }
+        if (j + 1 < b) {
+          t.emplace_back(index(i, j), index(i, j + 1), -1.0);
+          t.emplace_back(index(i, j + 1), index(i, j), -1.0);
+        }
+      }
+    modal::SparseMatrix A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    A.makeCompressed();
+    modal::detail::MumpsLdlt ldlt(A, {});
+    ASSERT_TRUE(ldlt.factor(A).has_value());
+    const int columns = std::uniform_int_distribution<int>(2, 9)(rng);
+    modal::MatrixX X(n, columns), Y(n, columns);
+    std::normal_distribution<double> normal;
+    for (Eigen::Index k = 0; k < X.size(); ++k) X.data()[k] = normal(rng);
+    ASSERT_TRUE(ldlt.solve(X.data(), Y.data(), columns));
+    const double norm1 = 8.0 + std::abs(4.0 - shift);
+    for (int c = 0; c < columns; ++c) {
+      modal::VectorX y(n);
+      ASSERT_TRUE(ldlt.solve(X.col(c).data(), y.data()));
+      EXPECT_LE((Y.col(c) - y).norm(), 1e-12 * y.norm()) << a << "×" << b << " column " << c;
+      EXPECT_LE((A * Y.col(c) - X.col(c)).norm(), 1e-10 * norm1 * Y.col(c).norm()) << a << "×" << b << " column " << c;
+    }
+  }
 }

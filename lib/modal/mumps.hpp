@@ -33,8 +33,9 @@ class MumpsLdlt {
   // Factors A (same pattern as at construction); the number of negative
   // pivots, or nothing when the factorization failed or met a null pivot.
   std::optional<Eigen::Index> factor(const SparseMatrix& A);
-  // y = A⁻¹x; false when MUMPS fails.
-  bool solve(const double* in, double* out);
+  // Y = A⁻¹X for `columns` vectors (n × columns, column-major, one solve
+  // phase for all); false when MUMPS fails.
+  bool solve(const double* in, double* out, int columns = 1);
 
  private:
   struct State;

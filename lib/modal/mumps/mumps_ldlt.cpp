@@ -123,12 +123,12 @@ std::optional<Eigen::Index> MumpsLdlt::factor(const SparseMatrix& A) {
   return static_cast<Eigen::Index>(s.id.infog[11]);  // INFOG(12): negative pivots
 }
 
-bool MumpsLdlt::solve(const double* in, double* out) {
+bool MumpsLdlt::solve(const double* in, double* out, int columns) {
   State& s = *state_;
   if (!s.factored) return false;
-  std::copy_n(in, s.n, out);
+  std::copy_n(in, static_cast<std::size_t>(s.n) * static_cast<std::size_t>(columns), out);
   s.id.rhs = out;
-  s.id.nrhs = 1;
+  s.id.nrhs = static_cast<MUMPS_INT>(columns);
   s.id.lrhs = static_cast<MUMPS_INT>(s.n);
   s.id.job = 3;
   run_mumps(s.id);
