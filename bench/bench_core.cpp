@@ -90,6 +90,26 @@ void SparseHessianNetFirst(benchmark::State& st) {
 
 // Nested forward AD, one Hessian column per pass with B inner directions at a
 // time: what a Hessian by plain AD through the tree costs.
+// The tension metric of the damped steps (sparse_tension_metric) on the
+// pattern of an earlier ∇∇V, in place, as the large equilibrium takes it;
+// and in a workspace without one (assemble_by_columns).
+void TensionMetricNet(benchmark::State& st) {
+  const modal::System s = net(static_cast<int>(st.range(0)), 0.0);
+  modal::Workspace w(s);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(s.size());
+  modal::sparse_potential_hessian(s, w, q);
+  for (auto _ : st) benchmark::DoNotOptimize(modal::sparse_tension_metric(s, w, q).valuePtr());
+  st.SetComplexityN(s.size());
+}
+
+void TensionMetricNetFresh(benchmark::State& st) {
+  const modal::System s = net(static_cast<int>(st.range(0)), 0.0);
+  modal::Workspace w(s);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(s.size());
+  for (auto _ : st) benchmark::DoNotOptimize(modal::sparse_tension_metric(s, w, q).valuePtr());
+  st.SetComplexityN(s.size());
+}
+
 void HessianNestedAD(benchmark::State& st) {
   const modal::System s = chain(static_cast<int>(st.range(0)));
   const Eigen::VectorXd q = state(s);
@@ -121,6 +141,8 @@ BENCHMARK(Hessian)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(ben
 BENCHMARK(MassMatrix)->RangeMultiplier(10)->Range(10, 1000)->Complexity()->Unit(benchmark::kMicrosecond);
 BENCHMARK(SparseHessianNet)->Arg(58)->Arg(185)->Arg(580)->Complexity()->Unit(benchmark::kMillisecond);
 BENCHMARK(SparseHessianNetFirst)->Arg(58)->Arg(185)->Arg(580)->Complexity()->Unit(benchmark::kMillisecond);
+BENCHMARK(TensionMetricNet)->Arg(185)->Arg(580)->Unit(benchmark::kMillisecond);
+BENCHMARK(TensionMetricNetFresh)->Arg(185)->Arg(580)->Unit(benchmark::kMillisecond);
 BENCHMARK(HessianNestedAD)->RangeMultiplier(10)->Range(10, 100)->Complexity()->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -289,7 +289,7 @@ TEST(Slack, PartlySlackGradedNetsBalanceByAnIndependentForceModel) {
 // of particles it must be the Hessian of Σ ½ k |x_a − x_b|² over the springs,
 // the k-weighted graph Laplacian of the net in each direction, built here
 // from the spring list alone, at any configuration, and definite when the
-// boundary is fixed.
+// boundary is fixed; assembled afresh and in place on ∇∇V's pattern.
 TEST(Slack, TensionMetricIsTheLaplacianOfTheSpringGraph) {
   std::mt19937 rng(7);
   for (int trial = 0; trial < 3; ++trial) {
@@ -321,6 +321,12 @@ TEST(Slack, TensionMetricIsTheLaplacianOfTheSpringGraph) {
       }
     }
     EXPECT_LE((D - L).cwiseAbs().maxCoeff(), 1e-14 * L.cwiseAbs().maxCoeff());
+    // Once the workspace holds ∇∇V, the metric is assembled in place on its
+    // pattern: the same matrix, on the Hessian's pattern.
+    const modal::SparseMatrix& H = modal::sparse_potential_hessian(s, w, q);
+    const modal::SparseMatrix on_pattern = modal::sparse_tension_metric(s, w, q);
+    EXPECT_EQ(on_pattern.nonZeros(), H.nonZeros());
+    EXPECT_LE((Eigen::MatrixXd(on_pattern) - L).cwiseAbs().maxCoeff(), 1e-14 * L.cwiseAbs().maxCoeff());
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(D, Eigen::EigenvaluesOnly);
     EXPECT_GT(eig.eigenvalues().minCoeff(), 0) << "the boundary is fixed: every coordinate is held";
   }

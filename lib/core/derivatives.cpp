@@ -713,6 +713,32 @@ void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const Ve
   }
 }
 
+// An adder of terms (j, k, v) into `values`, laid out on the pattern of the
+// compressed `pattern`; `fits` turns false when an entry is not in it. Terms
+// come in runs down one column (add_local_hessian): the entry after the last
+// one found is tried before a binary search.
+inline auto in_place_adder(const SparseMatrix& pattern, double* values, bool& fits) {
+  return [outer = pattern.outerIndexPtr(), inner = pattern.innerIndexPtr(), values, &fits, last_column = -1,
+          last = std::ptrdiff_t{0}](int j, int k, double v) mutable {
+    const std::ptrdiff_t next = last + 1;
+    if (k == last_column && next < outer[k + 1] && inner[next] == j) {
+      values[next] += v;
+      last = next;
+      return;
+    }
+    const auto* begin = inner + outer[k];
+    const auto* end = inner + outer[k + 1];
+    const auto* at = std::lower_bound(begin, end, j);
+    if (at != end && *at == j) {
+      values[at - inner] += v;
+      last_column = k;
+      last = at - inner;
+    } else {
+      fits = false;
+    }
+  };
+}
+
 // In one part: every term to `add`.
 template <class Add>
 void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add,
@@ -848,34 +874,9 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     std::fill_n(H.valuePtr(), nonzeros, 0.0);
     std::vector<double>& second = w.cache().second_values;  // part 1's terms (element_parts)
     if (parts > 1) second.assign(nonzeros, 0.0);
-    const auto* outer = H.outerIndexPtr();
-    const auto* inner = H.innerIndexPtr();
-    // An adder into `values` on H's pattern. Entries come in runs down one
-    // column (add_local_hessian): the entry after the last one found is tried
-    // before a binary search.
-    auto in_place = [outer, inner](double* values, bool& fits) {
-      return [outer, inner, values, &fits, last_column = -1, last = std::ptrdiff_t{0}](int j, int k, double v) mutable {
-        const std::ptrdiff_t next = last + 1;
-        if (k == last_column && next < outer[k + 1] && inner[next] == j) {
-          values[next] += v;
-          last = next;
-          return;
-        }
-        const auto* begin = inner + outer[k];
-        const auto* end = inner + outer[k + 1];
-        const auto* at = std::lower_bound(begin, end, j);
-        if (at != end && *at == j) {
-          values[at - inner] += v;
-          last_column = k;
-          last = at - inner;
-        } else {
-          fits = false;
-        }
-      };
-    };
     bool fits = true, second_fits = true;
-    auto add = in_place(H.valuePtr(), fits);
-    auto add_second = in_place(second.data(), second_fits);
+    auto add = in_place_adder(H, H.valuePtr(), fits);
+    auto add_second = in_place_adder(H, second.data(), second_fits);
     assemble_potential_hessian_in_parts(
         s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts);
     if (parts > 1) {
@@ -897,28 +898,37 @@ SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX&
     return D;
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  assemble_by_columns(
-      n,
-      [&](auto&& add) {
-        for (int k = 0; k < n; ++k) add(k, k, 0.0);  // the diagonal, always in the pattern
-        Eigen::Matrix<double, 6, 6> He;
-        for (const Spring& sp : s.springs()) {
-          He.setZero();
-          for (int i = 0; i < 3; ++i) {
-            He(i, i) = He(i + 3, i + 3) = sp.stiffness;
-            He(i, i + 3) = He(i + 3, i) = -sp.stiffness;
-          }
-          const std::array<Site, 2> ends{attachment_site(st, sp.a), attachment_site(st, sp.b)};
-          add_local_hessian(s, st, ends, He, add);
-        }
-        const auto& bodies = s.bodies();
-        for (std::size_t b = 0; b < bodies.size(); ++b) {
-          if (bodies[b].stiffness == 0.0) continue;
-          const int k0 = s.first_coordinate(static_cast<int>(b));
-          for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
-        }
-      },
-      D);
+  auto terms = [&](auto&& add) {
+    for (int k = 0; k < n; ++k) add(k, k, 0.0);  // the diagonal, always in the pattern
+    Eigen::Matrix<double, 6, 6> He;
+    for (const Spring& sp : s.springs()) {
+      He.setZero();
+      for (int i = 0; i < 3; ++i) {
+        He(i, i) = He(i + 3, i + 3) = sp.stiffness;
+        He(i, i + 3) = He(i + 3, i) = -sp.stiffness;
+      }
+      const std::array<Site, 2> ends{attachment_site(st, sp.a), attachment_site(st, sp.b)};
+      add_local_hessian(s, st, ends, He, add);
+    }
+    const auto& bodies = s.bodies();
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      if (bodies[b].stiffness == 0.0) continue;
+      const int k0 = s.first_coordinate(static_cast<int>(b));
+      for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
+    }
+  };
+  // On the pattern of ∇∇V where the workspace has one that holds every term
+  // (a net's: the same springs' blocks and the diagonal), in place, which
+  // spares the sorting of assemble_by_columns and gives H + μD one pattern.
+  const SparseMatrix& H = w.sparse_hessian;
+  if (H.rows() == n && H.cols() == n && H.isCompressed() && H.nonZeros() > 0) {
+    D = H;
+    std::fill_n(D.valuePtr(), D.nonZeros(), 0.0);
+    bool fits = true;
+    terms(in_place_adder(D, D.valuePtr(), fits));
+    if (fits) return D;
+  }
+  assemble_by_columns(n, terms, D);
   return D;
 }
 
