@@ -558,13 +558,17 @@ void tree_gradient(const System& s, const TreeState<R>& st, const SubtreeSums<R>
 template <class R, class Extra>
 void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeSums<R>& c, model::VX<R>& g,
                    Extra&& extra, std::size_t parts = 1, SubtreeSums<R>* second = nullptr) {
+  if (!std::is_same_v<R, double> || second == nullptr) parts = 1;  // two parts need the second's sums
   auto source = [&](auto&& deposit, std::size_t part) {
     for_each_cotangent(s, st, deposit, [](auto&&...) {}, false, part, parts);
     if (part == 0) extra(deposit);
   };
   if constexpr (std::is_same_v<R, double>) {
-    if (parts > 1 && second) accumulate_sums_in_parts(s, st, c, *second, false, parts, source);
-    else accumulate_sums(s, st, c, false, [&](auto&& deposit) { source(deposit, 0); });
+    if (parts > 1) {
+      accumulate_sums_in_parts(s, st, c, *second, false, parts, source);
+    } else {
+      accumulate_sums(s, st, c, false, [&](auto&& deposit) { source(deposit, 0); });
+    }
   } else {
     accumulate_sums(s, st, c, false, [&](auto&& deposit) { source(deposit, 0); });
   }
