@@ -151,8 +151,8 @@ TEST(TreePencil, MassFloorIsALowerBoundOfTheEquilibratedMass) {
     const TreePencil p = tree_pencil(s, w, q);
     TreeFactor mass;
     ASSERT_TRUE(mass.factor(p, 0.0, 1.0)) << "trial " << trial;
-    const VectorX d = tree_diagonal(p, 0.0, 1.0).cwiseSqrt().cwiseInverse();
-    const double mu = detail::tree_mass_floor(p, mass, d);
+    const VectorX diagonal = tree_diagonal(p, 0.0, 1.0), d = diagonal.cwiseSqrt().cwiseInverse();
+    const double mu = detail::tree_mass_floor(p, mass, diagonal);
     const MatrixX M = mass_matrix(s, w, q);
     const MatrixL A = (d.asDiagonal() * M * d.asDiagonal()).cast<long double>();
     const Eigen::SelfAdjointEigenSolver<MatrixL> eig(MatrixL(0.5L * (A + A.transpose())), Eigen::EigenvaluesOnly);

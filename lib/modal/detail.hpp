@@ -23,10 +23,11 @@ namespace modal::detail {
 using Cholesky = Eigen::LLT<MatrixX>;
 
 // A lower bound μ > 0 on the smallest eigenvalue of D^{-1/2}MD^{-1/2} for the
-// tree's M (D = diag M, d = D^{-1/2}, `mass` M's factor through the tree),
-// 0 when none is found: the matrix-free path's worst case of rounding
-// through M⁻¹ in its residual bounds (sparse.cpp, set_residual).
-double tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& d);
+// tree's M (`diagonal` = diag M = D, tree_diagonal(p, 0, 1); `mass` M's
+// factor through the tree), 0 when none is found: the matrix-free path's
+// worst case of rounding through M⁻¹ in its residual bounds (sparse.cpp,
+// set_residual).
+double tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& diagonal);
 
 // Symmetric diagonal equilibration (docs/design.md, "Scaling (equilibration)").
 // Every solver works on the congruent pencil (SKS, SMS), S = diag(s), with

@@ -855,11 +855,11 @@ double spectrum_scale(const VectorX& dK, const VectorX& dM, double K1) {
 }
 
 // Gershgorin's lower bound on the eigenvalues of diag(d)·H·diag(d), H = αK +
-// βM of the tree: min_i d_i²H_ii − (d_i(|H|d)_i − |d_i²H_ii|), with (|H|d)_i
-// from above by the magnitude recursion (tree_product), so the radius is an
-// upper bound of row i's off-diagonal sum.
-double tree_gershgorin(const TreePencil& p, double alpha, double beta, const VectorX& d) {
-  const VectorX diagonal = tree_diagonal(p, alpha, beta);
+// βM of the tree (`diagonal` its diagonal, tree_diagonal): min_i d_i²H_ii −
+// (d_i(|H|d)_i − |d_i²H_ii|), with (|H|d)_i from above by the magnitude
+// recursion (tree_product), so the radius is an upper bound of row i's
+// off-diagonal sum.
+double tree_gershgorin(const TreePencil& p, double alpha, double beta, const VectorX& diagonal, const VectorX& d) {
   const VectorX rows = tree_product(p, alpha, beta, d, true);
   double bound = std::numeric_limits<double>::infinity();
   for (Index i = 0; i < p.size(); ++i) {
@@ -983,9 +983,9 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
 // bound of A through the magnitude recursion (tree_gershgorin), else LDLᵀ
 // factorizations through the tree of M − μD (the pencil with μD_kk taken
 // from every armature term) without a negative pivot.
-double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& d) {
-  const VectorX dM = tree_diagonal(p, 0.0, 1.0);
-  const double gershgorin = p.size() > 0 ? tree_gershgorin(p, 0.0, 1.0, d) : 1.0;
+double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, const VectorX& dM) {
+  const VectorX d = dM.cwiseSqrt().cwiseInverse();
+  const double gershgorin = p.size() > 0 ? tree_gershgorin(p, 0.0, 1.0, dM, d) : 1.0;
   return equilibrated_floor(
       gershgorin, d, [&](const VectorX& y) { return mass.solve(y); },
       [&](double mu) {
@@ -1422,6 +1422,10 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       if (own.r.size() == n && std::isfinite(own.typical_part)) wanted.push_back({&own.r, j, &second_r[j]});
       if (own.shift_direction.size() == n) wanted.push_back({&own.shift_direction, j, &second_d[j]});
     }
+    // The signs of φ_iᵀMφ_i (shapes may have been flipped after Mφ was taken).
+    std::vector<double> sign(built.size());
+    for (std::size_t i = 0; i < built.size(); ++i)
+      sign[i] = std::copysign(1.0, built[i].first.shape.real().dot(built[i].second.Mphi));
     constexpr std::size_t block = 8;
     MatrixX rest, solved;
     std::vector<double> sums;
@@ -1436,11 +1440,9 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
         column = *item.v;
         const double lambda_j = built[item.j].first.omega2;
         for (std::size_t i = 0; i < built.size(); ++i) {
-          const VectorX phi_i = built[i].first.shape.real();
-          const VectorX& Mphi_i = built[i].second.Mphi;
-          const double c = phi_i.dot(*item.v), gap = std::abs(built[i].first.omega2 - lambda_j);
+          const double c = built[i].first.shape.real().dot(*item.v), gap = std::abs(built[i].first.omega2 - lambda_j);
           if (i != item.j) sums[w] += std::abs(c) >= gap ? std::abs(c) : c * c / gap;
-          column -= c * std::copysign(1.0, phi_i.dot(Mphi_i)) * Mphi_i;  // shapes may have been flipped
+          column -= (c * sign[i]) * built[i].second.Mphi;
         }
       }
       factor.solve(rest.data(), solved.data(), static_cast<int>(count));
@@ -1596,16 +1598,16 @@ class TreeLanczosPencil {
     const VectorX ones = VectorX::Ones(p.size());
     norms_.K1 = tree_product(p, 1.0, 0.0, ones, true).maxCoeff();
     norms_.M1 = tree_product(p, 0.0, 1.0, ones, true).maxCoeff();
+    const VectorX dM = tree_diagonal(p, 0.0, 1.0);
     if (!mass_.factor(p, 0.0, 1.0) || mass_.negative_pivots() > 0) {
-      const VectorX d = tree_diagonal(p, 0.0, 1.0);
       Index worst = 0;
-      d.minCoeff(&worst);
+      dM.minCoeff(&worst);
       throw SingularMassMatrix("the mass matrix is not positive definite: its LDLᵀ factorization through the tree "
                                "meets a pivot that is not positive (coordinate q" + std::to_string(worst + 1) +
                                " has the least inertia)");
     }
-    norms_.inverse_root_diagonal = tree_diagonal(p, 0.0, 1.0).cwiseSqrt().cwiseInverse();
-    norms_.mass_floor = detail::tree_mass_floor(p, mass_, norms_.inverse_root_diagonal);
+    norms_.inverse_root_diagonal = dM.cwiseSqrt().cwiseInverse();
+    norms_.mass_floor = detail::tree_mass_floor(p, mass_, dM);
     rounding_factor_ = 4 * eps * (1 + 2 * std::sqrt(static_cast<double>(p.depth)));
   }
   Index size() const { return p_.size(); }
@@ -1613,7 +1615,7 @@ class TreeLanczosPencil {
   TreeMassProduct& mass_op() { return mass_op_; }
   std::pair<double, double> scale_and_gershgorin() const {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
-    return {spectrum_scale(dK, dM, norms_.K1), tree_gershgorin(p_, 1.0, 0.0, dM.cwiseSqrt().cwiseInverse())};
+    return {spectrum_scale(dK, dM, norms_.K1), tree_gershgorin(p_, 1.0, 0.0, dK, dM.cwiseSqrt().cwiseInverse())};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     VectorX Mphi = tree_product(p_, 0.0, 1.0, phi);
