@@ -102,6 +102,8 @@ TEST(Core, SparseHessianMatchesNestedADOnFirstAndLaterAssemblies) {
 // k[uuᵀ + (1 − L0/L)(I − uuᵀ)]), at random sagged configurations, on the
 // first assembly (the pattern) and in place. The same q twice gives the same
 // bits: the parts' sums are added in a fixed order whatever the timing.
+// The same for sparse_convex_potential_hessian, whose springs in compression
+// (L < L0) have the transverse term max(0, 1 − L0/L) instead.
 // Tolerance 1e-12 of the largest entry (an entry sums at most 5 terms).
 TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
   std::mt19937 rng(2711);
@@ -121,7 +123,8 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
       // The closed form, from the bodies' world positions.
       const std::vector<Pose> poses = body_poses(s, w, q);
       VectorX g = VectorX::Zero(s.size());
-      std::vector<Eigen::Triplet<double>> t;
+      std::vector<Eigen::Triplet<double>> t, tc;  // ∇∇V; with the compressed springs' positive parts
+      int compressed = 0, stretched = 0;
       auto coordinate = [&](int body) {
         if (body < 0 || s.joint_size(body) == 0) return -1;
         EXPECT_EQ(s.bodies()[static_cast<std::size_t>(body)].joint, JointType::particle);
@@ -142,11 +145,17 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
         const double L = d.norm();
         const Vec3 e = d / L;
         const Mat3 B = sp.stiffness * (e * e.transpose() + (1 - sp.rest_length / L) * (Mat3::Identity() - e * e.transpose()));
+        const Mat3 Bc = sp.stiffness * (e * e.transpose() + std::max(0.0, 1 - sp.rest_length / L) * (Mat3::Identity() - e * e.transpose()));
         const int ka = coordinate(sp.a.body), kb = coordinate(sp.b.body);
+        if (ka >= 0 || kb >= 0) ++(L < sp.rest_length ? compressed : stretched);
         const Vec3 f = sp.stiffness * (L - sp.rest_length) * e;
         auto block = [&](int r, int c, const Mat3& m) {
+          const Mat3& mc = &m == &B ? Bc : Mat3(-Bc);
           for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) t.emplace_back(r + i, c + j, m(i, j));
+            for (int j = 0; j < 3; ++j) {
+              t.emplace_back(r + i, c + j, m(i, j));
+              tc.emplace_back(r + i, c + j, mc(i, j));
+            }
         };
         if (ka >= 0) {
           g.segment<3>(ka) += f;
@@ -176,6 +185,18 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
         EXPECT_TRUE(std::equal(H.valuePtr(), H.valuePtr() + H.nonZeros(), again.valuePtr())) << what;
       }
       EXPECT_TRUE(potential_gradient(s, w, q) == gradient) << what;
+      // The convex form (sparse_convex_potential_hessian): in place on ∇∇V's
+      // pattern, and in a fresh workspace (by columns); both kinds of spring
+      // present.
+      EXPECT_GT(compressed, 0) << what;
+      EXPECT_GT(stretched, 0) << what;
+      SparseMatrix convex(s.size(), s.size());
+      convex.setFromTriplets(tc.begin(), tc.end());
+      const SparseMatrix C = sparse_convex_potential_hessian(s, w, q);
+      EXPECT_LE(SparseMatrix(C - convex).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
+      Workspace fresh(s);
+      const SparseMatrix first = sparse_convex_potential_hessian(s, fresh, q);
+      EXPECT_LE(SparseMatrix(first - convex).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
     }
   }
   EXPECT_TRUE(below && above) << "the nets must lie on both sides of the two-part threshold";

@@ -35,6 +35,7 @@
 #include "core/model.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <numeric>
@@ -660,6 +661,22 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
 }
 
 // H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
+// A spring's local Hessian [h −h; −h h] (h = ∂²V/∂d², d = x_a − x_b, 3×3
+// symmetric) with h replaced by its positive semidefinite part: h's negative
+// eigenvalues set to 0. For a spring h = k[uuᵀ + (1 − L₀/L)(I − uuᵀ)], so
+// that is the compressed spring's negative transverse stiffness left out
+// (k uuᵀ kept); a spring at or beyond its rest length is returned as it is.
+Eigen::Matrix<double, 6, 6> positive_spring_block(const Eigen::Matrix<double, 6, 6>& He) {
+  const Mat3 h = He.topLeftCorner<3, 3>();
+  Eigen::SelfAdjointEigenSolver<Mat3> e;
+  e.computeDirect(h);
+  if (!(e.eigenvalues().minCoeff() < 0)) return He;
+  const Mat3 p = e.eigenvectors() * e.eigenvalues().cwiseMax(0.0).asDiagonal() * e.eigenvectors().transpose();
+  Eigen::Matrix<double, 6, 6> P;
+  P << p, -p, -p, p;
+  return P;
+}
+
 template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
                        Add&& add, const std::vector<char>* held = nullptr) {
@@ -691,14 +708,25 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
 // acts on θ_b − θ_parent).
 // In `parts` parts (element_parts): `add_of(part)` is the adder of that
 // part's elements; the tree terms and joint springs go to add_of(0).
+// With `convex`, a spring's local Hessian goes in as its positive
+// semidefinite part (positive_spring_block).
 template <class AddOf>
 void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const VectorX& q, AddOf&& add_of,
-                                         std::size_t parts, const std::vector<char>* held = nullptr) {
+                                         std::size_t parts, const std::vector<char>* held = nullptr,
+                                         bool convex = false) {
   const TreeState<double>& st = kinematics(s, w, q);
   accumulate(
       s, w, true,
       [&](std::size_t part) {
-        return [&, part](const auto& sites, const auto& He) { add_local_hessian(s, st, sites, He, add_of(part), held); };
+        return [&, part](const auto& sites, const auto& He) {
+          if constexpr (std::tuple_size_v<std::decay_t<decltype(sites)>> == 2) {  // a spring
+            if (convex) {
+              add_local_hessian(s, st, sites, positive_spring_block(He), add_of(part), held);
+              return;
+            }
+          }
+          add_local_hessian(s, st, sites, He, add_of(part), held);
+        };
       },
       held, parts);
   auto&& add = add_of(0);
@@ -863,12 +891,11 @@ MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX
   return E;
 }
 
-const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
-  SparseMatrix& H = w.sparse_hessian;
-  if (s.is_map()) {
-    H = potential_hessian(s, w, q).sparseView();
-    return H;
-  }
+namespace {
+// ∇∇V (`convex`: with springs' positive parts) into H: in place on H's
+// pattern where H has one that holds every term, else by columns (the first
+// assembly, which finds the pattern).
+void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, SparseMatrix& H, bool convex) {
   // The entries touched depend on the system only, not on q: after the first
   // assembly each entry is added in place (binary search in its column),
   // which avoids sorting one triplet per term (36 per spring) every time.
@@ -882,16 +909,44 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     auto add = in_place_adder(H, H.valuePtr(), fits);
     auto add_second = in_place_adder(H, second.data(), second_fits);
     assemble_potential_hessian_in_parts(
-        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts);
+        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts, nullptr, convex);
     if (parts > 1) {
       double* values = H.valuePtr();
       for (std::size_t i = 0; i < nonzeros; ++i) values[i] += second[i];
     }
-    if (fits && second_fits) return H;
+    if (fits && second_fits) return;
   }
-  // The first assembly finds the pattern (assemble_by_columns).
-  assemble_by_columns(s.size(), [&](auto&& add) { assemble_potential_hessian(s, w, q, add); }, H);
+  assemble_by_columns(
+      s.size(),
+      [&](auto&& add) {
+        assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, nullptr, convex);
+      },
+      H);
+}
+}  // namespace
+
+const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  SparseMatrix& H = w.sparse_hessian;
+  if (s.is_map()) {
+    H = potential_hessian(s, w, q).sparseView();
+    return H;
+  }
+  assemble_sparse_hessian(s, w, q, H, false);
   return H;
+}
+
+const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& w, const VectorX& q) {
+  SparseMatrix& C = w.sparse_convex_hessian;
+  if (s.is_map()) {
+    C = sparse_potential_hessian(s, w, q);
+    return C;
+  }
+  // On ∇∇V's pattern (the same terms), taken from the workspace's.
+  const SparseMatrix& H = w.sparse_hessian;
+  const bool patterned = H.rows() == s.size() && H.isCompressed() && H.nonZeros() > 0;
+  if (patterned && !(C.rows() == H.rows() && C.nonZeros() == H.nonZeros() && C.isCompressed())) C = H;
+  assemble_sparse_hessian(s, w, q, C, true);
+  return C;
 }
 
 SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q) {

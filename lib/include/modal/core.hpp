@@ -385,6 +385,7 @@ class Workspace {
   MatrixX hessian;   // last potential_hessian
   MatrixX mass;      // last mass_matrix
   SparseMatrix sparse_hessian;  // last sparse_potential_hessian (its pattern is reused)
+  SparseMatrix sparse_convex_hessian;  // last sparse_convex_potential_hessian
 
  private:
   KinematicsCache* cache_;
@@ -412,6 +413,17 @@ MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX
 // result converted.
 const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, const VectorX& q);  // ∇∇V
 SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q);        // M(q)
+
+// ∇∇V with every spring's local Hessian replaced by its positive
+// semidefinite part: k[uuᵀ + (1 − L₀/L)(I − uuᵀ)] in x_a − x_b loses the
+// negative transverse stiffness of a compressed spring (L < L₀), keeping k uuᵀ.
+// Equal to ∇∇V where no spring is compressed; the tree terms, joint springs
+// and other elements as in ∇∇V. Positive semidefinite for a scene of
+// particles and springs (whatever its state), where ∇∇V is indefinite once
+// a spring is compressed: the matrix of the large-scene equilibrium's damped
+// steps, which then need no shift for definiteness, only for trust. Same
+// pattern and units as ∇∇V. Maps: ∇∇V.
+const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& w, const VectorX& q);
 
 // The stiffness the scene would have if every spring carried a tension per
 // unit length equal to its stiffness (T/L = k, so its 6×6 block is
