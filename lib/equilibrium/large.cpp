@@ -109,9 +109,11 @@ class NewtonSteps {
   // −A⁻¹ r by a fresh supernodal Cholesky factorization of A (the symbolic
   // analysis kept while the pattern stays); empty when A is not positive
   // definite. The factor is kept as the preconditioner of later steps.
-  VectorX solve_positive(const SparseMatrix& A, const VectorX& r) {
+  // `hessian`: A is ∇∇V itself (not a damped step's H⁺ + μhD).
+  VectorX solve_positive(const SparseMatrix& A, const VectorX& r, bool hessian = true) {
     refactor_ = false;
     have_factor_ = false;
+    shifted_ = !hessian;
     if (!same_pattern(A)) {
       llt_.analyzePattern(A);
       outer_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
@@ -133,6 +135,16 @@ class NewtonSteps {
   VectorX solve_kept(const SparseMatrix& A, const VectorX& r) {
     if (!have_factor_) return {};
     return preconditioned_cg(A, r, 0.1, 12);
+  }
+
+  // Called as Newton takes over from the damped steps: a kept factor of
+  // their matrix H⁺ + μhD is dropped, so that Newton's first step factors
+  // ∇∇V, which its later steps then reuse. The damped matrix preconditions
+  // ∇∇V poorly (10–12 CG iterations per Newton step on the slack nets,
+  // 30–35 in all, about twice a factorization's cost); a factor of ∇∇V
+  // near the solution needs 2–3.
+  void renew() {
+    if (shifted_) refactor_ = true;
   }
 
   // The pivot order of the last symbolic analysis of ∇∇V (empty: none).
@@ -239,7 +251,7 @@ class NewtonSteps {
 
   SupernodalLlt llt_;
   std::vector<SparseMatrix::StorageIndex> outer_, inner_;
-  bool have_factor_ = false, refactor_ = false;
+  bool have_factor_ = false, refactor_ = false, shifted_ = false;
   double rate_ = 0;
 };
 
@@ -322,6 +334,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   NewtonSteps steps;
   int newton_iterations = 0;
   auto newton = [&](VectorX q) {
+    steps.renew();
     VectorX r = potential_gradient(s, w, q);
     const double r0 = r.norm();
     // Once the residual is accepted, up to two more steps while each still
@@ -478,7 +491,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       const bool newton_step = d.size() > 0;
       if (d.size() == 0 && !matrix_free) d = steps.solve_kept(C + (mu * h) * metric, r);
       for (int tries = 0; tries < 60 && d.size() == 0; ++tries) {
-        d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(C + (mu * h) * metric, r);
+        d = matrix_free ? tree_solve(*pencil, mu * h, true, r) : steps.solve_positive(C + (mu * h) * metric, r, false);
         if (d.size() == 0) mu = std::max(4 * mu, 1e-10);
       }
       if (d.size() == 0) return q;
