@@ -562,7 +562,14 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
         }
       }
       const double predicted = -(t * r.dot(d) + 0.5 * t * t * d.dot(Hd));
-      const double rho = predicted > 0 && std::isfinite(vt) ? (v - vt) / predicted : -1;
+      // Where V still fell beyond twice the model's minimum along d, the
+      // model's decrease at that length is negative although V's is not: the
+      // model underrated the step (H⁺ leaves out a compressed spring's
+      // negative stiffness), which counts as a model that held (ρ = 1).
+      const double rho = !std::isfinite(vt) ? -1
+                         : predicted > 0    ? (v - vt) / predicted
+                         : vt < v           ? 1.0
+                                            : -1;
       VectorX rt;
       if (NielsenDamping::taken(rho)) {
         const VectorX qt = q + t * d;
@@ -578,6 +585,11 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
           if (newton_step && rho > 0.5) return q;
         }
       }
+      // No decrease of V even at t = 2⁻⁴⁰ of the step: V is at its rounding
+      // floor along d (its differences below ε|V|), where more damping
+      // only shortens a step that V cannot judge; Newton, which judges by
+      // ‖∇V‖, takes over.
+      if (!(vt < v) && t < 1e-11) return q;
       damping.update(rho);
       if (std::abs(rho - 1) < 0.1) mu /= 3;  // the model holds to 10 %: towards Newton faster
       // A step the model predicted well moves μ two decades further towards
