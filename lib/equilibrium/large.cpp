@@ -105,6 +105,9 @@ class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lo
 class NewtonSteps {
  public:
   int factorizations = 0, cg_iterations = 0;
+  // No Newton step where ∇∇V is not positive definite (set once damped
+  // steps have run: there an indefinite ∇∇V sends the caller back to them).
+  bool definite_only = false;
 
   // −A⁻¹ r by a fresh supernodal Cholesky factorization of A (the symbolic
   // analysis kept while the pattern stays); empty when A is not positive
@@ -163,6 +166,7 @@ class NewtonSteps {
  private:
   VectorX exact(const SparseMatrix& H, const VectorX& r) {
     if (VectorX d = solve_positive(H, r); d.size() > 0) return d;
+    if (definite_only) return {};
     Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> ldlt(H);
     if (ldlt.info() == Eigen::Success) {
       VectorX d = -ldlt.solve(r);
@@ -639,13 +643,23 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     newton(q);
   }
   if (!(best.residual <= accept) && !lbfgs_done) {  // Newton stalled: damped Newton from the start, then Newton
+    // Newton after every damped round, also one that reached the tolerance:
+    // its polishing steps take the residual to the rounding level (the
+    // tolerance is relative to a force scale that counts every spring at
+    // 100 % strain, far above a slack net's forces).
     const VectorX reached = damped(q, true);
-    if (!(best.residual <= accept) && reached.allFinite()) newton(reached);
-    if (!(best.residual <= accept) && best.q.allFinite() && best.q.size() == n) {
-      // Handed over too early: damped again from the best point, now until
-      // the residual has fallen 10³-fold as well.
+    steps.definite_only = true;
+    if (reached.allFinite()) newton(reached);
+    for (int round = 0; round < 8 && !(best.residual <= accept) && best.q.allFinite() && best.q.size() == n; ++round) {
+      // Handed over too early, or Newton met an indefinite ∇∇V (it takes
+      // no LDLᵀ step after damped steps: on wrinkled nets that was a
+      // factorization per step, for about 100 steps): damped again from the
+      // best point, now until the residual has fallen 10³-fold as well;
+      // rounds go on while each halves the best residual.
+      const double before = best.residual;
       const VectorX again = damped(best.q, false);
-      if (!(best.residual <= accept) && again.allFinite()) newton(again);
+      if (again.allFinite()) newton(again);
+      if (!(best.residual < 0.5 * before)) break;
     }
   }
   if (!(best.residual <= accept) && !lbfgs_done) {  // still not: L-BFGS from the start, then Newton
