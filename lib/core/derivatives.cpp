@@ -665,7 +665,8 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
 // symmetric) with h replaced by its positive semidefinite part: h's negative
 // eigenvalues set to 0. For a spring h = k[uuᵀ + (1 − L₀/L)(I − uuᵀ)], so
 // that is the compressed spring's negative transverse stiffness left out
-// (k uuᵀ kept); a spring at or beyond its rest length is returned as it is.
+// (k uuᵀ kept); a stretched spring is returned as it is (one at its rest
+// length, whose transverse eigenvalues are 0, to rounding).
 Eigen::Matrix<double, 6, 6> positive_spring_block(const Eigen::Matrix<double, 6, 6>& He) {
   const Mat3 h = He.topLeftCorner<3, 3>();
   Eigen::SelfAdjointEigenSolver<Mat3> e;

@@ -435,8 +435,8 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   // not, two damped steps pass before the next trial). Counted in
   // `damped_steps`.
   // Measured on the slack nets (results/sparse_scaling.md): at 10⁵
-  // coordinates 5 factorizations instead of 10 with the identity, at 10⁶ 10
-  // instead of 12.
+  // coordinates 4 factorizations (10 with the identity metric and ∇∇V
+  // itself), at 10⁶ 5 (12).
   int damped_steps = 0;
   auto damped = [&](VectorX q, bool handover_any) {
     VectorX r = potential_gradient(s, w, q);
