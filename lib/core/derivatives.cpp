@@ -660,7 +660,6 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
   }
 }
 
-// H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
 // A spring's local Hessian [h −h; −h h] (h = ∂²V/∂d², d = x_a − x_b, 3×3
 // symmetric) with h replaced by its positive semidefinite part: h's negative
 // eigenvalues set to 0. For a spring h = k[uuᵀ + (1 − L₀/L)(I − uuᵀ)], so
@@ -678,6 +677,7 @@ Eigen::Matrix<double, 6, 6> positive_spring_block(const Eigen::Matrix<double, 6,
   return P;
 }
 
+// H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
 template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
                        Add&& add, const std::vector<char>* held = nullptr) {
