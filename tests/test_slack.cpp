@@ -307,6 +307,70 @@ TEST(Slack, PartlySlackGradedNetsBalanceByAnIndependentForceModel) {
   std::filesystem::remove_all(root, ec);
 }
 
+// Flat slack nets whose weight is all the residual there is: against the
+// springs' forces at 100 % strain it is tiny (8e-13 for steel springs on a
+// 10⁵-coordinate net), and modal accepted the flat start as the equilibrium,
+// at the default tolerance for stiff springs and at a loose one for any,
+// reporting its zero or negative out-of-plane stiffness as the answer. A
+// generated family, both sides of the large path, stiffness over 1e1 … 1e12
+// N/m and tolerances over 1e-12 … 1e-4: the equilibrium must sag and balance
+// by the net's own mechanics (long double, above) to within what the
+// tolerance allows of the acting forces, or the rounding of the springs'
+// forces (64 ε k a per spring, 2-norm).
+TEST(Slack, StiffOrLooselyToleratedSlackNetsAreNotAcceptedFlat) {
+  std::mt19937 rng(27112026);
+  for (int trial = 0; trial < 8; ++trial) {
+    GradedNet net = graded_net(rng, 1.0, 0.0);
+    if (trial % 2 == 0) net.size = std::uniform_int_distribution<int>(6, 12)(rng);  // the dense path
+    if (trial % 2 == 0) {  // the edges of the smaller net
+      GradedNet small = net;
+      small.edges.clear();
+      small.at.clear();
+      for (int i = 0; i < small.size; ++i)
+        for (int j = 0; j < small.size; ++j) small.at.push_back({i * small.spacing, j * small.spacing});
+      for (int i = 0; i < small.size; ++i)
+        for (int j = 0; j < small.size; ++j)
+          for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}})
+            if (i + di < small.size && j + dj < small.size)
+              small.edges.push_back({small.node(i, j), small.node(i + di, j + dj), 1.0, small.spacing});
+      net = small;
+    }
+    const double k = log_uniform(rng, 10, 1e12);
+    for (GradedNet::Edge& e : net.edges) e.stiffness = k;
+    modal::EquilibriumOptions options;
+    options.tolerance = log_uniform(rng, 1e-12, 1e-4);
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("modal_flat_" + std::to_string(std::random_device()()));
+    const std::string scene = write_graded_net(net, dir);
+    SCOPED_TRACE("net " + std::to_string(net.size) + "², k " + std::to_string(k) + ", tolerance " +
+                 std::to_string(options.tolerance));
+    const modal::Model model = modal::load_model(scene);
+    const modal::Equilibrium e = modal::find_equilibrium(model.system, model.system.initial_configuration(), options);
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+    EXPECT_LE(e.residual, options.tolerance);
+    EXPECT_GT(e.q.cwiseAbs().maxCoeff(), 0) << "accepted flat";
+    const int nodes = net.size * net.size;
+    LongVector x(3 * nodes);
+    std::map<std::string, int> index;
+    const std::vector<std::string> names = model.system.coordinate_names();
+    for (int c = 0; c < static_cast<int>(names.size()); ++c) index[names[static_cast<std::size_t>(c)]] = c;
+    for (int n = 0; n < nodes; ++n) {
+      x.segment<3>(3 * n) << net.at[static_cast<std::size_t>(n)][0], net.at[static_cast<std::size_t>(n)][1], 0;
+      if (net.fixed(n / net.size, n % net.size)) continue;
+      for (int a = 0; a < 3; ++a) x(3 * n + a) += e.q(index.at("net.n" + std::to_string(n) + "." + "xyz"[a]));
+    }
+    const Balance b = balance(net, x);
+    long double unbalanced = 0;
+    for (int n = 0; n < nodes; ++n)
+      if (!net.fixed(n / net.size, n % net.size)) unbalanced += b.force.segment<3>(3 * n).squaredNorm();
+    const long double rounding = 64 * 2.2204460492503131e-16L * k * net.spacing * 4 * std::sqrt(2.0L * net.edges.size());
+    EXPECT_LE(static_cast<double>(std::sqrt(unbalanced)),
+              static_cast<double>(10 * options.tolerance * b.scale.sum() + 4 * rounding))
+        << "the weight is " << 9.81 * net.mass << " N per node";
+  }
+}
+
 }  // namespace
 
 // The metric of the damped steps (modal::sparse_tension_metric): for a scene

@@ -38,6 +38,8 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <array>
@@ -992,14 +994,18 @@ SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX&
   return D;
 }
 
-double force_scale(const System& s, Workspace& w, const VectorX& q) {
+double force_scale(const System& s, Workspace& w, const VectorX& q) { return force_scales(s, w, q).full; }
+
+ForceScales force_scales(const System& s, Workspace& w, const VectorX& q) {
   if (s.is_map()) {
     check_size(s, q, "force_scale");
-    return map_eval::force_scale(s, q);
+    const double full = map_eval::force_scale(s, q);
+    return {full, full, full};
   }
   const TreeState<double>& st = kinematics(s, w, q);
   const PathJacobianNorms jacobian(s, st);
-  double scale = 0;
+  double scale = 0;  // the loads, which both scales count
+  double full = 0, acting = 0, rounding = 0;  // the springs' part of each; Σ (element's full)²
   const auto& bodies = s.bodies();
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
@@ -1020,7 +1026,10 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
     for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
       const double unit = s.coordinates()[static_cast<std::size_t>(k0 + i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
-      scale += body.stiffness * (std::abs(q[k0 + i] - body.rest[i]) + unit);
+      const double strain = std::abs(q[k0 + i] - body.rest[i]);
+      full += body.stiffness * (strain + unit);
+      acting += body.stiffness * strain;
+      rounding += std::pow(body.stiffness * (strain + unit), 2);
     }
   }
   for (const DeadLoad& l : s.loads())
@@ -1030,10 +1039,23 @@ double force_scale(const System& s, Workspace& w, const VectorX& q) {
   for (const Spring& sp : s.springs()) {
     const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
     const double len = (xa - xb).norm();
-    const double force = sp.stiffness * (std::abs(len - sp.rest_length) + std::max(sp.rest_length, len));
-    scale += force * (jacobian.point(sp.a) + jacobian.point(sp.b));
+    const double reach = jacobian.point(sp.a) + jacobian.point(sp.b), stretch = std::abs(len - sp.rest_length);
+    full += sp.stiffness * (stretch + std::max(sp.rest_length, len)) * reach;
+    acting += sp.stiffness * stretch * reach;
+    rounding += std::pow(sp.stiffness * (stretch + std::max(sp.rest_length, len)) * reach, 2);
   }
-  return scale;
+  return {scale + full, scale + acting, std::sqrt(rounding) + scale};
+}
+
+double relative_residual(double residual_norm, const ForceScales& scales) {
+  if (residual_norm == 0) return 0;
+  if (!(scales.full > 0) || !std::isfinite(scales.full)) return std::numeric_limits<double>::infinity();
+  const double relative = residual_norm / scales.full;
+  const double level = scales.rounding > 0 ? scales.rounding : scales.full;
+  const double beyond_rounding = residual_norm - 64 * std::numeric_limits<double>::epsilon() * level;
+  if (!(beyond_rounding > 0)) return relative;
+  if (!(scales.acting > 0)) return std::numeric_limits<double>::infinity();
+  return std::max(relative, beyond_rounding / scales.acting);
 }
 
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q) {

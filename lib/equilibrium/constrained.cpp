@@ -69,6 +69,13 @@ class Constrained {
     const double f = force_scale(s_, w_, q);
     return f > 0 && std::isfinite(f) ? f : 1.0;
   }
+  // The unbalanced force's relative residual for acceptance
+  // (modal::relative_residual; p.rel, the merit's, is against force_scale_at).
+  double accepted_measure(const VectorX& q, double force_norm) {
+    ForceScales scales = force_scales(s_, w_, q);
+    if (!(scales.full > 0) || !std::isfinite(scales.full)) scales = {1.0, 1.0};
+    return relative_residual(force_norm, scales);
+  }
 
  private:
   const System& s_;
@@ -83,6 +90,7 @@ struct Point {
   MatrixX A;             // constraint Jacobian, m×n
   ConstraintBasis basis;
   double rel = nan, violation = nan, merit = nan;
+  double measured = nan;  // the relative residual accepted and reported (Constrained::accepted_measure)
   bool finite() const { return std::isfinite(merit); }
 };
 
@@ -99,6 +107,7 @@ Point evaluate(Constrained& k, const VectorX& q, const VectorX& s, bool fit) {
   for (const int i : p.basis.redundant) p.s[i] = 0;
   p.force = r - p.A.transpose() * p.s;
   p.rel = p.force.norm() / k.force_scale_at(q);
+  p.measured = k.accepted_measure(q, p.force.norm());
   p.violation = p.c.norm();
   const double cv = p.violation / k.length();
   p.merit = p.rel * p.rel + cv * cv;
@@ -110,7 +119,7 @@ Equilibrium record(Constrained& k, const Point& p, int iterations) {
   e.q = p.q;
   e.limits = joint_limits(k.problem().system(), p.q);
   e.potential = k.problem().potential(p.q);
-  e.residual = p.rel;
+  e.residual = p.measured;
   e.residual_norm = p.force.norm();
   e.iterations = iterations;
   e.multipliers = p.s;
@@ -132,7 +141,7 @@ Newton newton(Constrained& k, const VectorX& q0, const EquilibriumOptions& optio
   int refinements = 0;
   for (int it = 0;; ++it) {
     if (!p.finite()) return out;
-    const bool accepted = p.rel <= options.tolerance && p.violation <= options.tolerance * k.length();
+    const bool accepted = p.measured <= options.tolerance && p.violation <= options.tolerance * k.length();
     if (accepted && !out.converged) out.converged = true;
     if (p.merit < out.best_merit || (accepted && out.best.q.size() == 0)) {
       out.best_merit = p.merit;

@@ -84,8 +84,8 @@ const MatrixX& Problem::jacobian(const VectorX& q) {
 }
 
 double Problem::relative_residual(const VectorX& q, double residual_norm) {
-  const double scale = force_scale(s_, w_, q);
-  if (scale > 0 && std::isfinite(scale)) return residual_norm / scale;
+  const ForceScales scales = force_scales(s_, w_, q);
+  if (scales.full > 0 && std::isfinite(scales.full)) return modal::relative_residual(residual_norm, scales);
   if (residual_norm == 0) return 0;
   const MatrixX& j = jacobian(q);
   return residual_norm / (j.norm() + DBL_MIN);

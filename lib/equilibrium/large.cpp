@@ -312,8 +312,8 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   };
   VectorX q = canonical_coordinates(s, start);
   auto relative = [&](const VectorX& x, double rnorm) {
-    const double scale = force_scale(s, w, x);
-    return scale > 0 ? rnorm / scale : rnorm;
+    const ForceScales scales = force_scales(s, w, x);
+    return scales.full > 0 ? relative_residual(rnorm, scales) : rnorm;
   };
 
   // Progress (EquilibriumOptions::progress): the digits of the relative
@@ -650,6 +650,21 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     const VectorX reached = damped(q, true);
     steps.definite_only = true;
     if (reached.allFinite()) newton(reached);
+    // Newton with LDLᵀ steps where ∇∇V is indefinite, from the best point:
+    // for a saddle that the damped steps (which lower V) came close to but
+    // cannot settle on, and would leave. (A lattice without diagonals, its
+    // columns compressed by their weight: the damped steps left ‖∇V‖ at
+    // 2e-11 of the acting forces, and further damped steps buckled it.)
+    auto newton_indefinite = [&] {
+      if (best.residual <= accept || !best.q.allFinite() || best.q.size() != n) return;
+      steps.definite_only = false;
+      newton(best.q);
+      steps.definite_only = true;
+    };
+    // Only near an equilibrium (Newton's region), where the damped steps
+    // stopped: from further away, on wrinkled nets, such steps took a
+    // factorization each for about 100 steps.
+    if (best.residual <= 1e-8) newton_indefinite();
     for (int round = 0; round < 8 && !(best.residual <= accept) && best.q.allFinite() && best.q.size() == n; ++round) {
       // Handed over too early, or Newton met an indefinite ∇∇V (it takes
       // no LDLᵀ step after damped steps: on wrinkled nets that was a
@@ -661,6 +676,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       if (again.allFinite()) newton(again);
       if (!(best.residual < 0.5 * before)) break;
     }
+    newton_indefinite();  // still not: from wherever the damped rounds left it
   }
   if (!(best.residual <= accept) && !lbfgs_done) {  // still not: L-BFGS from the start, then Newton
     const VectorX reached = lbfgs(q);

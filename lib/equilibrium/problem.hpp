@@ -29,7 +29,9 @@ class Problem {
 
   double potential(const VectorX& q) { return modal::potential(s_, w_, q); }
 
-  // ‖r‖ made relative: ‖r‖ / force_scale(q). force_scale is a sum of the
+  // ‖r‖ made relative: modal::relative_residual(‖r‖, force_scales(q)) (‖r‖
+  // against the forces at 100 % strain, and its excess over their rounding
+  // against the acting forces). The full scale is a sum of the
   // magnitudes of all force-producing elements, so it is 0 only when nothing
   // produces a force; then V is constant, r ≡ 0, and we fall back to the
   // absolute measure ‖r‖ / (‖J‖_F · 1 + DBL_MIN) (the force a unit displacement

@@ -10,7 +10,8 @@
 // as computed, not symmetrized. has_gyroscopic is set only when G is not zero
 // (a one-coordinate system in a rotating frame keeps the symmetric solver).
 // q̄ is an equilibrium when ∇V(q̄) = Q(q̄, 0) (dampers exert no force at rest;
-// follower loads do); its relative residual is ‖∇V − Q‖₂ / force_scale(q̄).
+// follower loads do); its relative residual is relative_residual(‖∇V − Q‖₂,
+// force_scales(q̄)) (modal/core.hpp).
 #include "modal/linearize.hpp"
 
 #include <Eigen/QR>
@@ -51,12 +52,10 @@ void require_finite(const MatrixX& A, const char* what, const std::vector<std::s
 
 MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 
-// The relative residual ‖r‖/force_scale of the generalized force r left
+// The relative residual (modal::relative_residual) of the generalized force r left
 // unbalanced at q; NotAnEquilibrium (naming the coordinate) above `tolerance`.
 double require_equilibrium(const System& s, Workspace& ws, const VectorX& q, const VectorX& r, double tolerance) {
-  const double scale = force_scale(s, ws, q);
-  const double norm = r.norm();
-  const double residual = norm == 0 ? 0.0 : (scale > 0 ? norm / scale : std::numeric_limits<double>::infinity());
+  const double residual = relative_residual(r.norm(), force_scales(s, ws, q));
   if (residual <= tolerance) return residual;
   Eigen::Index worst = 0;
   r.cwiseAbs().maxCoeff(&worst);

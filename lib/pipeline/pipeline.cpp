@@ -78,9 +78,9 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
   if (e && configuration_distance(sys, e->q, at) <= accept) return *e;
 
   Workspace ws(sys);
-  const double scale = force_scale(sys, ws, at);
+  const ForceScales scales = force_scales(sys, ws, at);
   const double residual = equilibrium_residual(sys, ws, at).norm();
-  const double relative = scale > 0 ? residual / scale : residual;
+  const double relative = scales.full > 0 ? relative_residual(residual, scales) : residual;
   std::string nearest;
   if (e) {
     nearest = fmt::format("nearest equilibrium found at {}", format_point(names, e->q));

@@ -439,10 +439,37 @@ const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& 
 SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q);
 SparseMatrix sparse_damping_matrix(const System& s, Workspace& w, const VectorX& q);     // D(q)
 
-// A scale for generalized forces at q, used to make residuals relative: the sum
-// over elements of |element force| × |point Jacobian| (springs counted at 100 %
-// strain, joint springs at 1 rad or the length scale). Same units as ∇V.
+// A scale for generalized forces at q: the sum over elements of |element
+// force| × |point Jacobian| (springs counted at 100 % strain, joint springs at
+// 1 rad or the length scale): the size of the terms whose rounding ∇V
+// carries. Same units as ∇V. (force_scales(s, w, q).full)
 double force_scale(const System& s, Workspace& w, const VectorX& q);
+
+// Two scales for generalized forces at q (units of ∇V), sums over the
+// elements of |element force| × |point Jacobian|: `full` counts springs at
+// 100 % strain and joint springs at 1 rad or the length scale (force_scale:
+// what the rounding of ∇V is relative to); `acting` counts every element at
+// the force it exerts at q (a spring at its rest length: none). Loads,
+// gravity and centrifugal forces count alike in both. `rounding`: the
+// springs' and joint springs' full forces summed in 2-norm (their rounding
+// errors are independent, so ∇V carries about ε times this), plus the loads.
+// Maps: all three are the map's force scale.
+struct ForceScales {
+  double full = 0;
+  double acting = 0;
+  double rounding = 0;  // 0: take `full`
+};
+ForceScales force_scales(const System& s, Workspace& w, const VectorX& q);
+
+// The relative residual of a generalized force of norm ‖r‖ left unbalanced
+// at q: ‖r‖/full, and where ‖r‖ exceeds the rounding level 64ε·rounding, at
+// least its excess over it relative to the acting forces. Against `full`
+// alone, a slack structure's whole weight is a tiny residual (a flat net of
+// steel springs under gravity: 8e-13 of its springs' forces at 100 % strain),
+// while its out-of-plane stiffness, the springs' tension over their length,
+// turns an unbalanced share of the acting forces into that share of the
+// sag. 0 for ‖r‖ = 0; ∞ when a non-zero ‖r‖ has no positive scale.
+double relative_residual(double residual_norm, const ForceScales& scales);
 
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n

@@ -53,7 +53,7 @@ inline constexpr int large_system_coordinates = 1000;
 enum class LargeEquilibriumMethod { newton, lbfgs };
 
 struct EquilibriumOptions {
-  double tolerance = 1e-12;  // accepted relative residual ‖∇V − Q (− ∇c s)‖ / force_scale
+  double tolerance = 1e-12;  // accepted relative residual of ‖∇V − Q (− ∇c s)‖ (modal::relative_residual)
                              // (and constraint violation ‖c‖ / length_scale)
   int starts = -1;           // deterministic starts of find_equilibria (besides the
                              // initial configuration and the {0, π} corners of hinges);
