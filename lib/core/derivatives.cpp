@@ -1042,7 +1042,9 @@ ForceScales force_scales(const System& s, Workspace& w, const VectorX& q) {
     const double reach = jacobian.point(sp.a) + jacobian.point(sp.b), stretch = std::abs(len - sp.rest_length);
     full += sp.stiffness * (stretch + std::max(sp.rest_length, len)) * reach;
     acting += sp.stiffness * stretch * reach;
-    rounding += std::pow(sp.stiffness * (stretch + std::max(sp.rest_length, len)) * reach, 2);
+    // The length from world points, each rounded to ε of its distance from
+    // the origin: a net far from it has rounding far above ε k L.
+    rounding += std::pow(sp.stiffness * (stretch + std::max(sp.rest_length, len) + xa.norm() + xb.norm()) * reach, 2);
   }
   return {scale + full, scale + acting, std::sqrt(rounding) + scale};
 }
@@ -1052,7 +1054,7 @@ double relative_residual(double residual_norm, const ForceScales& scales) {
   if (!(scales.full > 0) || !std::isfinite(scales.full)) return std::numeric_limits<double>::infinity();
   const double relative = residual_norm / scales.full;
   const double level = scales.rounding > 0 ? scales.rounding : scales.full;
-  const double beyond_rounding = residual_norm - 64 * std::numeric_limits<double>::epsilon() * level;
+  const double beyond_rounding = residual_norm - 8 * std::numeric_limits<double>::epsilon() * level;
   if (!(beyond_rounding > 0)) return relative;
   if (!(scales.acting > 0)) return std::numeric_limits<double>::infinity();
   return std::max(relative, beyond_rounding / scales.acting);

@@ -773,12 +773,27 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
 
     // ---- equilibrium: Newton with a line search, then with a trust region
     Equilibrium eq;
-    double scale = 0;
+    // The force scales at a configuration, summed over the ranks' parts (the
+    // rounding scale, a 2-norm, in 2-norm).
+    const auto scales_at = [&](Vec at) {
+      const VectorX q = assembly.local_configuration(at);
+      ForceScales sum;
+      sum.full = sum_over_ranks([&] { return force_scales(*part.system, *ws, q).full; });
+      sum.acting = sum_over_ranks([&] { return force_scales(*part.system, *ws, q).acting; });
+      sum.rounding = std::sqrt(sum_over_ranks([&] { return std::pow(force_scales(*part.system, *ws, q).rounding, 2); }));
+      return sum;
+    };
+    double scale = 0;  // force_scale at the start
     phase([&] {
-      const VectorX q0 = assembly.local_configuration(x);
-      scale = sum_over_ranks([&] { return force_scale(*part.system, *ws, q0); });
+      scale = scales_at(x).full;
       const double tolerance = options.equilibrium_tolerance;
+      // The Newton runs' target (against the start's force scale), and the
+      // acceptance: the serial relative residual (modal::relative_residual:
+      // beyond the rounding level, against the acting forces) at the point.
       const double target = tolerance * scale;
+      const auto balanced = [&](Vec at, double rnorm) {
+        return std::isfinite(rnorm) && relative_residual(rnorm, scales_at(at)) <= tolerance;
+      };
       Vec start = nullptr;
       MODAL_PETSC(VecDuplicate(x, &start));
       MODAL_PETSC(VecCopy(x, start));
@@ -871,7 +886,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         double v = energy(x);
         NielsenDamping damping;
         double& mu = damping.mu;
-        for (int it = 0; it < 200 && std::isfinite(rnorm) && rnorm > target; ++it) {
+        for (int it = 0; it < 200 && std::isfinite(rnorm) && !balanced(x, rnorm); ++it) {
           if (mu >= 0 && mu < 1e-3 && rnorm < 1e-3 * r0) break;  // Newton's region
           MODAL_PETSC(form_hessian(nullptr, x, J, J, &assembly));
           MODAL_PETSC(MatGetDiagonal(J, diagonal));
@@ -922,8 +937,18 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         for (Vec* w : {&d, &trial, &g, &diagonal}) MODAL_PETSC(VecDestroy(w));
       };
       std::string method = "line search", solves;
+      // A run that reached the target is polished (Newton from there reaches
+      // the rounding level in one or two steps) and accepted when balanced.
+      // A flat slack start can be within the target (its weight against the
+      // springs' forces at 100 % strain) and not balanced: then the damped
+      // steps below.
+      const auto accepted = [&](bool with_lag) {
+        if (!converged()) return false;
+        newton(SNESNEWTONLS, SNESLINESEARCHBT, 3, with_lag);
+        return converged() && balanced(x, norm);
+      };
       newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, true);
-      bool lagged = converged();
+      bool lagged = accepted(true);
       if (!lagged) {
         const std::string cause = assembly.failure;
         assembly.failure.clear();
@@ -931,22 +956,23 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         iterations = 0;
         damped();  // a degenerate start: damped steps first, then Newton
         newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, false);
-        if (!converged() && damped_steps > 0) {  // from the start, undamped
+        bool done = accepted(false);
+        if (!done && damped_steps > 0) {  // from the start, undamped
           MODAL_PETSC(VecCopy(start, x));
           iterations = 0;
           damped_steps = 0;
           newton(SNESNEWTONLS, SNESLINESEARCHCP, 100, false);
+          done = accepted(false);
         }
-        if (!converged()) {
+        if (!done) {
           MODAL_PETSC(VecCopy(start, x));
           iterations = 0;
           newton(SNESNEWTONTR, nullptr, 100, false);
           method = "trust region";
+          done = accepted(false);
         }
-        if (!converged() && assembly.failure.empty()) assembly.failure = cause;
+        if (!done && assembly.failure.empty()) assembly.failure = cause;
       }
-      // Newton from an accepted point reaches the rounding level in one or two steps.
-      if (converged()) newton(SNESNEWTONLS, SNESLINESEARCHBT, 3, lagged);
       if (reused) MODAL_PETSC(KSPDestroy(&reused));
       solves = lagged ? fmt::format("conjugate gradients preconditioned by a reused MUMPS Cholesky factor, {} "
                                     "factorization{}",
@@ -963,9 +989,10 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       if (!assembly.failure.empty()) throw NumericalError(assembly.failure);
     });
     phase([&] {
-      const double tolerance = options.equilibrium_tolerance, target = tolerance * scale, norm = eq.residual_norm;
-      const double relative = scale > 0 ? norm / scale : norm;
-      if (!(norm <= target))
+      const double tolerance = options.equilibrium_tolerance, norm = eq.residual_norm;
+      const ForceScales at = scales_at(x);
+      const double relative = at.full > 0 ? relative_residual(norm, at) : norm;
+      if (!(relative <= tolerance))
         throw NumericalError(fmt::format("--backend petsc: Newton's method (PETSc SNES, line search and then trust "
                                          "region) did not reach an equilibrium from the scene's configuration: "
                                          "relative residual {:.2e}, accepted {:.0e}",

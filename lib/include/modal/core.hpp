@@ -452,7 +452,9 @@ double force_scale(const System& s, Workspace& w, const VectorX& q);
 // the force it exerts at q (a spring at its rest length: none). Loads,
 // gravity and centrifugal forces count alike in both. `rounding`: the
 // springs' and joint springs' full forces summed in 2-norm (their rounding
-// errors are independent, so ∇V carries about ε times this), plus the loads.
+// errors are independent, so ∇V carries about ε times this), a spring's
+// length counted with the distances of its ends from the origin (the world
+// points it is computed from are rounded to ε of those), plus the loads.
 // Maps: all three are the map's force scale.
 struct ForceScales {
   double full = 0;
@@ -462,7 +464,7 @@ struct ForceScales {
 ForceScales force_scales(const System& s, Workspace& w, const VectorX& q);
 
 // The relative residual of a generalized force of norm ‖r‖ left unbalanced
-// at q: ‖r‖/full, and where ‖r‖ exceeds the rounding level 64ε·rounding, at
+// at q: ‖r‖/full, and where ‖r‖ exceeds the rounding level 8ε·rounding, at
 // least its excess over it relative to the acting forces. Against `full`
 // alone, a slack structure's whole weight is a tiny residual (a flat net of
 // steel springs under gravity: 8e-13 of its springs' forces at 100 % strain),
