@@ -468,9 +468,9 @@ ForceScales force_scales(const System& s, Workspace& w, const VectorX& q);
 // least its excess over it relative to the acting forces. Against `full`
 // alone, a slack structure's whole weight is a tiny residual (a flat net of
 // steel springs under gravity: 8e-13 of its springs' forces at 100 % strain),
-// while its out-of-plane stiffness, the springs' tension over their length,
-// turns an unbalanced share of the acting forces into that share of the
-// sag. 0 for ‖r‖ = 0; ∞ when a non-zero ‖r‖ has no positive scale.
+// although no spring balances any of it; against the forces acting there
+// (the weight alone) it is 1. 0 for ‖r‖ = 0; ∞ when a non-zero ‖r‖ has no
+// positive scale.
 double relative_residual(double residual_norm, const ForceScales& scales);
 
 // --- kinetic energy, forces --------------------------------------------------
