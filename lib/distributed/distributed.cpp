@@ -26,6 +26,7 @@
 #include <petscsnes.h>
 #include <slepceps.h>
 
+#include <array>
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -112,13 +113,18 @@ void phase(Work&& work) {
   if (Failure f = agree(mine); f.status != 0) throw Agreed{f};
 }
 
-// Σ over the ranks of a local evaluation, agreed on first: a rank whose
-// evaluation throws must not leave the others waiting in the sum.
+// Σ over the ranks of a local evaluation (a double, or a std::array of them
+// summed entrywise), agreed on first: a rank whose evaluation throws must not
+// leave the others waiting in the sum.
 template <class Evaluate>
-double sum_over_ranks(Evaluate&& evaluate) {
-  double v = 0;
+auto sum_over_ranks(Evaluate&& evaluate) {
+  using Value = std::decay_t<decltype(evaluate())>;
+  Value v{};
   phase([&] { v = evaluate(); });
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  if constexpr (std::is_same_v<Value, double>)
+    MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  else
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   return v;
 }
 
@@ -777,11 +783,11 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
     // rounding scale, a 2-norm, in 2-norm).
     const auto scales_at = [&](Vec at) {
       const VectorX q = assembly.local_configuration(at);
-      ForceScales sum;
-      sum.full = sum_over_ranks([&] { return force_scales(*part.system, *ws, q).full; });
-      sum.acting = sum_over_ranks([&] { return force_scales(*part.system, *ws, q).acting; });
-      sum.rounding = std::sqrt(sum_over_ranks([&] { return std::pow(force_scales(*part.system, *ws, q).rounding, 2); }));
-      return sum;
+      const std::array<double, 3> sum = sum_over_ranks([&] {
+        const ForceScales mine = force_scales(*part.system, *ws, q);
+        return std::array<double, 3>{mine.full, mine.acting, mine.rounding * mine.rounding};
+      });
+      return ForceScales{sum[0], sum[1], std::sqrt(sum[2])};
     };
     double scale = 0;  // force_scale at the start
     phase([&] {

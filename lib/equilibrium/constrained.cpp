@@ -65,19 +65,23 @@ class Constrained {
     }
   }
   ConstraintProjection project(const VectorX& q) { return project_onto_constraints(s_, w_, q); }
-  double force_scale_at(const VectorX& q) {
-    const double f = force_scale(s_, w_, q);
-    return f > 0 && std::isfinite(f) ? f : 1.0;
-  }
-  // The unbalanced force's relative residual for acceptance
-  // (modal::relative_residual; p.rel, the merit's, is against force_scale_at).
-  double accepted_measure(const VectorX& q, double force_norm) {
-    ForceScales scales = force_scales(s_, w_, q);
-    if (!(scales.full > 0) || !std::isfinite(scales.full)) scales = {1.0, 1.0};
-    return relative_residual(force_norm, scales);
+  double force_scale_at(const VectorX& q) { return usable(force_scales(s_, w_, q)).full; }
+  // The unbalanced force's two relative residuals, from one computation of the
+  // force scales: against the full scale (the merit's) and the one accepted
+  // and reported (modal::relative_residual).
+  struct Measures {
+    double merit, accepted;
+  };
+  Measures measures(const VectorX& q, double force_norm) {
+    const ForceScales scales = usable(force_scales(s_, w_, q));
+    return {force_norm / scales.full, relative_residual(force_norm, scales)};
   }
 
  private:
+  // A scene with no force scale (nothing acting, or not finite) is measured in newtons.
+  static ForceScales usable(const ForceScales& scales) {
+    return scales.full > 0 && std::isfinite(scales.full) ? scales : ForceScales{1.0, 1.0, 0.0};
+  }
   const System& s_;
   Workspace w_;
   Problem p_;
@@ -90,7 +94,7 @@ struct Point {
   MatrixX A;             // constraint Jacobian, m×n
   ConstraintBasis basis;
   double rel = nan, violation = nan, merit = nan;
-  double measured = nan;  // the relative residual accepted and reported (Constrained::accepted_measure)
+  double measured = nan;  // the relative residual accepted and reported (Constrained::measures)
   bool finite() const { return std::isfinite(merit); }
 };
 
@@ -106,8 +110,9 @@ Point evaluate(Constrained& k, const VectorX& q, const VectorX& s, bool fit) {
   p.s = fit ? fit_multipliers(p.A, p.basis, r) : s;
   for (const int i : p.basis.redundant) p.s[i] = 0;
   p.force = r - p.A.transpose() * p.s;
-  p.rel = p.force.norm() / k.force_scale_at(q);
-  p.measured = k.accepted_measure(q, p.force.norm());
+  const Constrained::Measures measures = k.measures(q, p.force.norm());
+  p.rel = measures.merit;
+  p.measured = measures.accepted;
   p.violation = p.c.norm();
   const double cv = p.violation / k.length();
   p.merit = p.rel * p.rel + cv * cv;
