@@ -580,8 +580,8 @@ void gradient_with(const System& s, const TreeState<R>& st, const R* q, SubtreeS
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i)
-      g[k0 + i] += bodies[b].stiffness * (q[k0 + i] - bodies[b].rest[i]);
+    model::joint_spring_gradient(bodies[b], q + k0, s.joint_size(static_cast<int>(b)),
+                                 [&](int i, const R& v) { g[k0 + i] += v; });
   }
 }
 
@@ -738,8 +738,9 @@ void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const Ve
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) add(k0 + i, k0 + i, bodies[b].stiffness);
-    if (held && (*held)[b]) {
+    model::joint_spring_hessian(bodies[b], q.data() + k0, s.joint_size(static_cast<int>(b)),
+                                [&](int i, int j, double v) { add(k0 + i, k0 + j, v); });
+    if (held && (*held)[b]) {  // a hinge under a parallel hinge (one coordinate)
       const int p = s.first_coordinate(bodies[b].parent);
       add(p, p, bodies[b].stiffness);
       add(p, k0, -bodies[b].stiffness);
@@ -1023,14 +1024,15 @@ ForceScales force_scales(const System& s, Workspace& w, const VectorX& q) {
       }
       scale += w2 * body.inertia.norm() * std::sqrt(jacobian.turn2(static_cast<int>(b)));
     }
+    if (body.stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    for (int i = 0; i < s.joint_size(static_cast<int>(b)); ++i) {
+    model::joint_spring_gradient(body, q.data() + k0, s.joint_size(static_cast<int>(b)), [&](int i, double force) {
       const double unit = s.coordinates()[static_cast<std::size_t>(k0 + i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
-      const double strain = std::abs(q[k0 + i] - body.rest[i]);
+      const double strain = std::abs(force) / body.stiffness;
       full += body.stiffness * (strain + unit);
       acting += body.stiffness * strain;
       rounding += std::pow(body.stiffness * (strain + unit), 2);
-    }
+    });
   }
   for (const DeadLoad& l : s.loads())
     scale += l.force.norm() * jacobian.point(l.at);

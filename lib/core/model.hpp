@@ -240,8 +240,61 @@ template <class S> S spring_energy(const Spring& sp, const V3<S>& xa, const V3<S
   return spring_stretch_energy<S>(sp, V3<S>(xa - xb));
 }
 
-// Joint spring energy ½k|q − rest|² over the joint's coordinates.
+// A ball joint's spring with rest exactly 0 is the geodesic ½kθ², θ ∈ [0, π]
+// the angle of the rotation exp(φ) (MuJoCo's, which takes the angle of the
+// relative quaternion): ½k(‖φ‖ − 2πn)² with n the whole number of turns
+// nearest ‖φ‖, so ½k‖φ‖² wherever ‖φ‖ ≤ π. A function of the rotation alone:
+// φ and φ(1 − 2π/‖φ‖) have the same energy, and the coordinates are periodic
+// (System: canonical chart ‖φ‖ ≤ π). Any other joint spring: ½k|q − rest|².
+inline bool geodesic_joint_spring(const Body& body) {
+  return body.joint == JointType::ball && body.stiffness != 0.0 && body.rest.size() == 3 && body.rest.isZero(0.0);
+}
+// The whole turns n of the geodesic spring at rotation-vector length t.
+inline double spring_turns(double t) { return std::round(t / (2 * 3.14159265358979323846)); }
+
+// ∂/∂q of the joint spring energy at the joint's coordinates qj (nq of
+// them): add(i, ∂V/∂q_i) for each. For any scalar (exact derivatives).
+template <class R, class Add> void joint_spring_gradient(const Body& body, const R* qj, int nq, Add&& add) {
+  using std::sqrt;
+  if (geodesic_joint_spring(body)) {
+    const R t = sqrt(qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2]);
+    if (const double n = spring_turns(value(t)); n != 0) {
+      const R ratio = (t - 2 * 3.14159265358979323846 * n) / t;  // θ/‖φ‖
+      for (int i = 0; i < 3; ++i) add(i, R(body.stiffness * ratio * qj[i]));
+      return;
+    }
+  }
+  for (int i = 0; i < nq; ++i) add(i, R(body.stiffness * (qj[i] - body.rest[i])));
+}
+
+// ∂²/∂q² of the joint spring energy: add(i, j, value) for each nonzero entry;
+// for the geodesic spring beyond ‖φ‖ = π, k((θ/t) I + (1 − θ/t) uuᵀ) with
+// t = ‖φ‖, u = φ/t.
+template <class Add> void joint_spring_hessian(const Body& body, const double* qj, int nq, Add&& add) {
+  if (geodesic_joint_spring(body)) {
+    const double t = std::sqrt(qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2]);
+    if (const double n = spring_turns(t); n != 0) {
+      const double ratio = (t - 2 * 3.14159265358979323846 * n) / t;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          add(i, j, body.stiffness * ((i == j ? ratio : 0.0) + (1 - ratio) * (qj[i] / t) * (qj[j] / t)));
+      return;
+    }
+  }
+  for (int i = 0; i < nq; ++i) add(i, i, body.stiffness);
+}
+
+// Joint spring energy (above): ½k|q − rest|² over the joint's coordinates, or
+// a ball's geodesic ½kθ².
 template <class S> S joint_spring_energy(const Body& body, const S* qj, int nq) {
+  using std::sqrt;
+  if (geodesic_joint_spring(body)) {
+    const S t2 = qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2];
+    if (const double n = spring_turns(std::sqrt(value(t2))); n != 0) {
+      const S theta = sqrt(t2) - 2 * 3.14159265358979323846 * n;
+      return 0.5 * body.stiffness * theta * theta;
+    }
+  }
   S e(0.0);
   for (int i = 0; i < nq; ++i) {
     const S d = qj[i] - body.rest[i];

@@ -99,7 +99,9 @@ System::System(SystemDescription description) : d_(std::move(description)) {
     if (body.damping > 0) has_damping_ = true;
 
     auto add = [&](const std::string& suffix, CoordinateKind kind, int i) {
-      const bool periodic = kind != CoordinateKind::length && body.stiffness == 0.0;
+      // A joint spring makes θ and θ + 2π different, except a ball's
+      // geodesic spring (a function of the rotation: model.hpp).
+      const bool periodic = kind != CoordinateKind::length && (body.stiffness == 0.0 || model::geodesic_joint_spring(body));
       coords_.push_back({body.name + suffix, kind, static_cast<int>(b), body.initial[i], periodic});
     };
     switch (body.joint) {

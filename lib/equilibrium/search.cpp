@@ -206,10 +206,13 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
     at(l.at);
     if (l.force.norm() > 0) at({l.at.body, Vec3(l.at.point + s.length_scale() * l.force.normalized())});
   }
-  // A joint spring sees the joint value itself (a joint with a spring is not periodic).
+  // A joint spring sees the joint value itself (a joint with a spring is not
+  // periodic), except a ball's geodesic spring, which sees the rotation.
   for (std::size_t b = 0; b < s.bodies().size(); ++b) {
-    if (s.bodies()[b].stiffness == 0.0) continue;
     const int k0 = s.first_coordinate(static_cast<int>(b));
+    if (s.bodies()[b].stiffness == 0.0 || s.joint_size(static_cast<int>(b)) == 0 ||
+        s.coordinates()[static_cast<std::size_t>(k0)].periodic)
+      continue;
     for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) coordinate(i);
   }
   VectorX v(3 * static_cast<Eigen::Index>(pts.size()));
