@@ -793,3 +793,32 @@ TEST(SparseModes, MumpsSolvesSeveralRightHandSidesAsOneAtATime) {
     }
   }
 }
+
+// A singular mass matrix is described in the coordinates' names on both sides
+// of the dense limit (the dense fallback and the Lanczos path's CHOLMOD
+// factor); they had been named q1 … qn, which no scene has.
+TEST(SparseModes, SingularMassMatrixNamesTheSceneCoordinates) {
+  for (const int n : {12, 400}) {
+    Triplets m, k;
+    for (int i = 0; i < n; ++i) {
+      k.emplace_back(i, i, 1.0 + i);
+      if (i != 5 && i != 6) m.emplace_back(i, i, 1.0);
+    }
+    for (const int i : {5, 6})  // (1, −1)/√2 has inertia 5e-16 of M's 2: none, to rounding
+      for (const int j : {5, 6}) m.emplace_back(i, j, i == 6 && j == 6 ? 1.0 + 1e-15 : 1.0);
+    SparseMatrix K(n, n), M(n, n);
+    K.setFromTriplets(k.begin(), k.end());
+    M.setFromTriplets(m.begin(), m.end());
+    SparseModalOptions options;
+    options.modes = 3;
+    for (int i = 0; i < n; ++i) options.coordinate_names.push_back("link" + std::to_string(i));
+    try {
+      modal::solve_sparse_modes(K, M, options);
+      ADD_FAILURE() << "expected SingularMassMatrix, n = " << n;
+    } catch (const modal::SingularMassMatrix& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("0.71·link5 − 0.71·link6"), std::string::npos) << what;
+      EXPECT_EQ(what.find("·q"), std::string::npos) << what;
+    }
+  }
+}

@@ -70,6 +70,12 @@ bool scales_exactly(const MatrixX& A, const VectorX& s);
 // `llt` (n×n), by a few steps of inverse iteration (mass.cpp).
 double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n);
 
+// "the combination 0.71·upper.rx − 0.71·upper.rz" for a unit vector v over
+// the coordinates `names` (components below a tenth of the largest left out,
+// at most six shown), or "the coordinate upper.rx" when one carries almost all
+// of it: how a singular mass matrix's direction is named.
+std::string describe_combination(VectorX v, const std::vector<std::string>& names);
+
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
                      const std::vector<int>& absolute = {});
 

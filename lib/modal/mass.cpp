@@ -46,36 +46,6 @@ class LapackCholesky : public Cholesky {
 };
 
 
-// "0.71·upper.rx − 0.71·upper.rz" for a unit vector v (components below a tenth
-// of the largest are left out), or "the coordinate upper.rx" when one
-// coordinate carries almost all of it.
-std::string describe_combination(VectorX v, const std::vector<std::string>& names) {
-  Eigen::Index top = 0;
-  v.cwiseAbs().maxCoeff(&top);
-  if (v(top) < 0) v = -v;
-  const double largest = v(top);
-  if (largest > 0.995) return "the coordinate " + names[static_cast<std::size_t>(top)];
-
-  std::vector<Eigen::Index> terms;
-  for (Eigen::Index i = 0; i < v.size(); ++i)
-    if (std::abs(v(i)) >= 0.1 * largest) terms.push_back(i);
-  std::stable_sort(terms.begin(), terms.end(),
-                   [&](Eigen::Index a, Eigen::Index b) { return std::abs(v(a)) > std::abs(v(b)); });
-  std::ostringstream out;
-  out << "the combination ";
-  bool first = true;
-  const std::size_t shown = std::min<std::size_t>(terms.size(), 6);  // a message, not a dump
-  for (Eigen::Index i : std::vector<Eigen::Index>(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(shown))) {
-    const double c = v(i);
-    if (!first) out << (c < 0 ? " − " : " + ");
-    else if (c < 0) out << "−";
-    out << format_number(std::abs(c), 2) << "·" << names[static_cast<std::size_t>(i)];
-    first = false;
-  }
-  if (terms.size() > shown) out << " + … (" << terms.size() - shown << " more coordinates)";
-  return out.str();
-}
-
 // Throws SingularMassMatrix describing every eigenvector of M whose eigenvalue
 // is at most `tolerance` (at least the smallest one), as the direction S v in
 // the original coordinates when M is scaled (`scale` = s, or empty).
@@ -121,6 +91,34 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 }
 
 }  // namespace
+
+std::string describe_combination(VectorX v, const std::vector<std::string>& names) {
+  Eigen::Index top = 0;
+  v.cwiseAbs().maxCoeff(&top);
+  if (v(top) < 0) v = -v;
+  const double largest = v(top);
+  if (largest > 0.995) return "the coordinate " + names[static_cast<std::size_t>(top)];
+
+  std::vector<Eigen::Index> terms;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (std::abs(v(i)) >= 0.1 * largest) terms.push_back(i);
+  std::stable_sort(terms.begin(), terms.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return std::abs(v(a)) > std::abs(v(b)); });
+  std::ostringstream out;
+  out << "the combination ";
+  bool first = true;
+  const std::size_t shown = std::min<std::size_t>(terms.size(), 6);  // a message, not a dump
+  for (Eigen::Index i : std::vector<Eigen::Index>(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(shown))) {
+    const double c = v(i);
+    if (!first) out << (c < 0 ? " − " : " + ");
+    else if (c < 0) out << "−";
+    out << format_number(std::abs(c), 2) << "·" << names[static_cast<std::size_t>(i)];
+    first = false;
+  }
+  if (terms.size() > shown) out << " + … (" << terms.size() - shown << " more coordinates)";
+  return out.str();
+}
+
 
 // Upper bound on the smallest eigenvalue of the SPD matrix factored in `llt`
 // (n×n): 1/ρ where ρ = xᵀM⁻¹x is the Rayleigh quotient of M⁻¹ after a few

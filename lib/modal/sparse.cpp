@@ -293,26 +293,12 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
   cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;  // cholmod_solve2's reusable workspace
 };
 
-// "0.71·q3 − 0.71·q4" for the largest components of v (at most 6).
-std::string describe_combination(const VectorX& v) {
-  std::vector<Index> order(static_cast<std::size_t>(v.size()));
-  std::iota(order.begin(), order.end(), Index{0});
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return std::abs(v(a)) > std::abs(v(b)); });
-  const double largest = std::abs(v(order.front()));
-  const double sign = v(order.front()) < 0 ? -1.0 : 1.0;
-  std::ostringstream out;
-  std::size_t shown = 0, more = 0;
-  for (Index i : order) {
-    if (std::abs(v(i)) < 0.1 * largest) break;
-    if (shown == 6) { ++more; continue; }
-    const double c = sign * v(i) / v.norm();
-    if (shown > 0) out << (c < 0 ? " − " : " + ");
-    else if (c < 0) out << "−";
-    out << detail::format_number(std::abs(c), 2) << "·q" << i + 1;
-    ++shown;
-  }
-  if (more > 0) out << " + … (" << more << " more coordinates)";
-  return out.str();
+// The coordinates' names of the options, or q1 … qn.
+std::vector<std::string> coordinate_names(const SparseModalOptions& options, Index n) {
+  if (static_cast<Index>(options.coordinate_names.size()) == n) return options.coordinate_names;
+  std::vector<std::string> names;
+  for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
+  return names;
 }
 
 [[noreturn]] void singular_mass(const SparseMatrix& M, const std::string& detail_text) {
@@ -338,7 +324,8 @@ std::string describe_combination(const VectorX& v) {
 // eigenvalue is at the rounding level 16·ε·‖M‖₁ (the bound comes from a few
 // steps of inverse iteration: 1/ρ ≥ λ_min, ρ the Rayleigh quotient of M⁻¹, as
 // in mass.cpp), the direction named in the original coordinates (S x).
-std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const VectorX& scale) {
+std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const VectorX& scale,
+                                                  const std::vector<std::string>& names) {
   auto llt = std::make_unique<CholmodFactor>();
   llt->compute(M);
   if (llt->info() != Eigen::Success) singular_mass(M, "its sparse Cholesky factorization (CHOLMOD) failed");
@@ -362,7 +349,7 @@ std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const V
     singular_mass(M, "smallest eigenvalue about " + detail::format_number(rho > 0 ? 1.0 / rho : 0.0, 2) +
                          " of ‖M‖₁ = " + detail::format_number(norm1(M), 3) +
                          " (M scaled by the coordinates' inertia), at the rounding level; direction " +
-                         describe_combination(scale.cwiseProduct(x)));
+                         detail::describe_combination(scale.cwiseProduct(x).normalized(), names));
   return llt;
 }
 
@@ -794,9 +781,7 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
                                  const VectorX& scale, const Units& units) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
-  std::vector<std::string> names;
-  for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
-  const detail::Cholesky mass = detail::factor_mass(Md, names, scale);
+  const detail::Cholesky mass = detail::factor_mass(Md, coordinate_names(options, n), scale);
   ModalResult all = detail::solve_symmetric(Md, Kd, mass, {}, systematic.rows() == n ? MatrixX(systematic) : MatrixX());
 
   ModalResult result;
@@ -923,7 +908,7 @@ class SparsePencil {
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
                const SparseMatrix& shift, const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift),
-        mass_(factor_sparse_mass(M_, coordinate_scale)), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
+        mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()))), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
         mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {
     if (!is_diagonal(M_)) {
       norms_.inverse_root_diagonal = M_.diagonal().cwiseSqrt().cwiseInverse();
@@ -1594,7 +1579,7 @@ class TreeMassProduct {
 // sum of depth·6 products grows with the tree's depth, hence the factor.
 class TreeLanczosPencil {
  public:
-  explicit TreeLanczosPencil(const TreePencil& p) : p_(p), factor_(p), mass_op_(p) {
+  TreeLanczosPencil(const TreePencil& p, const std::vector<std::string>& names) : p_(p), factor_(p), mass_op_(p) {
     const VectorX ones = VectorX::Ones(p.size());
     norms_.K1 = tree_product(p, 1.0, 0.0, ones, true).maxCoeff();
     norms_.M1 = tree_product(p, 0.0, 1.0, ones, true).maxCoeff();
@@ -1603,7 +1588,7 @@ class TreeLanczosPencil {
       Index worst = 0;
       dM.minCoeff(&worst);
       throw SingularMassMatrix("the mass matrix is not positive definite: its LDLᵀ factorization through the tree "
-                               "meets a pivot that is not positive (coordinate q" + std::to_string(worst + 1) +
+                               "meets a pivot that is not positive (coordinate " + names[static_cast<std::size_t>(worst)] +
                                " has the least inertia)");
     }
     norms_.inverse_root_diagonal = dM.cwiseSqrt().cwiseInverse();
@@ -1715,7 +1700,7 @@ ModalResult solve_tree_modes(TreePencil p, const SparseModalOptions& options) {
     }
   }
   const Units units{std::ldexp(1.0, 2 * (magnitude.a - magnitude.b))};
-  TreeLanczosPencil pencil(p);
+  TreeLanczosPencil pencil(p, coordinate_names(options, n));
   ModalResult result = lanczos_modes(pencil, k, scaled_options, units);
   finish_scaled(result, magnitude, scale);
   result.solver = "matrix-free " + result.solver;

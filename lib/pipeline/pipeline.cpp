@@ -417,6 +417,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.shift = options.shift;
     so.tolerance = options.tolerance;
     so.inertia_scale = inertia_scale(sys, w, eq.q);
+    so.coordinate_names = sys.coordinate_names();
     result = solve_tree_modes(*a.tree, so);
     a.timings.emplace_back("eigen", seconds_since(last));
   } else if (sparse) {
@@ -431,6 +432,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.K_systematic_error = lin.K_systematic_error;
     so.K_equilibrium_shift = lin.K_equilibrium_shift;   // a loose equilibrium's share of the error
     so.inertia_scale = lin.inertia_scale;
+    so.coordinate_names = lin.coordinates;
     result = solve_sparse_modes(lin.K, lin.M, so);
     if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_equilibrium_shift.nonZeros() == 0)
       result.notes.push_back(fmt::format(
@@ -476,6 +478,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     a.timings.emplace_back("drawing", seconds_since(last));
   }
   a.report = make_report(sys, model.scene.file, model.scene.parameters);
+  a.report.data_files = model.scene.data_files;
   a.report.equilibria.push_back({eq, std::move(result), std::move(energy), std::move(drawing)});
   return std::move(a);  // a is the caller's, captured by reference: not copied
   });
@@ -487,6 +490,7 @@ EquilibriumSurvey equilibria(const Model& model, const EquilibriumOptions& optio
   const System& sys = model.system;
   EquilibriumSurvey survey;
   survey.report = make_report(sys, model.scene.file, model.scene.parameters);
+  survey.report.data_files = model.scene.data_files;
   const auto names = sys.coordinate_names();
   if (!sys.has_constraints() && sys.size() > large_system_coordinates)  // a documented limit, not a numerical failure
     throw InputError(fmt::format("equilibria: the multi-start search for all equilibria is for scenes of at most {} "
@@ -539,6 +543,7 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
       throw InputError("this sweep cannot run here: " + *r);
   SweepStudy study;
   study.scene_file = model.scene.file;
+  study.data_files = model.scene.data_files;
   study.axes = axes;
   SweepOptions so = options.sweep;
   so.modes = options.modes;
@@ -566,6 +571,7 @@ Simulation simulate(const Model& model, const SimulationRequest& request) {
   Simulation s;
   s.title = sys.title();
   s.scene_file = model.scene.file;
+  s.data_files = model.scene.data_files;
   s.options.duration = request.duration;
   s.options.interval = request.interval.value_or(0.0);
   s.options.tolerance = request.tolerance;
@@ -656,6 +662,7 @@ AmplitudeStudy amplitude(const Model& model, const AmplitudeRequest& request) {
   AmplitudeStudy study;
   study.title = sys.title();
   study.scene_file = model.scene.file;
+  study.data_files = model.scene.data_files;
   study.mode = request.mode;
   study.omega2 = m.omega2;
   study.tolerance = request.options.tolerance;
@@ -692,6 +699,11 @@ std::vector<std::string> output_files(Command command, const Outputs& o, bool ex
 }
 
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate) {
+  check_outputs(command, outputs, scene_file, {}, extrapolate);
+}
+
+void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file,
+                   const std::vector<std::string>& data_files, bool extrapolate) {
   if (!outputs.report.empty()) {
     if (command == Command::check)
       throw InputError("--report: check prints a summary; HTML reports are written by analyze, equilibria, sweep, "
@@ -701,7 +713,16 @@ void check_outputs(Command command, const Outputs& outputs, const std::string& s
     if (extension != ".html" && extension != ".htm")
       throw ReportError(outputs.report + ": --report writes an HTML page; give the file a name ending in .html");
   }
-  check_output_paths(output_files(command, outputs, extrapolate), {scene_file});
+  std::vector<std::string> inputs{scene_file};
+  inputs.insert(inputs.end(), data_files.begin(), data_files.end());
+  const std::vector<std::string> files = output_files(command, outputs, extrapolate);
+  if (!outputs.matrices.empty()) {
+    // A directory of files: not an input, not another output, not a file.
+    std::vector<std::string> others = files;
+    others.insert(others.end(), inputs.begin(), inputs.end());
+    check_output_directory(outputs.matrices, others);
+  }
+  check_output_paths(files, inputs);
 }
 
 void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {

@@ -152,6 +152,9 @@ struct SparseModalOptions {
   // inertia_scale): the pencil is equilibrated by it as in solve_modes
   // (LinearModel::inertia_scale). Empty: no scaling.
   VectorX inertia_scale;
+  // The coordinates' names (n), by which a singular mass matrix is described.
+  // Empty: q1 … qn.
+  std::vector<std::string> coordinate_names;
 };
 
 // The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k
