@@ -779,7 +779,7 @@ PYBIND11_MODULE(_modal, m) {
              std::optional<std::string> matrices, std::optional<std::string> report) {
             modal::Outputs o = outputs(csv, json, matrices, report);
             o.energy = !o.csv.empty() && a.report.equilibria.front().energy.has_value();
-            modal::check_outputs(modal::Command::analyze, o, a.report.scene_file);
+            modal::check_outputs(modal::Command::analyze, o, a.report.scene_file, a.report.data_files);
             std::ostringstream discard;
             modal::write_analysis(discard, a, o);
           },
@@ -905,7 +905,7 @@ PYBIND11_MODULE(_modal, m) {
           [](const modal::EquilibriumSurvey& s, std::optional<std::string> csv, std::optional<std::string> json,
              std::optional<std::string> report) {
             const modal::Outputs o = outputs(csv, json, std::nullopt, report);
-            modal::check_outputs(modal::Command::equilibria, o, s.report.scene_file);
+            modal::check_outputs(modal::Command::equilibria, o, s.report.scene_file, s.report.data_files);
             std::ostringstream discard;
             modal::write_equilibria(discard, s, o);
           },
@@ -1077,7 +1077,7 @@ PYBIND11_MODULE(_modal, m) {
           "write",
           [](const modal::SweepStudy& s, std::optional<std::string> csv, std::optional<std::string> report) {
             const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
-            modal::check_outputs(modal::Command::sweep, o, s.scene_file, !s.convergence.empty());
+            modal::check_outputs(modal::Command::sweep, o, s.scene_file, s.data_files, !s.convergence.empty());
             std::ostringstream discard;
             modal::write_sweep(discard, s, o);
           },
@@ -1146,7 +1146,7 @@ PYBIND11_MODULE(_modal, m) {
           "write",
           [](const modal::Simulation& s, std::optional<std::string> csv, std::optional<std::string> report) {
             const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
-            modal::check_outputs(modal::Command::simulate, o, s.scene_file);
+            modal::check_outputs(modal::Command::simulate, o, s.scene_file, s.data_files);
             std::ostringstream discard;
             modal::write_simulation(discard, s, o);
           },
@@ -1249,7 +1249,7 @@ PYBIND11_MODULE(_modal, m) {
           "write",
           [](const modal::AmplitudeStudy& s, std::optional<std::string> csv, std::optional<std::string> report) {
             const modal::Outputs o = outputs(csv, std::nullopt, std::nullopt, report);
-            modal::check_outputs(modal::Command::amplitude, o, s.scene_file);
+            modal::check_outputs(modal::Command::amplitude, o, s.scene_file, s.data_files);
             std::ostringstream discard;
             modal::write_amplitude(discard, s, o);
           },

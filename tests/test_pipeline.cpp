@@ -302,6 +302,57 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   }
 }
 
+// A network's data files are inputs too: no output may replace them (an
+// analyze --json and an equilibria --csv over the scene's CSV destroyed the
+// scene and exited 0). --export-matrices names a directory: refused up front
+// when it is a file or another output's path, and it holds only the matrices
+// of the model analyzed (a damped scene's D.mtx was left beside an undamped
+// one's M and K). A closed pipe is a failed write, exit status 2, not a
+// death by SIGPIPE.
+TEST_F(Pipeline, CliProtectsDataFilesAndExportDirectories) {
+  const fs::path data = dir / "data";
+  fs::create_directories(data);
+  for (const char* f : {"tower_nodes.csv", "tower_edges.csv"}) fs::copy_file(models + "data/" + f, data / f);
+  fs::copy_file(models + "network.toml", dir / "network.toml");
+  const std::string nodes = (data / "tower_nodes.csv").string(), original = slurp(data / "tower_nodes.csv");
+  const std::string network = (dir / "network.toml").string();
+  auto r = run({"analyze", network, "--json", nodes});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("overwrite an input"), std::string::npos) << r.err;
+  r = run({"equilibria", network, "--csv", (data / "tower_edges.csv").string()});
+  EXPECT_EQ(r.status, 2) << r.err;
+  r = run({"analyze", network, "--json", (dir / "." / "data" / ".." / "data" / "tower_nodes.csv").string()});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_EQ(slurp(data / "tower_nodes.csv"), original);
+  EXPECT_TRUE(run({"check", network}).status == 0);
+
+  const std::string pendulum = models + "double_pendulum.toml";
+  const fs::path prefix = dir / "c";
+  r = run({"analyze", pendulum, "--csv", prefix.string(), "--export-matrices", prefix.string() + "_modes.csv"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_FALSE(fs::exists(prefix.string() + "_modes.csv")) << "nothing is written for a refused run";
+  write(dir / "afile", "x\n");
+  r = run({"analyze", pendulum, "--export-matrices", (dir / "afile").string()});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("this path is a file"), std::string::npos) << r.err;
+  r = run({"analyze", pendulum, "--json", (dir / "mx" / "K.mtx").string(), "--export-matrices", (dir / "mx").string()});
+  EXPECT_EQ(r.status, 2) << r.err;
+  const fs::path mx = dir / "mx";
+  ASSERT_EQ(run({"analyze", models + "ziegler_damped.toml", "--export-matrices", mx.string()}).status, 0);
+  EXPECT_TRUE(fs::exists(mx / "D.mtx"));
+  ASSERT_EQ(run({"analyze", pendulum, "--export-matrices", mx.string()}).status, 0);
+  EXPECT_TRUE(fs::exists(mx / "K.mtx"));
+  EXPECT_FALSE(fs::exists(mx / "D.mtx")) << "a damping matrix the undamped model does not have";
+
+  // More output than a pipe holds, into a pipe closed after one line.
+  const std::string cmd = modal::test::quote(MODAL_BINARY) + " simulate " + modal::test::quote(pendulum) +
+                          " --duration 2 --interval 0.0001 --at 1,1 2> " + modal::test::quote((dir / "pipe.txt").string()) +
+                          " | head -1 > /dev/null; exit ${PIPESTATUS[0]}";
+  const int raw = std::system(("bash -c " + modal::test::quote(cmd)).c_str());
+  ASSERT_TRUE(WIFEXITED(raw));
+  EXPECT_EQ(WEXITSTATUS(raw), 2) << slurp(dir / "pipe.txt");
+  EXPECT_NE(slurp(dir / "pipe.txt").find("writing failed"), std::string::npos);
+}
 
 // --modes k on the dense path analyzes only the lowest k modes and those whose
 // kind a cheap estimate leaves in doubt (lib/modal/symmetric.cpp): the k

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <csignal>
 #include <iostream>
 #include <limits>
 #include <optional>
@@ -107,6 +108,17 @@ modal::Model load(const SceneArgs& s) {
   limits.allow_outside_data = s.allow_outside_data;
   if (!s.max_memory.empty()) limits.memory = modal::parse_memory_size(s.max_memory);
   return modal::load_model(s.file, s.sets, limits, *modal::parse_scene_format(s.format));
+}
+
+// The scene, with the outputs checked before it is read (against the scene
+// file) and after (against the data files it read too): nothing is computed
+// for outputs that cannot be written or would replace an input.
+modal::Model load_checked(const SceneArgs& s, modal::Command command, const modal::Outputs& outputs,
+                          bool extrapolate = false) {
+  modal::check_outputs(command, outputs, s.file, extrapolate);
+  modal::Model model = load(s);
+  modal::check_outputs(command, outputs, s.file, model.scene.data_files, extrapolate);
+  return model;
 }
 
 void add_backend_option(CLI::App* cmd, std::string& backend, const std::string& command) {
@@ -274,6 +286,9 @@ int main(int argc, char** argv) {
 #endif
   modal_program::set_memory_policy();
   modal::remove_output_temporaries_on_signals();  // an interrupt leaves the previous outputs as they were
+  // A closed pipe (modal … | head) is a failed write, reported with exit
+  // status 2 (check_written), not a death by SIGPIPE.
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{"modal — linearization and modal analysis of Lagrangian mechanical systems", "modal"};
   // Set before adding subcommands: they copy it. On a usage error, print the
   // message and the help of the command that failed.
@@ -560,8 +575,7 @@ int main(int argc, char** argv) {
     if (*analyze) {
       analyze_out.energy = ao.energy;
       ao.drawing = !analyze_out.report.empty();
-      modal::check_outputs(modal::Command::analyze, analyze_out, analyze_scene.file);
-      const modal::Model model = load(analyze_scene);
+      const modal::Model model = load_checked(analyze_scene, modal::Command::analyze, analyze_out);
       Seconds seconds{{"parse+build", since(clock)}};
       ao.solver = choose(solver, {modal::SolverChoice::automatic, modal::SolverChoice::dense,
                                   modal::SolverChoice::sparse, modal::SolverChoice::tree});
@@ -591,8 +605,7 @@ int main(int argc, char** argv) {
         return static_cast<int>(modal::ExitStatus::unstable);
       }
     } else if (*equilibria) {
-      modal::check_outputs(modal::Command::equilibria, equilibria_out, equilibria_scene.file);
-      const modal::Model model = load(equilibria_scene);
+      const modal::Model model = load_checked(equilibria_scene, modal::Command::equilibria, equilibria_out);
       modal::ProgressBar bar("equilibria", !quiet);
       eo.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::EquilibriumSurvey survey = modal::equilibria(model, eo);
@@ -604,16 +617,14 @@ int main(int argc, char** argv) {
     } else if (*sweep) {
       std::vector<modal::SweepAxis> axes;
       for (const std::string& v : varies) axes.push_back(modal::parse_vary(v));
-      modal::check_outputs(modal::Command::sweep, sweep_out, sweep_scene.file, sweep_options.extrapolate);
-      const modal::Model model = load(sweep_scene);
+      const modal::Model model = load_checked(sweep_scene, modal::Command::sweep, sweep_out, sweep_options.extrapolate);
       modal::ProgressBar bar("sweep", !quiet);
       sweep_options.sweep.progress = [&bar](int done, int total) { bar.update(done, total); };
       const modal::SweepStudy study = modal::sweep(model, axes, sweep_options);
       bar.finish();
       modal::write_sweep(std::cout, study, sweep_out);
     } else if (*simulate) {
-      modal::check_outputs(modal::Command::simulate, simulate_out, simulate_scene.file);
-      const modal::Model model = load(simulate_scene);
+      const modal::Model model = load_checked(simulate_scene, modal::Command::simulate, simulate_out);
       if (simulate_at_option->count()) sim.at = modal::parse_coordinates(model.system, "--at", simulate_at);
       if (simulate_velocity_option->count())
         sim.velocity = modal::parse_coordinates(model.system, "--velocity", simulate_velocity);
@@ -636,8 +647,7 @@ int main(int argc, char** argv) {
         files.commit();
       }
     } else if (*amplitude) {
-      modal::check_outputs(modal::Command::amplitude, amplitude_out, amplitude_scene.file);
-      const modal::Model model = load(amplitude_scene);
+      const modal::Model model = load_checked(amplitude_scene, modal::Command::amplitude, amplitude_out);
       if (amplitude_at_option->count()) amp.at = modal::parse_coordinates(model.system, "--at", amplitude_at);
       modal::ProgressBar bar("amplitude", !quiet);
       amp.options.progress = [&bar](int done, int total) { bar.update(done, total); };

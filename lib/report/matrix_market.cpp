@@ -1,6 +1,7 @@
 // Matrix Market export of linear models (`--export-matrices`).
 #include "modal/report.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <filesystem>
 #include <fstream>
@@ -46,10 +47,22 @@ namespace {
 void make_directory(const std::string& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec || !std::filesystem::is_directory(dir)) throw ReportError(dir + ": cannot create the directory");
+  if (ec || !std::filesystem::is_directory(dir))
+    throw ReportError(dir + ": cannot create the directory" + (ec ? " (" + ec.message() + ")" : std::string(": a file of this name exists")));
 }
 
 std::string in(const std::string& dir, const char* name) { return (std::filesystem::path(dir) / name).string(); }
+
+// Removes DIR's exported matrices that this export did not write.
+void remove_stale(const std::string& dir, const std::vector<std::string>& written) {
+  for (const char* name : exported_matrix_names) {
+    const std::string path = in(dir, name);
+    if (std::find(written.begin(), written.end(), path) != written.end()) continue;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(path, ec) && !std::filesystem::remove(path, ec))
+      throw ReportError(path + ": cannot remove the matrix of an earlier export (" + ec.message() + ")");
+  }
+}
 
 }  // namespace
 
@@ -66,6 +79,7 @@ std::vector<std::string> export_matrices(const std::string& dir, const LinearMod
   if (model.has_damping) put("D.mtx", model.D, true, "damping matrix D" + where);
   if (model.has_gyroscopic) put("G.mtx", model.G, false, "gyroscopic matrix G (skew)" + where);
   if (model.constrained()) put("N.mtx", model.basis, false, "null-space basis N: coordinates = N × manifold coordinates");
+  remove_stale(dir, written);
   return written;
 }
 
@@ -74,6 +88,7 @@ std::vector<std::string> export_matrices(const std::string& dir, const SparseLin
   std::vector<std::string> written{in(dir, "M.mtx"), in(dir, "K.mtx")};
   write_matrix_market(written[0], model.M, true, "mass matrix M");
   write_matrix_market(written[1], model.K, true, "stiffness matrix K");
+  remove_stale(dir, written);
   return written;
 }
 

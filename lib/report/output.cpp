@@ -160,6 +160,23 @@ void check_output_paths(const std::vector<std::string>& outputs, const std::vect
   }
 }
 
+void check_output_directory(const std::string& dir, const std::vector<std::string>& others) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw ReportError(dir + ": --export-matrices writes M.mtx, K.mtx, … into a directory, and this path is a file; "
+                      "choose a directory (it is created if it does not exist)");
+  const fs::path c = canonical_form(dir);
+  for (const std::string& o : others) {
+    if (o.empty()) continue;
+    const fs::path other = canonical_form(o);
+    if (other == c) throw ReportError(dir + ": --export-matrices names the path of another output or input of the run");
+    for (const char* name : exported_matrix_names)
+      if (other == canonical_form((fs::path(dir) / name).string()))
+        throw ReportError(o + ": an output or input of the run would be " + name + " of --export-matrices " + dir +
+                          "; choose distinct paths");
+  }
+}
+
 void remove_output_temporaries() noexcept {
   for (std::atomic<char*>& slot : live_temporaries) {
     const char* name = slot.load();

@@ -418,6 +418,7 @@ std::ifstream open_csv(const Reader& reader, const Section& s, std::string_view 
     s.fail(key, "cannot read the " + file.what + " file " + file.resolved + ": it is a device, not a file");
   std::ifstream in(file.path, std::ios::binary);
   if (!in) s.fail(key, "cannot open the " + file.what + " file " + file.resolved + ": " + std::strerror(errno));
+  reader.note_data_file(file.path);
   return in;
 }
 

@@ -82,12 +82,18 @@ class Reader {
   [[noreturn]] void fail_expression(const toml::node& node, const std::string& key, const std::string& text,
                                     int position, const std::string& message) const;
 
+  // The data files the scene reads (a network's CSV files), as resolved, in
+  // the order opened: inputs that no output of the run may replace.
+  void note_data_file(const std::string& path) const { data_files_.push_back(path); }
+  const std::vector<std::string>& data_files() const { return data_files_; }
+
  private:
   std::string file_;
   std::vector<std::string_view> lines_;  // the scene text, line by line
   Parameters parameters_;
   SceneLimits limits_;
   mutable double particles_ = 0, bodies_ = 0, springs_ = 0;  // added so far (add_to_scene)
+  mutable std::vector<std::string> data_files_;
 };
 
 // One table of the scene: reads its keys with defaults and checks.

@@ -1005,6 +1005,7 @@ Scene parse_scene(std::string_view text, const std::string& file_name, const std
   std::map<std::string, int> constraint_names;  // name → line where it is given
   for (std::size_t i = 0; i < constraints.size(); ++i)
     d.constraints.push_back(read_constraint(reader, *constraints[i], i, names, frames, constraint_names));
+  scene.data_files = reader.data_files();
   return scene;
 }
 

@@ -220,6 +220,7 @@ struct SweepStudyOptions {
 };
 struct SweepStudy {
   std::string scene_file;
+  std::vector<std::string> data_files;         // read by the scene besides itself
   std::vector<SweepAxis> axes;                 // one (a sweep) or two (a stability map)
   std::optional<SweepResult> result;           // one axis
   std::optional<StabilityMap> map;             // two axes
@@ -247,6 +248,7 @@ struct Simulation {
   SimulationOptions options;             // as integrated
   std::vector<std::string> notes;        // e.g. the start was brought onto the constraints
   std::string title, scene_file;         // of the scene (for the HTML report)
+  std::vector<std::string> data_files;   // read by the scene besides itself
 };
 // Throws InputError for a request out of range.
 Simulation simulate(const Model& model, const SimulationRequest& request);
@@ -262,6 +264,7 @@ struct AmplitudeRequest {
 };
 struct AmplitudeStudy {
   std::string title, scene_file;
+  std::vector<std::string> data_files;   // read by the scene besides itself
   int mode = 1;
   double omega2 = 0;                     // of the linear mode, rad²/s²
   AmplitudeResponse response;
@@ -293,8 +296,14 @@ enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
 // The files `command` will write for `outputs` (the sweep's extra files only
 // when `extrapolate`).
 std::vector<std::string> output_files(Command command, const Outputs& outputs, bool extrapolate = false);
-// check_output_paths on output_files, against the scene file as input.
+// check_output_paths on output_files, against the scene file and the data
+// files it read (Scene::data_files: known once the scene is read, so a caller
+// checks before reading with the scene file alone and again after) as
+// inputs; `--export-matrices` DIR must not be a file or any other output's
+// path.
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate = false);
+void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file,
+                   const std::vector<std::string>& data_files, bool extrapolate = false);
 
 // Text to `text` (checked: a failed write throws ReportError), files as asked.
 void write_analysis(std::ostream& text, const Analysis& analysis, const Outputs& outputs = {});

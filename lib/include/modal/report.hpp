@@ -88,6 +88,7 @@ struct AnalyzedEquilibrium {
 // is empty no values are shown in degrees.
 struct Report {
   std::string scene_file;
+  std::vector<std::string> data_files;  // read by the scene besides itself (inputs no output may replace)
   std::string title;
   std::vector<std::pair<std::string, double>> parameters;  // final values, file order
   std::vector<std::string> coordinates;
@@ -173,8 +174,11 @@ void write_matrix_market(const std::string& path, const SparseMatrix& A, bool sy
 // where the model has them, of the model as analyzed (constrained: the
 // matrices on the constraint manifold, with DIR/N.mtx the basis mapping them
 // to the coordinates); the directory is created. Returns the paths written.
+// Files of these names in DIR that the model does not have (D.mtx of an
+// earlier, damped scene) are removed, so that DIR describes this model alone.
 std::vector<std::string> export_matrices(const std::string& dir, const LinearModel& model);
 std::vector<std::string> export_matrices(const std::string& dir, const SparseLinearModel& model);
+inline constexpr const char* exported_matrix_names[] = {"M.mtx", "K.mtx", "D.mtx", "G.mtx", "N.mtx"};
 
 // --- JSON ---------------------------------------------------------------------
 // `modal analyze`: {scene, title, parameters{name: value}, coordinates[names],
@@ -326,6 +330,10 @@ class ProgressBar {
 // that is given twice. Call it before a long computation, so that a bad path
 // costs nothing.
 void check_output_paths(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs = {});
+// Refuses (ReportError) a directory of exported matrices (export_matrices)
+// that exists as something other than a directory, or that is, or would
+// hold a file that is, one of `others` (the run's other outputs and inputs).
+void check_output_directory(const std::string& dir, const std::vector<std::string>& others);
 // The files one run writes. commit() writes each to a temporary file beside
 // its target and, only when all were written completely, renames them into
 // place: either every file is replaced or none (on failure the temporaries

@@ -62,6 +62,7 @@ ParameterOverride parse_override(std::string_view text);
 
 struct Scene {
   std::string file;                                       // as given
+  std::vector<std::string> data_files;                    // files the scene read besides itself (a network's CSV files), as resolved
   SystemDescription description;                          // validated, generators expanded
   std::vector<std::pair<std::string, double>> parameters; // final values, file order
   std::vector<SourceLocation> body_locations;             // parallel to description.bodies
