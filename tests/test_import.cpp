@@ -668,6 +668,13 @@ TEST(Import, UnsupportedElementsAreRefusedWithNameAndLine) {
                             "</worldbody>\n</mujoco>";
   EXPECT_NE(scene_error(limit).find("bad.xml:4: joint 'pivot': its limit is active"), std::string::npos)
       << scene_error(limit);
+  // Inside its range but not inside it narrowed by the margin: the message
+  // quotes the narrowed range that refuses it.
+  const std::string margin = "<mujoco>\n<compiler angle=\"radian\"/><worldbody>\n<body name=\"link\">\n<joint "
+                             "name=\"pivot\" axis=\"0 1 0\" limited=\"true\" range=\"-0.5 1\" margin=\"0.625\"/>"
+                             "<geom size=\"0.1\" mass=\"1\" pos=\"0 0 -1\"/></body>\n</worldbody>\n</mujoco>";
+  EXPECT_NE(scene_error(margin).find("narrowed by its margin 0.625 to [0.125, 0.375]"), std::string::npos)
+      << scene_error(margin);
   const std::string equality = "<mujoco>\n<worldbody>\n" + pendulum_body +
                                "\n</worldbody>\n<equality>\n<weld name=\"loop\" body1=\"link\"/>"
                                "\n</equality>\n</mujoco>";
@@ -707,12 +714,19 @@ TEST(Import, DisplayOnlyModelsAreRefusedWithWhatIsMissing) {
       "link=\"base\"/><child link=\"wheel\"/><axis xyz=\"0 1 0\"/>\n</joint>\n</robot>\n";
   const std::string massless = scene_error(urdf, "display.urdf");
   EXPECT_EQ(massless.rfind("display.urdf:3: ", 0), 0u) << massless;  // the link's line
-  EXPECT_NE(massless.find("link 'wheel' moves, but has no <inertial> with mass and inertia"), std::string::npos)
-      << massless;
+  EXPECT_NE(massless.find("link 'wheel' moves, but has no <inertial>"), std::string::npos) << massless;
   const std::string body = scene_error(
       "<mujoco><worldbody>\n<body name=\"arm\"><joint axis=\"0 1 0\"/><geom size=\"0.1\" mass=\"0\"/></body>\n"
       "</worldbody></mujoco>");
-  EXPECT_NE(body.find("body 'arm' moves, but has no mass"), std::string::npos) << body;
+  EXPECT_NE(body.find("body 'arm' moves, but its mass or a principal moment of inertia is below"), std::string::npos)
+      << body;
+  // A point mass: an <inertial> with mass but no inertia. The message must not
+  // say it has no mass or no <inertial>.
+  const std::string point = scene_error(
+      "<mujoco><worldbody>\n<body name=\"p\"><joint axis=\"0 1 0\"/><inertial pos=\"0 0 -1\" mass=\"2\" "
+      "diaginertia=\"0 0 0\"/></body>\n</worldbody></mujoco>");
+  EXPECT_NE(point.find("a point mass a small diaginertia"), std::string::npos) << point;
+  EXPECT_EQ(point.find("has no mass"), std::string::npos) << point;
   const std::string fixed =
       scene_error("<robot name=\"r\">\n<link name=\"a\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" "
                   "izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n<link name=\"b\"><inertial><mass "

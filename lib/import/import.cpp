@@ -295,7 +295,13 @@ void Importer::check_unsupported() const {
       if (!(q0 > lo + m_.jnt_margin[j] && q0 < hi - m_.jnt_margin[j]))
         refuse(mjOBJ_JOINT, j, "joint",
                "its limit is active in the written configuration (" + number(q0) + " is not inside the range [" +
-                   number(lo) + ", " + number(hi) + "]): a limit has no linear model" + rewrite);
+                   number(lo) + ", " + number(hi) + "]" +
+                   (m_.jnt_margin[j] == 0.0 ? std::string()
+                    : lo + m_.jnt_margin[j] < hi - m_.jnt_margin[j]
+                        ? " narrowed by its margin " + number(m_.jnt_margin[j]) + " to [" + number(lo + m_.jnt_margin[j]) +
+                              ", " + number(hi - m_.jnt_margin[j]) + "]"
+                        : " narrowed by its margin " + number(m_.jnt_margin[j]) + " to nothing") +
+                   "): a limit has no linear model" + rewrite);
     }
   }
   if (m_.opt.viscosity != 0.0 || (m_.opt.density != 0.0 && (m_.opt.wind[0] != 0.0 || m_.opt.wind[1] != 0.0 ||
@@ -536,10 +542,12 @@ ImportedScene import_model(std::string_view text, const std::string& file, Scene
       body = body.substr(0, body.find(','));
       if (line == 0) line = line_of(text, format == SceneFormat::urdf ? "link" : "body", body);
       message += format == SceneFormat::urdf
-                     ? " (link '" + body + "' moves, but has no <inertial> with mass and inertia: a URDF written "
-                       "for display only; give every moving link an <inertial>)"
-                     : " (body '" + body + "' moves, but has no mass: give it an <inertial>, or geoms with mass or "
-                       "density)";
+                     ? " (link '" + body + "' moves, but has no <inertial>, as a URDF written for display only, or "
+                       "its mass or a principal moment of inertia is below MuJoCo's minimum 1e-15: give every "
+                       "moving link an <inertial>, and a point mass a small inertia, e.g. ixx = iyy = izz = 1e-9)"
+                     : " (body '" + body + "' moves, but its mass or a principal moment of inertia is below MuJoCo's "
+                       "minimum 1e-15: give it an <inertial> (a point mass a small diaginertia, e.g. \"1e-9 1e-9 "
+                       "1e-9\"), or geoms with mass or density)";
     }
     // Meshes MuJoCo cannot read (ROS models' Collada files); modal needs a
     // link's geometry only for mass properties an <inertial> does not give.
