@@ -258,6 +258,12 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   r = run({"analyze", "/dev/zero"});
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+  // A difference step below ε vanishes against q = π (q + h = q): refused as
+  // input, not a 0/0 blamed on the model.
+  r = run({"analyze", scene, "--at", "3.141592653589793,3.141592653589793", "--derivatives", "central", "--step",
+           "1e-17"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("vanishes against a coordinate"), std::string::npos) << r.err;
   r = run({"analyze", scene, "--modes", "0"});
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("must be a whole number ≥ 1, got '0'"), std::string::npos) << r.err;

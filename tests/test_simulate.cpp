@@ -261,7 +261,7 @@ TEST(Simulate, OptionsAreChecked) {
     b.interval = bad;
     EXPECT_THROW(simulate(s, q, q, b), std::invalid_argument) << bad;
   }
-  for (double bad : {0.0, -1e-12, 1.0, std::nan("")}) {
+  for (double bad : {0.0, -1e-12, 1.0, std::nan(""), 1e-20}) {  // 1e-20: below a step's rounding
     SimulationOptions b = o;
     b.tolerance = bad;
     EXPECT_THROW(simulate(s, q, q, b), std::invalid_argument) << bad;

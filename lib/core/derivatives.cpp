@@ -1923,10 +1923,11 @@ namespace {
 // must lie in (0, max_step_factor].
 double checked_step_factor(DerivativeMethod method, double factor, const char* what) {
   if (factor == 0) return default_step_factor(method);
-  if (!(factor > 0 && factor <= max_step_factor)) {
-    char text[160];
-    std::snprintf(text, sizeof text, "%s: the step factor must be above 0 and at most %g, got %g", what,
-                  max_step_factor, factor);
+  const double least = method == DerivativeMethod::complex_step ? 0.0 : min_difference_step_factor;
+  if (!(factor > least && factor <= max_step_factor) && !(factor == least && least > 0)) {
+    char text[200];
+    std::snprintf(text, sizeof text, "%s: the step factor must be %s %g and at most %g, got %g", what,
+                  least > 0 ? "at least" : "above", least, max_step_factor, factor);
     throw std::invalid_argument(text);
   }
   return factor;

@@ -379,6 +379,12 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     throw InputError(fmt::format("--step {:g}: the step factor must be above 0 and at most {:g} (a tenth of a radian "
                                  "or of the scene's length scale); larger steps do not measure a derivative",
                                  options.step_factor, max_step_factor));
+  if (options.step_factor > 0 && options.step_factor < min_difference_step_factor &&
+      (options.derivatives == DerivativeMethod::central || options.derivatives == DerivativeMethod::forward))
+    throw InputError(fmt::format("--step {:g}: a difference step below {:g} (the spacing of doubles near 1) vanishes "
+                                 "against a coordinate away from 0 (q + h = q), and the difference is 0/0; the default "
+                                 "{:.1e} balances truncation against rounding",
+                                 options.step_factor, min_difference_step_factor, default_step_factor(options.derivatives)));
   if (options.derivatives == DerivativeMethod::complex_step && sys.is_map())
     throw InputError("--derivatives complex-step: not available for kinematic maps (their expressions are "
                      "evaluated in real arithmetic); use exact, central or forward");
@@ -580,8 +586,10 @@ Simulation simulate(const Model& model, const SimulationRequest& request) {
     throw InputError(fmt::format("--duration must be a finite number > 0 (seconds), got {:g}", request.duration));
   if (request.interval && !(std::isfinite(*request.interval) && *request.interval > 0))
     throw InputError(fmt::format("--interval must be a finite number > 0 (seconds), got {:g}", *request.interval));
-  if (!(request.tolerance > 0 && request.tolerance < 1))
-    throw InputError(fmt::format("--tolerance must lie in (0, 1), got {:g}", request.tolerance));
+  if (!(request.tolerance >= min_simulation_tolerance && request.tolerance < 1))
+    throw InputError(fmt::format("--tolerance must lie in [{:g}, 1), got {:g}: a per-step error bound below the "
+                                 "rounding of a step cannot be met (the integrator only takes more steps)",
+                                 min_simulation_tolerance, request.tolerance));
   for (const auto& [given, option] : {std::pair{&request.at, "--at"}, std::pair{&request.velocity, "--velocity"}})
     if (*given && (*given)->size() != sys.size())
       throw InputError(fmt::format("{} expects {} values ({}), got {}", option, sys.size(),

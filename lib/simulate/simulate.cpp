@@ -32,8 +32,8 @@ void check_options(const System& s, const VectorX& q0, const VectorX& qd0, const
   if (!std::isfinite(o.interval) || o.interval < 0)
     throw std::invalid_argument("simulate: the output interval must be a finite number > 0 s (0: duration/1000), got " +
                                 number(o.interval));
-  if (!(o.tolerance > 0 && o.tolerance < 1))
-    throw std::invalid_argument("simulate: the tolerance must lie in (0, 1), got " + number(o.tolerance));
+  if (!(o.tolerance >= min_simulation_tolerance && o.tolerance < 1))
+    throw std::invalid_argument("simulate: the tolerance must lie in [1e-15, 1), got " + number(o.tolerance));
 }
 
 // Output times: k·interval while below the duration, then the duration itself.

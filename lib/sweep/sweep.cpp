@@ -592,6 +592,10 @@ SweepAxis parse_vary(std::string_view text) {
   axis.count = static_cast<int>(points);
   if (axis.from == axis.to)
     throw SweepInputError(expected + got + " (FROM and TO are equal: nothing to sweep)");
+  if (!std::isfinite(axis.to - axis.from))
+    throw SweepInputError("--vary " + axis.name + ": the range from " + std::string(parts[0]) + " to " +
+                          std::string(parts[1]) + " is wider than a double holds (TO − FROM overflows); sweep a "
+                          "narrower range");
   return axis;
 }
 

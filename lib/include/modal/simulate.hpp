@@ -68,10 +68,14 @@
 
 namespace modal {
 
+// The smallest per-step error bound accepted: below it the bound is under the
+// rounding of a step, and the integrator only takes more steps.
+inline constexpr double min_simulation_tolerance = 1e-15;
+
 struct SimulationOptions {
   double duration = 0;       // s, end time (the motion starts at t = 0); > 0, finite
   double interval = 0;       // s, spacing of the output samples, > 0; 0: duration / 1000
-  double tolerance = 1e-12;  // per-step relative (and scaled absolute) error bound, in (0, 1)
+  double tolerance = 1e-12;  // per-step relative (and scaled absolute) error bound, in [min_simulation_tolerance, 1)
   // Called as output samples are reached (done of total; about 200 calls in
   // all, the last with done = total); none when empty. The CLI's progress bar.
   std::function<void(int done, int total)> progress = nullptr;
