@@ -258,6 +258,20 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   r = run({"analyze", "/dev/zero"});
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+  // CLI11's texts that were not sentences, and a user's text quoted whole.
+  r = run({"analyze", scene, "--modes", "2", "--modes", "3"});
+  EXPECT_EQ(r.err.rfind("modal analyze: --modes: given 2 times; give it once", 0), 0u) << r.err;
+  r = run({"analyze", scene, "--modes"});
+  EXPECT_EQ(r.err.rfind("modal analyze: --modes: needs a value (INT)", 0), 0u) << r.err;
+  r = run({"analyze", scene, "--foo", "bar", "baz"});
+  EXPECT_EQ(r.err.rfind("modal analyze: not an option or argument of this command: --foo bar baz", 0), 0u) << r.err;
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"analyze", scene, "--modes", std::string(100000, '9')},
+        std::vector<std::string>{"check", scene, "--set", "m1=" + std::string(100000, '1')}}) {
+    r = run(args);
+    EXPECT_NE(r.status, 0);
+    EXPECT_LT(r.err.size(), 2000u) << r.err.substr(0, 300);
+  }
   // A difference step below ε vanishes against q = π (q + h = q): refused as
   // input, not a 0/0 blamed on the model.
   r = run({"analyze", scene, "--at", "3.141592653589793,3.141592653589793", "--derivatives", "central", "--step",

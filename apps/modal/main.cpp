@@ -21,6 +21,7 @@
 #include <iostream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -239,7 +240,19 @@ std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
   }
   for (const std::string_view unexpected : {"The following argument was not expected: ",
                                             "The following arguments were not expected: "})
-    if (what.starts_with(unexpected)) what = "not an option or argument of this command: " + what.substr(unexpected.size());
+    if (what.starts_with(unexpected)) {
+      // CLI11 lists them last first: in the order given.
+      std::vector<std::string> given;
+      std::istringstream words(what.substr(unexpected.size()));
+      for (std::string w; words >> w;) given.insert(given.begin(), w);
+      what = "not an option or argument of this command:";
+      for (const std::string& w : given) what += " " + w;
+    }
+  // "--modes: At Most 1 required but received 2", "--modes: 1 required INT missing".
+  if (const auto at = what.find(": At Most 1 required but received "); at != std::string::npos)
+    what = what.substr(0, at) + ": given " + what.substr(at + 34) + " times; give it once";
+  if (const auto at = what.find(": 1 required "); at != std::string::npos && what.ends_with(" missing"))
+    what = what.substr(0, at) + ": needs a value (" + what.substr(at + 13, what.size() - at - 13 - 8) + ")";
   const bool top = !app->get_subcommands({}).empty();  // the program itself: a command missing or misspelt
   std::vector<std::string> rest = top ? app->remaining() : std::vector<std::string>{};
   if (top && !rest.empty() && !rest.front().starts_with("-")) {
@@ -251,7 +264,7 @@ std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
   }
   std::string command = "modal";
   if (app->get_parent() != nullptr) command += " " + app->get_name();
-  std::string out = command + ": " + modal::printable(what) + "\n";
+  std::string out = command + ": " + modal::abridged(modal::printable(what)) + "\n";
   const auto formatter = std::dynamic_pointer_cast<CLI::Formatter>(app->get_formatter());
   for (const std::string& word : option_words(what)) {
     if (word == "--help") continue;

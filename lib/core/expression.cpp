@@ -63,9 +63,9 @@ bool is_digit(char c) { return c >= '0' && c <= '9'; }
 std::string describe(const Token& t) {
   switch (t.kind) {
     case Kind::end: return "the end of the expression";
-    case Kind::number: return "number '" + std::string(t.text) + "'";
-    case Kind::name: return "name '" + std::string(t.text) + "'";
-    default: return "'" + std::string(t.text) + "'";
+    case Kind::number: return "number '" + excerpt(t.text, 0, 40) + "'";
+    case Kind::name: return "name '" + excerpt(t.text, 0, 40) + "'";
+    default: return "'" + excerpt(t.text, 0, 40) + "'";
   }
 }
 
@@ -158,15 +158,15 @@ class Parser {
     if (pos_ < text_.size() && text_[pos_] == '.') ok = false;  // 1.2.3
     if (!ok) {
       while (pos_ < text_.size() && (is_name_char(text_[pos_]) || text_[pos_] == '.')) ++pos_;
-      fail("malformed number '" + std::string(text_.substr(start, pos_ - start)) + "'", static_cast<int>(start));
+      fail("malformed number '" + excerpt(text_.substr(start, pos_ - start), 0, 40) + "'", static_cast<int>(start));
     }
     token_.kind = Kind::number;
     token_.text = text_.substr(start, pos_ - start);
     const auto [end, error] = std::from_chars(token_.text.data(), token_.text.data() + token_.text.size(), token_.value);
     if (error == std::errc::result_out_of_range)
-      fail("number '" + std::string(token_.text) + "' is out of range", static_cast<int>(start));
+      fail("number '" + excerpt(token_.text, 0, 40) + "' is out of range", static_cast<int>(start));
     if (error != std::errc() || end != token_.text.data() + token_.text.size())
-      fail("malformed number '" + std::string(token_.text) + "'", static_cast<int>(start));
+      fail("malformed number '" + excerpt(token_.text, 0, 40) + "'", static_cast<int>(start));
   }
 
   // --- code emission with constant folding ------------------------------------
@@ -293,7 +293,7 @@ class Parser {
       fail("'" + std::string(n) + "' is a function: write " + std::string(n) + "(...)", t.position);
     std::vector<std::string> candidates = variables_;
     candidates.emplace_back("pi");
-    fail("unknown name '" + std::string(n) + "'" + did_you_mean(n, candidates), t.position);
+    fail("unknown name '" + excerpt(n, 0, 40) + "'" + did_you_mean(n, candidates), t.position);
   }
 
   void call(const Token& t) {
@@ -301,7 +301,7 @@ class Parser {
     if (f == nullptr) {
       if (std::find(variables_.begin(), variables_.end(), t.text) != variables_.end())
         fail("'" + std::string(t.text) + "' is a variable, not a function", t.position);
-      fail("unknown function '" + std::string(t.text) + "'" + did_you_mean(t.text, function_names()), t.position);
+      fail("unknown function '" + excerpt(t.text, 0, 40) + "'" + did_you_mean(t.text, function_names()), t.position);
     }
     const int open_position = token_.position;
     advance();  // '('
@@ -411,6 +411,16 @@ std::vector<std::string> close_matches(std::string_view name, const std::vector<
     if (std::find(matches.begin(), matches.end(), candidates[i]) == matches.end()) matches.push_back(candidates[i]);
   }
   return matches;
+}
+
+std::string excerpt(std::string_view text, std::size_t position, std::size_t width) {
+  if (text.size() <= width) return std::string(text);
+  auto continuation = [&](std::size_t i) { return i < text.size() && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80; };
+  std::size_t from = position > width / 2 ? std::min(position - width / 2, text.size() - width) : 0;
+  while (from > 0 && continuation(from)) --from;
+  std::size_t to = std::min(from + width, text.size());
+  while (continuation(to)) ++to;
+  return (from > 0 ? "…" : "") + std::string(text.substr(from, to - from)) + (to < text.size() ? "…" : "");
 }
 
 std::string did_you_mean(std::string_view name, const std::vector<std::string>& candidates) {

@@ -1,6 +1,7 @@
 // lib/pipeline/pipeline.cpp — the whole pipeline behind one header
 // (modal/pipeline.hpp): what every `modal` subcommand computes and writes.
 #include "modal/pipeline.hpp"
+#include "modal/expression.hpp"
 #include "modal/energy.hpp"
 
 #include <fmt/format.h>
@@ -227,14 +228,28 @@ std::string raw_error_message(const std::exception& error) {
 }
 }  // namespace
 
+std::string abridged(const std::string& line) {
+  constexpr std::size_t longest = 200;
+  std::string out;
+  for (std::size_t at = 0; at < line.size();) {
+    const std::size_t blank = std::min(line.find(' ', at), line.size());
+    const std::string_view word = std::string_view(line).substr(at, blank - at);
+    out += word.size() > longest ? excerpt(word, 0, 80) + " (" + std::to_string(word.size()) + " characters)"
+                                 : std::string(word);
+    if (blank < line.size()) out += ' ';
+    at = blank + 1;
+  }
+  return out;
+}
+
 std::string error_message(const std::exception& error) {
   // No control character of a user's text reaches the terminal; the line
-  // breaks of a message of several lines are kept.
+  // breaks of a message of several lines are kept; a text quoted whole is cut.
   const std::string raw = raw_error_message(error);
   std::string message;
   for (std::size_t from = 0;;) {
     const std::size_t end = raw.find('\n', from);
-    message += printable(std::string_view(raw).substr(from, end == std::string::npos ? end : end - from));
+    message += abridged(printable(std::string_view(raw).substr(from, end == std::string::npos ? end : end - from)));
     if (end == std::string::npos) return message;
     message += '\n';
     from = end + 1;

@@ -66,7 +66,8 @@ class Resolver {
     try {
       return Expression::parse(text, names_);
     } catch (const ExpressionError& e) {
-      fail(d, "in \"" + text + "\" at " + std::to_string(e.position() + 1) + ": " + e.what());
+      fail(d, "in \"" + excerpt(text, static_cast<std::size_t>(std::max(e.position(), 0))) + "\" at " +
+                  std::to_string(e.position() + 1) + ": " + e.what());
     }
   }
 

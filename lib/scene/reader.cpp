@@ -111,7 +111,8 @@ void Reader::fail(const toml::node& node, const std::string& key, const std::str
 void Reader::fail_expression(const toml::node& node, const std::string& key, const std::string& text,
                              int position, const std::string& message) const {
   throw SceneError(location_in_string(node, position), key,
-                   "in \"" + text + "\" at " + std::to_string(position + 1) + ": " + message);
+                   "in \"" + excerpt(text, static_cast<std::size_t>(std::max(position, 0))) + "\" at " +
+                       std::to_string(position + 1) + ": " + message);
 }
 
 double Reader::number(const toml::node& node, const std::string& key, Range range) const {

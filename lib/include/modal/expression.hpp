@@ -78,6 +78,11 @@ class Expression {
   std::string text_;
 };
 
+// At most `width` characters of `text` around byte `position` (whole UTF-8
+// sequences), with "…" where it is cut: how a message quotes a user's text,
+// which may be 100 000 characters long.
+std::string excerpt(std::string_view text, std::size_t position = 0, std::size_t width = 60);
+
 // Candidates close to `name` (small edit distance, or differing only in case),
 // closest first: the suggestions of "did you mean …?" messages.
 std::vector<std::string> close_matches(std::string_view name, const std::vector<std::string>& candidates);

@@ -98,6 +98,11 @@ ExitStatus exit_status(const std::exception& error);
 // ("file:line:column: key: reason"), a NumericalError as "modal: numerical
 // failure: …", out of memory as "modal: out of memory …", others "modal: …".
 std::string error_message(const std::exception& error);
+// `line` with every run of more than 200 non-blank bytes (a user's text
+// quoted whole: a 100 000-character name or number) cut to its first 80
+// characters and its length, as error_message and the CLI's usage errors
+// print it.
+std::string abridged(const std::string& line);
 
 // --- the model -------------------------------------------------------------------
 
