@@ -42,8 +42,11 @@ std::vector<double> sample_times(const SimulationOptions& o) {
   const double ratio = o.duration / interval;
   // The (1 − 1e-12) absorbs the rounding of duration/interval for an exact multiple.
   if (!(ratio < static_cast<double>(max_simulation_samples)))
-    throw std::invalid_argument("simulate: duration / interval = " + number(ratio) + " samples, more than the " +
-                                std::to_string(max_simulation_samples) + " allowed");
+    throw std::invalid_argument(
+        "simulate: " +
+        (ratio < 1e15 ? std::to_string(static_cast<long long>(std::ceil(ratio * (1 - 1e-12))) + 1) : number(ratio)) +
+        " samples (the start, then one every interval to the duration), more than the " +
+        std::to_string(max_simulation_samples) + " allowed; give a longer interval or a shorter duration");
   const auto count = std::max<long>(1, static_cast<long>(std::ceil(ratio * (1 - 1e-12))));
   std::vector<double> times{0.0};
   for (long k = 1; k < count; ++k) {
