@@ -118,7 +118,7 @@ modal::Model load_checked(const SceneArgs& s, modal::Command command, const moda
                           bool extrapolate = false) {
   modal::check_outputs(command, outputs, s.file, extrapolate);
   modal::Model model = load(s);
-  modal::check_outputs(command, outputs, s.file, model.scene.data_files, extrapolate);
+  modal::check_outputs_spare_data(command, outputs, model.scene.data_files, extrapolate);
   return model;
 }
 

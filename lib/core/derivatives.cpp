@@ -1886,8 +1886,6 @@ std::vector<PoseRate> body_pose_rates(const System& s, const VectorX& q, const V
   return rates;
 }
 
-
-
 // --- derivatives by differences (DerivativeMethod) ------------------------------
 
 const char* to_string(DerivativeMethod method) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <stdexcept>
 #include <cmath>
+#include <numbers>
 
 namespace modal {
 
@@ -143,7 +144,7 @@ void System::build_map() {
       if (c.kind == CoordinateKind::length && m.coordinates[static_cast<std::size_t>(kept_[k])].kind) continue;
       if (&q != &samples.front() && !c.periodic) continue;  // already found not to repeat
       VectorX turned = q;
-      turned[static_cast<Eigen::Index>(k)] += 2 * 3.14159265358979323846;
+      turned[static_cast<Eigen::Index>(k)] += 2 * std::numbers::pi;
       const MapEnergies e = map_energies(*this, turned, 0.0, 0.0);
       c.periodic = e.finite && energy_difference(ref, e).empty();
       if (!m.coordinates[static_cast<std::size_t>(kept_[k])].kind) c.kind = c.periodic ? CoordinateKind::angle : CoordinateKind::length;

@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 namespace modal::model {
@@ -250,7 +251,7 @@ inline bool geodesic_joint_spring(const Body& body) {
   return body.joint == JointType::ball && body.stiffness != 0.0 && body.rest.size() == 3 && body.rest.isZero(0.0);
 }
 // The whole turns n of the geodesic spring at rotation-vector length t.
-inline double spring_turns(double t) { return std::round(t / (2 * 3.14159265358979323846)); }
+inline double spring_turns(double t) { return std::round(t / (2 * std::numbers::pi)); }
 
 // ∂/∂q of the joint spring energy at the joint's coordinates qj (nq of
 // them): add(i, ∂V/∂q_i) for each. For any scalar (exact derivatives).
@@ -259,7 +260,7 @@ template <class R, class Add> void joint_spring_gradient(const Body& body, const
   if (geodesic_joint_spring(body)) {
     const R t = sqrt(qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2]);
     if (const double n = spring_turns(value(t)); n != 0) {
-      const R ratio = (t - 2 * 3.14159265358979323846 * n) / t;  // θ/‖φ‖
+      const R ratio = (t - 2 * std::numbers::pi * n) / t;  // θ/‖φ‖
       for (int i = 0; i < 3; ++i) add(i, R(body.stiffness * ratio * qj[i]));
       return;
     }
@@ -274,7 +275,7 @@ template <class Add> void joint_spring_hessian(const Body& body, const double* q
   if (geodesic_joint_spring(body)) {
     const double t = std::sqrt(qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2]);
     if (const double n = spring_turns(t); n != 0) {
-      const double ratio = (t - 2 * 3.14159265358979323846 * n) / t;
+      const double ratio = (t - 2 * std::numbers::pi * n) / t;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           add(i, j, body.stiffness * ((i == j ? ratio : 0.0) + (1 - ratio) * (qj[i] / t) * (qj[j] / t)));
@@ -291,7 +292,7 @@ template <class S> S joint_spring_energy(const Body& body, const S* qj, int nq) 
   if (geodesic_joint_spring(body)) {
     const S t2 = qj[0] * qj[0] + qj[1] * qj[1] + qj[2] * qj[2];
     if (const double n = spring_turns(std::sqrt(value(t2))); n != 0) {
-      const S theta = sqrt(t2) - 2 * 3.14159265358979323846 * n;
+      const S theta = sqrt(t2) - 2 * std::numbers::pi * n;
       return 0.5 * body.stiffness * theta * theta;
     }
   }

@@ -110,7 +110,6 @@ VectorX constraint_multipliers(const System& s, Workspace& ws, const VectorX& q,
   return mult;
 }
 
-
 }  // namespace
 
 LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions& options) {

@@ -75,6 +75,8 @@ double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n);
 // at most six shown), or "the coordinate upper.rx" when one carries almost all
 // of it: how a singular mass matrix's direction is named.
 std::string describe_combination(VectorX v, const std::vector<std::string>& names);
+// `names` when it names n coordinates, else q1 … qn (mass.cpp).
+std::vector<std::string> names_or_default(const std::vector<std::string>& names, Eigen::Index n);
 
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
                      const std::vector<int>& absolute = {});

@@ -45,7 +45,6 @@ class LapackCholesky : public Cholesky {
   }
 };
 
-
 // Throws SingularMassMatrix describing every eigenvector of M whose eigenvalue
 // is at most `tolerance` (at least the smallest one), as the direction S v in
 // the original coordinates when M is scaled (`scale` = s, or empty).
@@ -92,6 +91,13 @@ class LapackCholesky : public Cholesky {
 
 }  // namespace
 
+std::vector<std::string> names_or_default(const std::vector<std::string>& names, Eigen::Index n) {
+  if (static_cast<Eigen::Index>(names.size()) == n) return names;
+  std::vector<std::string> q;
+  for (Eigen::Index i = 0; i < n; ++i) q.push_back("q" + std::to_string(i + 1));
+  return q;
+}
+
 std::string describe_combination(VectorX v, const std::vector<std::string>& names) {
   Eigen::Index top = 0;
   v.cwiseAbs().maxCoeff(&top);
@@ -118,7 +124,6 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
   if (terms.size() > shown) out << " + … (" << terms.size() - shown << " more coordinates)";
   return out.str();
 }
-
 
 // Upper bound on the smallest eigenvalue of the SPD matrix factored in `llt`
 // (n×n): 1/ρ where ρ = xᵀM⁻¹x is the Rayleigh quotient of M⁻¹ after a few

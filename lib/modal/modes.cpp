@@ -52,11 +52,10 @@ void make_symmetric(MatrixX& A) {
 
 // The model's coordinate names, or q1 … qn when it has none.
 std::vector<std::string> coordinate_labels(const LinearModel& model, Eigen::Index n) {
-  if (!model.constrained() && static_cast<Eigen::Index>(model.coordinates.size()) == n) return model.coordinates;
+  if (!model.constrained()) return detail::names_or_default(model.coordinates, n);
   std::vector<std::string> names;
   for (Eigen::Index i = 0; i < n; ++i)
-    names.push_back(model.constrained() ? "direction " + std::to_string(i + 1) + " of the constraint manifold"
-                                        : "q" + std::to_string(i + 1));
+    names.push_back("direction " + std::to_string(i + 1) + " of the constraint manifold");
   return names;
 }
 

@@ -295,10 +295,7 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
 
 // The coordinates' names of the options, or q1 … qn.
 std::vector<std::string> coordinate_names(const SparseModalOptions& options, Index n) {
-  if (static_cast<Index>(options.coordinate_names.size()) == n) return options.coordinate_names;
-  std::vector<std::string> names;
-  for (Index i = 0; i < n; ++i) names.push_back("q" + std::to_string(i + 1));
-  return names;
+  return detail::names_or_default(options.coordinate_names, n);
 }
 
 [[noreturn]] void singular_mass(const SparseMatrix& M, const std::string& detail_text) {
@@ -1508,7 +1505,6 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                     {"eigen-solution", std::chrono::duration<double>(std::chrono::steady_clock::now() - factored).count()}};
   return result;
 }
-
 
 // ------------------------------------------------------------ matrix-free
 

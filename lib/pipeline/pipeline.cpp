@@ -748,6 +748,13 @@ void check_outputs(Command command, const Outputs& outputs, const std::string& s
   check_output_paths(files, inputs);
 }
 
+void check_outputs_spare_data(Command command, const Outputs& outputs, const std::vector<std::string>& data_files,
+                              bool extrapolate) {
+  if (data_files.empty()) return;
+  check_not_inputs(output_files(command, outputs, extrapolate), data_files);
+  if (!outputs.matrices.empty()) check_output_directory(outputs.matrices, data_files);
+}
+
 void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
   if (!o.matrices.empty() && a.tree)
     throw InputError("--export-matrices: the matrix-free path (--solver tree) forms no matrices; a chain of this "

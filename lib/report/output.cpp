@@ -136,8 +136,7 @@ void end_renames() {
 
 }  // namespace
 
-void check_output_paths(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs) {
-  std::vector<fs::path> seen;
+void check_not_inputs(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs) {
   std::vector<fs::path> in;
   for (const std::string& i : inputs) in.push_back(canonical_form(i));
   for (const std::string& out : outputs) {
@@ -145,6 +144,15 @@ void check_output_paths(const std::vector<std::string>& outputs, const std::vect
     const fs::path c = canonical_form(out);
     for (const fs::path& i : in)
       if (c == i) throw ReportError(out + ": this output would overwrite an input of the run; choose another path");
+  }
+}
+
+void check_output_paths(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs) {
+  check_not_inputs(outputs, inputs);
+  std::vector<fs::path> seen;
+  for (const std::string& out : outputs) {
+    if (out.empty()) continue;
+    const fs::path c = canonical_form(out);
     for (const fs::path& s : seen)
       if (c == s) throw ReportError(out + ": given as two outputs of the same run; choose distinct paths");
     seen.push_back(c);

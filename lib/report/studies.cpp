@@ -266,7 +266,6 @@ std::string amplitude_csv(const AmplitudeResponse& r) {
   return out;
 }
 
-
 void print_amplitude(std::ostream& out, const std::string& title, const std::string& file, int mode, double omega2,
                      const AmplitudeResponse& r, double tolerance) {
   const char* unit = r.kind == CoordinateKind::length ? "m" : "rad";

@@ -584,7 +584,7 @@ inline constexpr double max_step_factor = 0.1;
 // The least step factor of differences (central, forward): ε. Below it the
 // step h = factor·max(|q_j|, unit) can vanish against q_j (q + h = q) and
 // the difference is 0/0. Complex steps take any positive factor.
-inline constexpr double min_difference_step_factor = 2.220446049250313e-16;
+inline constexpr double min_difference_step_factor = std::numeric_limits<double>::epsilon();
 
 // The generalized force at rest f(q) = ∇V(q) − Q(q, 0) − ∇c(q)ᵀ s (n), whose
 // zero is an equilibrium and whose Jacobian is the stiffness K; s are fixed

@@ -303,12 +303,17 @@ enum class Command { analyze, equilibria, sweep, simulate, amplitude, check };
 std::vector<std::string> output_files(Command command, const Outputs& outputs, bool extrapolate = false);
 // check_output_paths on output_files, against the scene file and the data
 // files it read (Scene::data_files: known once the scene is read, so a caller
-// checks before reading with the scene file alone and again after) as
-// inputs; `--export-matrices` DIR must not be a file or any other output's
+// checks before reading with the scene file alone and after with
+// check_outputs_spare_data) as inputs; `--export-matrices` DIR must not be a file or any other output's
 // path.
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file, bool extrapolate = false);
 void check_outputs(Command command, const Outputs& outputs, const std::string& scene_file,
                    const std::vector<std::string>& data_files, bool extrapolate = false);
+// For a caller that ran check_outputs with the scene file alone before reading
+// the scene: the outputs against the data files it read, the one check that
+// could not be made before (no second writability probe).
+void check_outputs_spare_data(Command command, const Outputs& outputs, const std::vector<std::string>& data_files,
+                              bool extrapolate = false);
 
 // Text to `text` (checked: a failed write throws ReportError), files as asked.
 void write_analysis(std::ostream& text, const Analysis& analysis, const Outputs& outputs = {});

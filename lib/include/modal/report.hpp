@@ -330,6 +330,9 @@ class ProgressBar {
 // that is given twice. Call it before a long computation, so that a bad path
 // costs nothing.
 void check_output_paths(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs = {});
+// Refuses (ReportError) an output that is also one of `inputs`: the comparison
+// of check_output_paths alone, for inputs known only once a scene is read.
+void check_not_inputs(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs);
 // Refuses (ReportError) a directory of exported matrices (export_matrices)
 // that exists as something other than a directory, or that is, or would
 // hold a file that is, one of `others` (the run's other outputs and inputs).
