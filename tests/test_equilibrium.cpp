@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 namespace {
 
@@ -337,6 +338,59 @@ TEST(Equilibrium, AFamilyOfEquilibriaIsReportedOnce) {
   std::sort(separations.begin(), separations.end());
   EXPECT_NEAR(separations[0], -L, 1e-12);
   EXPECT_NEAR(separations[1], L, 1e-12);
+}
+
+TEST(Equilibrium, ACircleOfEquilibriaIsReportedOnce) {
+  // A body on a ball joint with a second body hinged off its axis, under
+  // gravity: V is unchanged by a turn of the whole about the vertical through
+  // the pivot, so each equilibrium is a circle of them, which passes through
+  // no body's centre of mass and is no straight line in the coordinates. The
+  // reference, in closed form: with c(h) the first moment of mass about the
+  // pivot at hinge angle h, the ball balances when c is vertical (V = ∓g|c|)
+  // and the hinge when |c| is extremal. c(h) = f + R(h)r, with r ⊥ the axis a,
+  // turns r round a circle: |c|² = |f|² + |r|² ± 2|r||f⊥| at the extremes
+  // (f⊥ the part of f across a). Four circles, four rows, whatever the
+  // geometry and masses (20 random scenes, masses over two decades).
+  std::mt19937 rng(20261127);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto vec3 = [&] { return Vec3(u(rng), u(rng), u(rng)); };
+  const double g = 9.81;
+  for (int trial = 0; trial < 20; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -g);
+    Body p;
+    p.name = "p";
+    p.joint = JointType::ball;
+    p.mass = std::pow(10.0, u(rng));
+    p.com = vec3();
+    p.inertia = 0.01 * Mat3::Identity();
+    Body c;
+    c.name = "c";
+    c.parent = 0;
+    c.joint = JointType::hinge;
+    c.axis = vec3().normalized();
+    c.origin = vec3();
+    c.mass = std::pow(10.0, u(rng));
+    c.com = vec3();
+    c.inertia = 0.01 * Mat3::Identity();
+    const Vec3 a = c.axis;
+    const Vec3 f = p.mass * p.com + c.mass * (c.origin + a * a.dot(c.com));
+    const Vec3 r = c.mass * (c.com - a * a.dot(c.com));
+    const double f_across = (f - a * a.dot(f)).norm();
+    const double high = std::sqrt(f.squaredNorm() + r.squaredNorm() + 2 * r.norm() * f_across);
+    const double low = std::sqrt(std::max(0.0, f.squaredNorm() + r.squaredNorm() - 2 * r.norm() * f_across));
+    if (low < 0.05 * high || f_across < 0.05 * high || r.norm() < 0.05 * high) {
+      --trial;  // |c| near 0, or |c| nearly constant in h: a degenerate scene, drawn again
+      continue;
+    }
+    d.bodies = {p, c};
+    const System s(d);
+    const std::vector<Equilibrium> all = find_equilibria(s);
+    ASSERT_EQ(all.size(), 4u);
+    const double expected[4] = {-g * high, -g * low, g * low, g * high};
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(all[static_cast<std::size_t>(i)].potential, expected[i], 1e-10 * g * high);
+  }
 }
 
 }  // namespace

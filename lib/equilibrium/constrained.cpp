@@ -369,7 +369,7 @@ std::vector<Equilibrium> find_constrained_equilibria(const System& s, const Equi
   }
   if (!all.feasible) throw NumericalError(infeasible_message(k, all.best_projection, all.starts));
   if (all.found.empty()) throw NumericalError(no_equilibrium(k, all.best_failure, all.starts));
-  deduplicate_and_sort(s, all.found);
+  deduplicate_and_sort(s, options, all.found);
   return all.found;
 }
 

@@ -346,7 +346,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
     if (all.have_failure && all.best_failure.residual < best.residual) best = all.best_failure;
     throw NumericalError(no_equilibrium_message(p, best, all.starts + 1));
   }
-  deduplicate_and_sort(s, all.found);
+  deduplicate_and_sort(s, options, all.found);
   std::size_t nearest = 0;
   double dmin = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < all.found.size(); ++i) {
@@ -370,7 +370,7 @@ std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptio
   Problem p(s);
   SearchResult all = search(p, options);
   if (all.found.empty()) throw NumericalError(no_equilibrium_message(p, all.best_failure, all.starts));
-  deduplicate_and_sort(s, all.found);
+  deduplicate_and_sort(s, options, all.found);
   return all.found;
 }
 

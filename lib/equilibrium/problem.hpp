@@ -95,9 +95,11 @@ bool prefers_sparse_equilibrium(const System& s, const VectorX& start);
 Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options);
 
 // Keeps the candidate with the smaller residual among those closer than
-// configuration_distance 1e-6 (angles modulo 2π), then sorts by potential and
+// configuration_distance 1e-6 (angles modulo 2π), one member of each
+// continuous family (the one nearest the initial configuration; polishes
+// with `options` test curved families), then sorts by potential and
 // coordinates.
-void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list);
+void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, std::vector<Equilibrium>& list);
 
 // "no equilibrium found: …" naming the coordinates that carry the unbalanced
 // generalized force at the best point reached.

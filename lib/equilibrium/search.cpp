@@ -14,6 +14,7 @@
 // O(n·depth + n²)) + the polishes (a few O(n³) steps each).
 #include "equilibrium/problem.hpp"
 
+#include <Eigen/SVD>
 #include <nlopt.hpp>
 
 #include <algorithm>
@@ -21,6 +22,7 @@
 #include <exception>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 namespace modal::equilibrium_detail {
 namespace {
@@ -225,9 +227,17 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
 // hinge): equal potential, and the segment between them (angles the short way
 // round) is made of equilibria. A curved family fails the segment test and is
 // left to the point-signature test; the cost is three residuals per pair.
+// The scale against which two equilibria's potentials are compared.
+double potential_scale(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
+  return std::max({std::abs(a.potential), std::abs(b.potential), force_scale(s, w, a.q)});
+}
+
+bool equal_potential(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
+  return std::abs(a.potential - b.potential) <= 1e-10 * potential_scale(s, w, a, b);
+}
+
 bool same_straight_family(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
-  const double scale = std::max({std::abs(a.potential), std::abs(b.potential), force_scale(s, w, a.q)});
-  if (!(std::abs(a.potential - b.potential) <= 1e-10 * scale)) return false;
+  if (!equal_potential(s, w, a, b)) return false;
   VectorX d = b.q - a.q;
   for (int i = 0; i < s.size(); ++i)
     if (s.coordinates()[static_cast<std::size_t>(i)].periodic &&
@@ -242,9 +252,58 @@ bool same_straight_family(const System& s, Workspace& w, const Equilibrium& a, c
   return true;
 }
 
+// Whether a and b lie on one curved family of equilibria (a turn about the
+// vertical through a pivot that swings a body off the axis round a circle,
+// which is no straight line in the coordinates): the family is traced from a,
+// each way, by steps along the null direction of the Jacobian (the tangent
+// of the family) each polished back onto the equilibria, until b is reached.
+// Steps are measured and their sense kept in the positions of the points the
+// potential sees (potential_points), which do not change with a rotation
+// vector's chart. A trace gives up where the Jacobian has no null direction
+// (an isolated equilibrium), a polish fails or lands at another potential or
+// far from the step's target, the family closes on itself, or after 100
+// steps of a sixteenth of the distance from a to b each way. The cost, only
+// for pairs of equal potential that the other tests did not join: up to 200
+// polishes and singular value decompositions of n × n.
+bool same_curved_family(const System& s, Workspace& w, const EquilibriumOptions& options, const Equilibrium& a,
+                        const Equilibrium& b, double scale) {
+  if (s.has_constraints()) return false;  // the null direction of J would leave the constraint manifold
+  Problem p(s);
+  const VectorX pa = potential_points(s, w, a.q);
+  const VectorX pb = potential_points(s, w, b.q);
+  const double h = (pb - pa).norm() / 16;
+  if (!(h > 0)) return false;
+  for (const double sense : {1.0, -1.0}) {
+    VectorX q = a.q;
+    VectorX pq = pa;
+    VectorX last_step;  // of the points
+    for (int step = 0; step < 100; ++step) {
+      const Eigen::JacobiSVD<MatrixX> svd(p.jacobian(q), Eigen::ComputeFullV);
+      const VectorX& sigma = svd.singularValues();
+      if (sigma.size() == 0 || !(sigma(sigma.size() - 1) <= 1e-6 * sigma(0))) break;
+      VectorX z = svd.matrixV().col(sigma.size() - 1);
+      // The points' motion along z, by a difference of a millionth of a step.
+      const double eps = 1e-6 * h;
+      const VectorX dp = (potential_points(s, w, q + eps * z) - pq) / eps;
+      if (!(dp.norm() > 0)) break;  // z moves nothing V sees
+      const double direction = last_step.size() == 0 ? sense : (dp.dot(last_step) >= 0 ? 1.0 : -1.0);
+      Polished next = polish(p, q + direction * (h / dp.norm()) * z, options);
+      if (!next.converged || !(std::abs(next.best.potential - a.potential) <= 1e-10 * scale)) break;
+      const VectorX pn = potential_points(s, w, next.best.q);
+      if (!((pn - pq).norm() <= 3 * h)) break;
+      last_step = pn - pq;
+      q = next.best.q;
+      pq = pn;
+      if ((pq - pb).norm() <= h / 2) return true;
+      if (step > 2 && (pq - pa).norm() <= h / 2) break;  // round the family and back to a without meeting b
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
-void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
+void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, std::vector<Equilibrium>& list) {
   Workspace w(s);
   const VectorX q0 = s.initial_configuration();
   std::vector<Equilibrium> kept;
@@ -258,7 +317,8 @@ void deduplicate_and_sort(const System& s, std::vector<Equilibrium>& list) {
         if (e.residual < k.residual) k = e;
         duplicate = true;
       } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale() ||
-                 same_straight_family(s, w, e, k)) {
+                 same_straight_family(s, w, e, k) ||
+                 (equal_potential(s, w, e, k) && same_curved_family(s, w, options, e, k, potential_scale(s, w, e, k)))) {
         // Another member of the same continuous family: keep the representative
         // nearest the initial configuration.
         if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) k = e;
