@@ -110,6 +110,20 @@ TEST(Equilibrium, NearestEquilibriumWhateverItsStability) {
   EXPECT_EQ(morse_index(dp, up.q), 2);
 }
 
+TEST(Equilibrium, SaysWhatMovedTheStartBeforeNewton) {
+  // The iteration count is Newton's (the polish); steps before it are named,
+  // so that "0 Newton iterations" never stands for an equilibrium that another
+  // method found.
+  const System s = pendulum(1.5, 0.8, 9.81);
+  const Equilibrium at_rest = find_equilibrium(s, vec({0}));
+  EXPECT_EQ(at_rest.iterations, 0);
+  EXPECT_EQ(at_rest.method, "");
+  const Equilibrium moved = find_equilibrium(s, vec({1.2}));
+  EXPECT_LT(configuration_distance(s, moved.q, vec({0})), 1e-10);
+  EXPECT_NE(moved.method.find("Levenberg–Marquardt on the residual ("), std::string::npos) << moved.method;
+  EXPECT_NE(moved.method.find("), then Newton"), std::string::npos) << moved.method;
+}
+
 // k(θ − θr) + m g l sin θ = 0, the only root (f' = k + mgl cos θ changes sign
 // only where f > 0 for these values), bracketed in [0, θr].
 TEST(Equilibrium, JointSpringWithOffsetRestAngleMatchesBisection) {

@@ -183,8 +183,10 @@ namespace {
 // (lengths / length scale), with each step also limited to 0.5 (rad or length
 // scales) so the iteration stays near the start and converges to the nearby
 // equilibrium whatever its stability (it solves r = 0; it does not minimize V).
-// Returns the point reached; the caller polishes it.
-VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options) {
+// Returns the point reached, and in `steps` the steps taken; the caller
+// polishes it.
+VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options, int& steps) {
+  steps = 0;
   const System& s = p.system();
   const VectorX scale = coordinate_scales(s);
   VectorX q = canonical_coordinates(s, start);
@@ -214,6 +216,7 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
         q = canonical_coordinates(s, qt);
         mu = std::max(mu / 4, 1e-300);
         accepted = true;
+        ++steps;
         break;
       }
       mu *= 4;
@@ -337,9 +340,16 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
   if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
   if (prefers_sparse_equilibrium(s, start)) return find_large_equilibrium(s, start, options);
   Problem p(s);
-  const VectorX local = levenberg_marquardt(p, start, options);
+  int steps = 0;
+  const VectorX local = levenberg_marquardt(p, start, options, steps);
   Polished pol = polish(p, local, options);
-  if (pol.converged) return pol.best;
+  if (pol.converged) {
+    // Newton's iterations are counted by the polish; say what moved the start before it.
+    if (steps > 0)
+      pol.best.method = "Levenberg–Marquardt on the residual (" + std::to_string(steps) + " step" +
+                        (steps == 1 ? "" : "s") + "), then Newton";
+    return pol.best;
+  }
   SearchResult all = search(p, options);
   if (all.found.empty()) {
     Equilibrium best = pol.best;
@@ -347,6 +357,7 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
     throw NumericalError(no_equilibrium_message(p, best, all.starts + 1));
   }
   deduplicate_and_sort(s, options, all.found);
+  const std::size_t count = all.found.size();
   std::size_t nearest = 0;
   double dmin = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < all.found.size(); ++i) {
@@ -356,7 +367,11 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
       nearest = i;
     }
   }
-  return all.found[nearest];
+  Equilibrium& e = all.found[nearest];
+  e.method = "a multi-start search (the nearest to the start of " + std::to_string(count) + " equilibri" +
+             (count == 1 ? "um" : "a") + " found from " + std::to_string(all.starts) +
+             " starts, each moved by NLopt's L-BFGS on ½‖∇V − Q‖²), then Newton";
+  return e;
 }
 
 std::vector<Equilibrium> find_equilibria(const System& s, const EquilibriumOptions& options) {

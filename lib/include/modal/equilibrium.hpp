@@ -111,7 +111,11 @@ struct Equilibrium {
   // forces); 0 for redundant equations. Empty without constraints.
   VectorX multipliers;
   double constraint_violation = 0;  // ‖c(q)‖, m
-  std::string method;  // how a large scene's equilibrium was found (empty otherwise)
+  // How the start was moved before Newton's iterations (`iterations`): a
+  // large scene's solver, Levenberg–Marquardt steps, the multi-start search
+  // (find_equilibrium); empty when Newton alone found it, and for the rows of
+  // find_equilibria.
+  std::string method;
   // Large scenes: the fill-reducing pivot order (order[k] = the k-th
   // coordinate) that CHOLMOD's analysis chose for ∇∇V. K − σM has the same
   // pattern, so SparseModalOptions::fill_reducing_order can reuse it and
