@@ -258,6 +258,25 @@ TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   r = run({"analyze", "/dev/zero"});
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+  // An empty scene name, a --csv prefix that ends in a directory (it wrote
+  // DIR/_modes.csv), help that lists status 3 only where --require-stable is.
+  r = run({"check", ""});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("'': the scene file's name is empty"), std::string::npos) << r.err;
+  r = run({"analyze", scene, "--csv", dir.string() + "/"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("ends in a directory"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "_modes.csv"));
+  EXPECT_NE(run({"analyze", "--help"}).out.find("3 unstable under analyze --require-stable"), std::string::npos);
+  for (const char* command : {"equilibria", "sweep", "check", "simulate", "amplitude", "convert"}) {
+    const std::string help = run({command, "--help"}).out;
+    EXPECT_NE(help.find("Exit status: 0 success, 1 usage, 2 bad scene or input, 4 numerical failure."),
+              std::string::npos)
+        << command << ": " << help;
+  }
+  r = run({"analyze", scene, "--timing"});
+  EXPECT_NE(r.err.find("timing: peak memory"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\t'), std::string::npos) << r.err;
   // CLI11's texts that were not sentences, and a user's text quoted whole.
   r = run({"analyze", scene, "--modes", "2", "--modes", "3"});
   EXPECT_EQ(r.err.rfind("modal analyze: --modes: given 2 times; give it once", 0), 0u) << r.err;

@@ -149,6 +149,8 @@ TEST(scene_errors, Joints) {
 TEST(scene_errors, Chains) {
   const std::string chain = "[[chain]]\nname = \"c\"\nmass = 1\n";  // lines 1-3
   check_error(chain + "length = 1\nlinks = 2.5\n", {5, 9, "chain[1].links", "must be an integer, got 2.5"});
+  check_error(chain + "length = 1\nlinks = 200000\n",
+              {5, 9, "chain[1].links", "at most 100000 links are supported, got 200000"});
   check_error(chain + "length = 1\nlinks = \"3 - 3\"\n", {5, 9, "chain[1].links", "must be at least 1, got 0"});
   check_error(chain + "length = 1\nlinks = 3\naxis = [0, 1, 0]\ndirection = [0, -2, 0]\n",
               {7, 13, "chain[1].direction", "parallel to its hinge axis"});

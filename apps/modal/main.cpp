@@ -72,6 +72,34 @@ CLI::Validator between(double low, double high, bool whole = false) {
       "");
 }
 
+// A number in [low, high): "must be a number from 1e-15 up to (not
+// including) 1".
+CLI::Validator from_below(double low, double high) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end != text.c_str() && *end == '\0' && v >= low && v < high) return {};
+        return "must be a number from " + CLI::detail::to_string(low) + " up to (not including) " +
+               CLI::detail::to_string(high) + ", got '" + text + "'";
+      },
+      "");
+}
+
+// A memory size modal::parse_memory_size reads (4G, 512M, bytes).
+CLI::Validator memory_size() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          modal::parse_memory_size(text);
+          return {};
+        } catch (const modal::InputError&) {
+          return "must be a size such as 4G, 512M or a number of bytes above 0, got '" + text + "'";
+        }
+      },
+      "");
+}
+
 struct SceneArgs {
   std::string file;
   std::vector<std::string> sets;
@@ -100,7 +128,8 @@ void add_scene_options(CLI::App* cmd, SceneArgs& s) {
   cmd->add_option("--max-memory", s.max_memory,
                   "memory the scene and the command may use, e.g. 4G or 512M (default: what the machine has "
                   "available); larger work is refused before it starts")
-      ->type_name("SIZE");
+      ->type_name("SIZE")
+      ->check(memory_size());
   add_format_option(cmd, s.format);
 }
 
@@ -312,7 +341,7 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet,-q", quiet, "no progress bar on stderr (errors, warnings and --timing are still printed)");
   app.fallthrough();  // --quiet after the command's name too
   app.footer(
-      "Exit status: 0 success, 1 usage, 2 bad scene or input, 3 unstable under --require-stable, "
+      "Exit status: 0 success, 1 usage, 2 bad scene or input, 3 unstable under analyze --require-stable, "
       "4 numerical failure.\n");
 
   // --- analyze ---
@@ -474,19 +503,24 @@ int main(int argc, char** argv) {
       "integrate the nonlinear equations of motion from the initial configuration (or --at) and write the "
       "trajectory with its energy as CSV");
   add_scene_options(simulate, simulate_scene);
-  simulate->add_option("--duration", sim.duration, "end time of the motion, s")->type_name("T")->required();
+  simulate->add_option("--duration", sim.duration, "end time of the motion, s")
+      ->type_name("T")
+      ->required()
+      ->check(positive());
   CLI::Option* simulate_at_option = simulate->add_option(
       "--at", simulate_at, "initial configuration q1,q2,... (taken as given; default: the scene's initial values)");
   CLI::Option* simulate_velocity_option =
       simulate->add_option("--velocity", simulate_velocity, "initial velocities v1,v2,... (default: 0)");
   CLI::Option* simulate_interval_option =
       simulate->add_option("--interval", simulate_interval, "spacing of the output samples, s (default: T/1000)")
-          ->type_name("DT");
+          ->type_name("DT")
+          ->check(positive());
   simulate
       ->add_option("--tolerance", sim.tolerance,
                    "error bound per integration step, relative and absolute (default: " +
                        CLI::detail::to_string(modal::SimulationOptions{}.tolerance) + ")")
-      ->type_name("TOL");
+      ->type_name("TOL")
+      ->check(from_below(modal::min_simulation_tolerance, 1));
   simulate->add_option("--csv", simulate_out.csv, "write the trajectory to FILE instead of standard output")
       ->type_name("FILE");
   simulate
@@ -540,6 +574,9 @@ int main(int argc, char** argv) {
   convert->add_option("SCENE", convert_file, "the model file (MJCF, URDF; a TOML scene is copied)")->required();
   convert->add_option("-o,--output", convert_output, "write the TOML scene to FILE")->type_name("FILE");
   add_format_option(convert, convert_format);
+  // Status 3 is analyze's alone (--require-stable).
+  for (CLI::App* command : {equilibria, sweep, check, simulate, amplitude, convert})
+    command->footer("Exit status: 0 success, 1 usage, 2 bad scene or input, 4 numerical failure.\n");
 
   try {
     app.parse(argc, argv);

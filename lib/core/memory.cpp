@@ -30,6 +30,7 @@ std::string format_bytes(double bytes) {
     ++u;
   }
   char text[64];
+  if (u == 0 && std::round(bytes) == 1) return "1 byte";
   std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.3g %s", bytes, units[u]);
   return text;
 }

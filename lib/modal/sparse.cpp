@@ -784,8 +784,11 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
   ModalResult result;
   result.stability = classify(all.modes);  // every mode is known
   result.morse_index = all.morse_index;
-  result.solver = all.solver + " — dense fallback of solve_sparse_modes (n = " + std::to_string(n) + ", k = " +
-                  std::to_string(k) + (n <= dense_limit ? ": n ≤ 200)" : ": k ≥ n − 1)");
+  result.solver = all.solver + " (dense: " +
+                  (n <= dense_limit ? std::to_string(n) + " coordinates, at most " + std::to_string(dense_limit) +
+                                          ", are solved whole"
+                                    : std::to_string(k) + " modes of " + std::to_string(n) + " asked, all but at most one") +
+                  ")";
   std::vector<Mode> modes = std::move(all.modes);
   if (options.shift) {
     const double sigma = *options.shift;

@@ -736,6 +736,10 @@ void check_outputs(Command command, const Outputs& outputs, const std::string& s
     if (extension != ".html" && extension != ".htm")
       throw ReportError(outputs.report + ": --report writes an HTML page; give the file a name ending in .html");
   }
+  if (command == Command::analyze && !outputs.csv.empty() && outputs.csv.back() == '/')
+    throw ReportError(outputs.csv + ": --csv takes a prefix of the files' names, and this one ends in a directory "
+                      "(the files would be named _modes.csv, _shapes.csv, … in it); give a prefix such as " +
+                      (std::filesystem::path(outputs.csv) / "run").string() + " (run_modes.csv, …)");
   std::vector<std::string> inputs{scene_file};
   inputs.insert(inputs.end(), data_files.begin(), data_files.end());
   const std::vector<std::string> files = output_files(command, outputs, extrapolate);

@@ -310,7 +310,11 @@ void print_timings(std::ostream& out, const std::vector<std::pair<std::string, d
   out << fmt::format("timing: {:<16} {:>12.3f} ms\n", "total", 1e3 * total);
   std::ifstream status("/proc/self/status");
   for (std::string line; std::getline(status, line);)
-    if (line.rfind("VmHWM:", 0) == 0) out << "timing: peak memory    " << line.substr(6) << '\n';
+    if (line.rfind("VmHWM:", 0) == 0) {
+      // "VmHWM:\t  123456 kB": the number and unit without the tab and padding.
+      const std::size_t from = line.find_first_not_of(" \t", 6);
+      out << fmt::format("timing: {:<16} {:>15}\n", "peak memory", from == std::string::npos ? "" : line.substr(from));
+    }
 }
 
 }  // namespace modal

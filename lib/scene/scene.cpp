@@ -246,7 +246,9 @@ std::vector<BodyEntry> read_chain(const Reader& reader, const toml::table& table
   const double links_value = s.required_number("links");
   if (links_value != std::floor(links_value)) s.fail("links", "must be an integer, got " + format_number(links_value));
   if (links_value < 1) s.fail("links", "must be at least 1, got " + format_number(links_value));
-  if (links_value > max_links) s.fail("links", "at most " + format_number(max_links) + " links are supported");
+  if (links_value > max_links)
+    s.fail("links", "at most " + std::to_string(reader.limits().links) + " links are supported, got " +
+                        scene_detail::count_text(links_value));
   const int links = static_cast<int>(links_value);
   reader.add_to_scene(*s.find("links"), s.key("links"), "the chain", 0, links, 0);
 
@@ -1014,6 +1016,9 @@ double scene_memory(double particles, double bodies, double springs) {
 }
 
 std::string read_scene_file(const std::string& path) {
+  if (path.empty())
+    throw SceneError(SourceLocation{"''", 0, 0}, "",
+                     "the scene file's name is empty; give the path of a scene (.toml) or model (.xml, .urdf)");
   const SourceLocation where{path, 0, 0};
   std::error_code ec;
   const std::filesystem::file_status status = std::filesystem::status(path, ec);

@@ -450,12 +450,15 @@ TEST_F(Hostile, TheAutomaticSolverTakesThePathThatFits) {
   EXPECT_EQ(dense.status, 2) << dense.err;
   EXPECT_NE(dense.err.find("--solver sparse) fits"), std::string::npos) << dense.err;
   for (const char* size : {"0", "-1G", "4X", "G", "nan"}) {
+    // A value the option never takes: a usage error (1), read with the command line.
     const Outcome bad = run({"analyze", scene, "--max-memory", size});
-    EXPECT_EQ(bad.status, 2) << size;
-    EXPECT_NE(bad.err.find("--max-memory must be a size"), std::string::npos) << bad.err;
+    EXPECT_EQ(bad.status, 1) << size;
+    EXPECT_NE(bad.err.find("--max-memory: must be a size such as 4G"), std::string::npos) << bad.err;
   }
   EXPECT_EQ(modal::parse_memory_size("4G"), 4e9);
   EXPECT_EQ(modal::parse_memory_size("512MB"), 512e6);
+  EXPECT_EQ(modal::format_bytes(1), "1 byte");
+  EXPECT_EQ(modal::format_bytes(2), "2 bytes");
 }
 
 std::string lattices_scene(int count, const std::string& size) {
