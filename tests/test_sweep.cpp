@@ -183,6 +183,26 @@ TEST(Sweep, InvertedPendulumDivergenceAtMgl) {
   EXPECT_LT(c.evaluations, 30);  // interpolation, not 30 bisections
 }
 
+TEST(Sweep, AChangeNearZeroOfAHugeRangeIsNotCalledRefinedToTheTolerance) {
+  // k from 0 to 1e300 in 3 points: the change at mgl = 9.81 lies far below
+  // the floor 1e-6·range of the bracket's width, so its bracket stays wider
+  // than 1e-10 of its value. The result must say so, with the interval, and
+  // still contain the true value.
+  const double mgl = 9.81;
+  const modal::SweepResult r = modal::sweep(inverted_pendulum(), "ip.toml", {}, modal::parse_vary("k=0:1e300:3"));
+  ASSERT_EQ(r.critical.size(), 1u);
+  const modal::CriticalValue& c = r.critical[0];
+  EXPECT_LE(std::abs(c.value - mgl), c.error);
+  bool said = false;
+  for (const std::string& note : r.notes)
+    said = said || (note.find("lies within 1e-6 of the swept range") != std::string::npos &&
+                    note.find("rather than 1e-10 of the value") != std::string::npos);
+  EXPECT_TRUE(said);
+  // Within the range's resolution the usual sweep has no such note.
+  const modal::SweepResult usual = modal::sweep(inverted_pendulum(), "ip.toml", {}, modal::parse_vary("k=0:20:21"));
+  for (const std::string& note : usual.notes) EXPECT_EQ(note.find("lies within 1e-6"), std::string::npos) << note;
+}
+
 TEST(Sweep, DownwardSweepAndGridPointOnTheCriticalValue) {
   // k = 9.81 is a grid value here (zero mode: marginal); the two changes around
   // it are one critical value.

@@ -84,7 +84,8 @@ void print_sweep(std::ostream& out, const SweepResult& r, const std::string& fil
   if (r.critical.empty()) {
     out << "No change of stability class between " << g(ax.from, 10) << " and " << g(ax.to, 10) << ".\n";
   } else {
-    out << fmt::format("Critical values (class changes, refined to {:.0e} relative):\n", tolerance);
+    out << fmt::format("Critical values (class changes, refined to {:.0e} relative, or {:.0e} of the range near 0):\n",
+                       tolerance, 1e-6 * tolerance);
     for (const CriticalValue& c : r.critical) out << "  " << describe_critical(c, ax.name) << '\n';
   }
   for (const std::string& note : r.notes) out << "note: " << note << '\n';

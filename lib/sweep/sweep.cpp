@@ -468,6 +468,15 @@ CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a,
     const double slope = std::abs(decided_fb - decided_fa) / std::abs(decided_b - decided_a);
     if (secant && slope > 0 && std::isfinite(slope)) c.error = std::max(c.error, undecided_error / slope);
   }
+  if (c.refined && std::abs(b - a) > options.tolerance * std::max(std::abs(a), std::abs(b)))
+    // Refined to the absolute floor near 0, not to the tolerance of the value:
+    // say so, with the interval a narrower sweep would search.
+    notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) +
+                    " lies within 1e-6 of the swept range (" + short_text(span) +
+                    ") from 0, where the refinement stops at " + short_text(1e-6 * options.tolerance) +
+                    " of the range rather than " + short_text(options.tolerance) + " of the value: it lies between " +
+                    short_text(std::min(a, b)) + " and " + short_text(std::max(a, b)) +
+                    "; sweep that interval to locate it further");
   if (!c.refined && c.evaluations >= options.max_evaluations)
     notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) + " was not refined to the tolerance within " +
                     std::to_string(options.max_evaluations) + " evaluations");
