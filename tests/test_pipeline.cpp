@@ -247,6 +247,20 @@ TEST_F(Pipeline, SceneFilesThatAreNotRegularFilesAreRefused) {
 
 // The CLI end to end on the same guarantees: refusals before computing,
 // a failed stdout is an error, option errors read as sentences.
+TEST_F(Pipeline, ComplexShapeColumnsLineUp) {
+  // amplitude@phase cells run to 16 characters; the columns were 12 wide
+  // and every longer cell pushed the rest of its row out of line.
+  const auto r = run({"analyze", models + "arm7.xml"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::size_t at = r.out.find("Mode shapes (amplitude@phase");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  std::istringstream table(r.out.substr(r.out.find('\n', at) + 1));
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(table, line) && !line.empty();) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 8u);  // the heading and seven joints
+  for (const std::string& line : lines) EXPECT_EQ(line.size(), lines.front().size()) << line;
+}
+
 TEST_F(Pipeline, CliRefusesBadPathsAndReportsFailedOutput) {
   const std::string scene = models + "double_pendulum.toml";
   auto r = run({"analyze", scene, "--json", scene});

@@ -363,8 +363,14 @@ TEST_F(SimulateCli, DefaultsToStandardOutputAndAThousandIntervals) {
   ASSERT_EQ(rows.size(), 1002u);
   EXPECT_EQ(rows[0].back(), "energy_error");
   EXPECT_EQ(std::stod(rows.back()[0]), 5.0);
-  EXPECT_NE(r.err.find("not conserved"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("E need not be conserved"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("work"), std::string::npos) << r.err;
+  // At rest with a follower load, nothing moves: no "not conserved: 0 J to
+  // 0 J" and no relative error over 0 J.
+  const Outcome rest = simulate_cli({models + "ziegler.toml", "--duration", "1"});
+  ASSERT_EQ(rest.status, 0) << rest.err;
+  EXPECT_NE(rest.err.find("nothing moved and no force did work"), std::string::npos) << rest.err;
+  EXPECT_EQ(rest.err.find("/ 0 J"), std::string::npos) << rest.err;
 }
 
 TEST_F(SimulateCli, BadInputAndUsage) {

@@ -245,13 +245,19 @@ std::string extrapolation_csv(const std::vector<ModeConvergence>& conv) {
 void print_simulation_summary(std::ostream& err, const Trajectory& tr, const SimulationOptions& o) {
   err << fmt::format("simulate: {:g} s, {} steps ({} rejected, {} evaluations), {} samples, tolerance {:g}\n",
                      tr.time.back(), tr.steps, tr.rejected_steps, tr.evaluations, tr.size(), o.tolerance);
+  if (tr.energy_scale == 0) {
+    // E0 = 0, no motion and no work: a relative error of 0 over 0 J says nothing.
+    err << fmt::format("simulate: nothing moved and no force did work: E stayed 0 J{}, the balance held exactly\n",
+                       tr.conservative ? "" : " and the work of the dampers and follower loads is 0 J");
+    return;
+  }
   if (tr.conservative) {
     err << fmt::format("simulate: energy E0 = {:.10g} J conserved to a relative error of {:.2g} "
                        "(max |E - E0| / {:.6g} J)\n",
                        tr.energy.front(), tr.max_energy_error, tr.energy_scale);
     return;
   }
-  err << fmt::format("simulate: energy is not conserved (dampers or follower loads): E went from {:.10g} J to "
+  err << fmt::format("simulate: dampers or follower loads act, so E need not be conserved: E went from {:.10g} J to "
                      "{:.10g} J, the work of the non-conservative forces is W = {:.10g} J\n",
                      tr.energy.front(), tr.energy.back(), tr.work.back());
   err << fmt::format("simulate: energy balance E - E0 - W = 0 held to a relative error of {:.2g} "

@@ -271,20 +271,25 @@ void print_analysis(std::ostream& out, const Report& report) {
   if (shown > 0 && n <= 12) {
     out << "\nMode shapes " << (first_order ? "(amplitude@phase in degrees; largest component 1@0)" : "(M-normalized)")
         << '\n';
-    out << fmt::format("  {:<{}}", "coordinate", std::max<std::size_t>(w, 10));
-    for (std::size_t k = 0; k < shown; ++k) out << fmt::format("  {:>12}", fmt::format("mode {}", k + 1));
-    out << '\n';
-    for (std::size_t i = 0; i < n; ++i) {
-      out << fmt::format("  {:<{}}", coordinate_name(report, i), std::max<std::size_t>(w, 10));
+    // The cells first: a column is as wide as its widest (amplitude@phase
+    // runs to 16 characters, "1.234e-05@-179.6").
+    std::vector<std::vector<std::string>> cells(n, std::vector<std::string>(shown));
+    std::size_t cell = 12;
+    for (std::size_t i = 0; i < n; ++i)
       for (std::size_t k = 0; k < shown; ++k) {
         const auto& s = r.modes[k].shape;
         const std::complex<double> v = static_cast<Eigen::Index>(i) < s.size() ? s[static_cast<Eigen::Index>(i)]
                                                                                : std::complex<double>(std::nan(""), 0);
-        if (first_order)
-          out << fmt::format("  {:>12}", num(std::abs(v), 4) + "@" + num(std::arg(v) * 180 / std::numbers::pi, 4));
-        else
-          out << fmt::format("  {:>12}", num(v.real(), 6));
+        cells[i][k] = first_order ? num(std::abs(v), 4) + "@" + num(std::arg(v) * 180 / std::numbers::pi, 4)
+                                  : num(v.real(), 6);
+        cell = std::max(cell, cells[i][k].size());
       }
+    out << fmt::format("  {:<{}}", "coordinate", std::max<std::size_t>(w, 10));
+    for (std::size_t k = 0; k < shown; ++k) out << fmt::format("  {:>{}}", fmt::format("mode {}", k + 1), cell);
+    out << '\n';
+    for (std::size_t i = 0; i < n; ++i) {
+      out << fmt::format("  {:<{}}", coordinate_name(report, i), std::max<std::size_t>(w, 10));
+      for (std::size_t k = 0; k < shown; ++k) out << fmt::format("  {:>{}}", cells[i][k], cell);
       out << '\n';
     }
     if (shown < r.modes.size()) out << fmt::format("  ({} more modes in the CSV/JSON output)\n", r.modes.size() - shown);
