@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -247,6 +248,36 @@ TEST_F(Pipeline, SceneFilesThatAreNotRegularFilesAreRefused) {
 
 // The CLI end to end on the same guarantees: refusals before computing,
 // a failed stdout is an error, option errors read as sentences.
+TEST_F(Pipeline, ExportedMatricesAreWrittenAllOrNoneWithTheOtherFiles) {
+  // The matrices join the run's commit: when another file of the run cannot
+  // be written, the directory keeps the earlier export whole (K.mtx was
+  // written in place before the other files were tried).
+  const modal::Analysis damped = modal::analyze(modal::load_model(models + "ziegler_damped.toml"));
+  const modal::Analysis plain = modal::analyze(modal::load_model(models + "double_pendulum.toml"));
+  ASSERT_TRUE(damped.linear && plain.linear);
+  const fs::path mx = dir / "all_or_none";
+  modal::export_matrices(mx.string(), *damped.linear);
+  auto text = [](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string k_before = text(mx / "K.mtx");
+  modal::OutputFiles files;
+  modal::add_matrix_exports(files, mx.string(), *plain.linear);
+  files.add((dir / "no_such_directory" / "x.json").string(), std::string("{}"));
+  EXPECT_THROW(files.commit(), modal::ReportError);
+  EXPECT_EQ(text(mx / "K.mtx"), k_before);
+  EXPECT_TRUE(fs::exists(mx / "D.mtx"));  // a stale matrix goes only when the commit succeeds
+  for (const auto& entry : fs::directory_iterator(mx))
+    EXPECT_EQ(entry.path().filename().string().find(".modal-"), std::string::npos) << entry.path();
+  // And once it can: the new model's matrices, the stale damping matrix gone.
+  modal::OutputFiles again;
+  modal::add_matrix_exports(again, mx.string(), *plain.linear);
+  again.commit();
+  EXPECT_NE(text(mx / "K.mtx"), k_before);
+  EXPECT_FALSE(fs::exists(mx / "D.mtx"));
+}
+
 TEST_F(Pipeline, ComplexShapeColumnsLineUp) {
   // amplitude@phase cells run to 16 characters; the columns were 12 wide
   // and every longer cell pushed the rest of its row out of line.

@@ -765,11 +765,11 @@ void write_analysis(std::ostream& text, const Analysis& a, const Outputs& o) {
                      "size has dense ones (--solver dense or sparse write them where they fit)");
   print_analysis(text, a.report);
   check_written(text, "standard output");
+  OutputFiles files;  // the matrices too: all or none with the other files
   if (!o.matrices.empty()) {
-    if (a.linear) export_matrices(o.matrices, *a.linear);
-    if (a.sparse) export_matrices(o.matrices, *a.sparse);
+    if (a.linear) add_matrix_exports(files, o.matrices, *a.linear);
+    if (a.sparse) add_matrix_exports(files, o.matrices, *a.sparse);
   }
-  OutputFiles files;
   if (!o.csv.empty()) {
     const std::vector<std::string> paths = output_files(Command::analyze, csv_only(o));
     files.add(paths[0], to_text(write_modes_csv, a.report));

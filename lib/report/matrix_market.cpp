@@ -9,24 +9,24 @@
 
 namespace modal {
 
-void write_matrix_market(const std::string& path, const SparseMatrix& A, bool symmetric, const std::string& comment) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw ReportError(path + ": cannot open the file for writing");
+void write_matrix_market(const TextSink& sink, const SparseMatrix& A, bool symmetric, const std::string& comment) {
   Eigen::Index entries = 0;
   for (Eigen::Index k = 0; k < A.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(A, k); it; ++it)
       if (!symmetric || it.row() >= it.col()) ++entries;
-  out << "%%MatrixMarket matrix coordinate real " << (symmetric ? "symmetric" : "general") << "\n";
-  if (!comment.empty()) out << "% " << comment << "\n";
-  out << A.rows() << ' ' << A.cols() << ' ' << entries << '\n';
   std::string buffer;
   buffer.reserve(1 << 20);
+  buffer += std::string("%%MatrixMarket matrix coordinate real ") + (symmetric ? "symmetric" : "general") + "\n";
+  if (!comment.empty()) buffer += "% " + comment + "\n";
   char number[64];
   auto append = [&](auto value, char end) {
     const auto r = std::to_chars(number, number + sizeof number, value);  // doubles: shortest round-trip form
     buffer.append(number, r.ptr);
     buffer.push_back(end);
   };
+  append(A.rows(), ' ');
+  append(A.cols(), ' ');
+  append(entries, '\n');
   for (Eigen::Index k = 0; k < A.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
       if (symmetric && it.row() < it.col()) continue;
@@ -34,11 +34,18 @@ void write_matrix_market(const std::string& path, const SparseMatrix& A, bool sy
       append(it.col() + 1, ' ');
       append(it.value(), '\n');
       if (buffer.size() > (1 << 20) - 128) {
-        out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+        sink(buffer);
         buffer.clear();
       }
     }
-  out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+  sink(buffer);
+}
+
+void write_matrix_market(const std::string& path, const SparseMatrix& A, bool symmetric, const std::string& comment) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw ReportError(path + ": cannot open the file for writing");
+  write_matrix_market([&](std::string_view text) { out.write(text.data(), static_cast<std::streamsize>(text.size())); },
+                      A, symmetric, comment);
   if (!out) throw ReportError(path + ": writing failed");
 }
 
@@ -53,25 +60,25 @@ void make_directory(const std::string& dir) {
 
 std::string in(const std::string& dir, const char* name) { return (std::filesystem::path(dir) / name).string(); }
 
-// Removes DIR's exported matrices that this export did not write.
-void remove_stale(const std::string& dir, const std::vector<std::string>& written) {
+// DIR's exported matrices that this export does not write: removed when the
+// files are in place.
+void remove_stale(OutputFiles& files, const std::string& dir, const std::vector<std::string>& written) {
   for (const char* name : exported_matrix_names) {
     const std::string path = in(dir, name);
-    if (std::find(written.begin(), written.end(), path) != written.end()) continue;
-    std::error_code ec;
-    if (std::filesystem::is_regular_file(path, ec) && !std::filesystem::remove(path, ec))
-      throw ReportError(path + ": cannot remove the matrix of an earlier export (" + ec.message() + ")");
+    if (std::find(written.begin(), written.end(), path) == written.end()) files.remove_after(path);
   }
 }
 
 }  // namespace
 
-std::vector<std::string> export_matrices(const std::string& dir, const LinearModel& model) {
+std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir, const LinearModel& model) {
   make_directory(dir);
   std::vector<std::string> written;
   auto put = [&](const char* name, const MatrixX& A, bool symmetric, const std::string& what) {
     written.push_back(in(dir, name));
-    write_matrix_market(written.back(), A.sparseView(), symmetric, what);
+    files.add(written.back(), [&A, symmetric, what](const TextSink& sink) {
+      write_matrix_market(sink, A.sparseView(), symmetric, what);
+    });
   };
   const std::string where = model.constrained() ? " on the constraint manifold (coordinates: N.mtx columns)" : "";
   put("M.mtx", model.M, true, "mass matrix M" + where);
@@ -79,16 +86,32 @@ std::vector<std::string> export_matrices(const std::string& dir, const LinearMod
   if (model.has_damping) put("D.mtx", model.D, true, "damping matrix D" + where);
   if (model.has_gyroscopic) put("G.mtx", model.G, false, "gyroscopic matrix G (skew)" + where);
   if (model.constrained()) put("N.mtx", model.basis, false, "null-space basis N: coordinates = N × manifold coordinates");
-  remove_stale(dir, written);
+  remove_stale(files, dir, written);
+  return written;
+}
+
+std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir,
+                                            const SparseLinearModel& model) {
+  make_directory(dir);
+  std::vector<std::string> written{in(dir, "M.mtx"), in(dir, "K.mtx")};
+  files.add(written[0], [&model](const TextSink& sink) { write_matrix_market(sink, model.M, true, "mass matrix M"); });
+  files.add(written[1],
+            [&model](const TextSink& sink) { write_matrix_market(sink, model.K, true, "stiffness matrix K"); });
+  remove_stale(files, dir, written);
+  return written;
+}
+
+std::vector<std::string> export_matrices(const std::string& dir, const LinearModel& model) {
+  OutputFiles files;
+  std::vector<std::string> written = add_matrix_exports(files, dir, model);
+  files.commit();
   return written;
 }
 
 std::vector<std::string> export_matrices(const std::string& dir, const SparseLinearModel& model) {
-  make_directory(dir);
-  std::vector<std::string> written{in(dir, "M.mtx"), in(dir, "K.mtx")};
-  write_matrix_market(written[0], model.M, true, "mass matrix M");
-  write_matrix_market(written[1], model.K, true, "stiffness matrix K");
-  remove_stale(dir, written);
+  OutputFiles files;
+  std::vector<std::string> written = add_matrix_exports(files, dir, model);
+  files.commit();
   return written;
 }
 

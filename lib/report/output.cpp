@@ -196,31 +196,50 @@ void remove_output_temporaries_on_signals() {
   for (int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, remove_temporaries_and_reraise);
 }
 
-void OutputFiles::add(std::string path, std::string content) { files_.emplace_back(std::move(path), std::move(content)); }
+void OutputFiles::add(std::string path, std::string content) {
+  files_.push_back({std::move(path), std::move(content), nullptr});
+}
+
+void OutputFiles::add(std::string path, std::function<void(const TextSink&)> writer) {
+  files_.push_back({std::move(path), std::string(), std::move(writer)});
+}
+
+void OutputFiles::remove_after(std::string path) { removals_.push_back(std::move(path)); }
 
 std::vector<std::string> OutputFiles::commit() {
   // Removed on every way out but a complete rename (destructors), and by the
   // signal handler while they exist.
   std::vector<Temporary> temps(files_.size());
   for (std::size_t f = 0; f < files_.size(); ++f) {
-    const auto& [path, content] = files_[f];
+    const std::string& path = files_[f].path;
     const int fd = open_temporary(path, temps[f]);
     if (fd < 0) {
       const std::string reason = std::strerror(errno);
       throw ReportError(path + ": cannot write the file: " + reason);
     }
-    const char* data = content.data();
-    std::size_t left = content.size();
-    while (left > 0) {
-      const ssize_t n = write(fd, data, left);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) {
-        const std::string reason = n < 0 ? std::strerror(errno) : "nothing written";
-        close(fd);
-        throw ReportError(path + ": writing failed (" + reason + "); no output file was changed");
+    const TextSink sink = [&](std::string_view text) {
+      const char* data = text.data();
+      std::size_t left = text.size();
+      while (left > 0) {
+        const ssize_t n = write(fd, data, left);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+          const std::string reason = n < 0 ? std::strerror(errno) : "nothing written";
+          throw ReportError(path + ": writing failed (" + reason + "); no output file was changed");
+        }
+        data += n;
+        left -= static_cast<std::size_t>(n);
       }
-      data += n;
-      left -= static_cast<std::size_t>(n);
+    };
+    try {
+      if (files_[f].writer) {
+        files_[f].writer(sink);
+      } else {
+        sink(files_[f].content);
+      }
+    } catch (...) {
+      close(fd);  // the temporary itself is removed by its destructor
+      throw;
     }
     // Permissions as an ordinary new file would get them (mkstemp makes 0600).
     const mode_t mask = umask(0);
@@ -234,16 +253,25 @@ std::vector<std::string> OutputFiles::commit() {
   std::vector<std::string> written;
   begin_renames();
   for (std::size_t i = 0; i < files_.size(); ++i) {
-    if (std::rename(temps[i].path.c_str(), files_[i].first.c_str()) != 0) {
+    if (std::rename(temps[i].path.c_str(), files_[i].path.c_str()) != 0) {
       const std::string reason = std::strerror(errno);
       end_renames();
-      throw ReportError(files_[i].first + ": cannot replace the file (" + reason + ")");
+      throw ReportError(files_[i].path + ": cannot replace the file (" + reason + ")");
     }
     temps[i].kept = true;
-    written.push_back(files_[i].first);
+    written.push_back(files_[i].path);
   }
   end_renames();
   files_.clear();
+  std::vector<std::string> removals = std::move(removals_);
+  removals_.clear();
+  for (const std::string& path : removals) {
+    std::error_code ec;
+    if (std::find(written.begin(), written.end(), path) == written.end() && fs::is_regular_file(path, ec) &&
+        !fs::remove(path, ec))
+      throw ReportError(path + ": cannot remove the output of an earlier run (" + ec.message() +
+                        "); this run's files were written");
+  }
   return written;
 }
 

@@ -23,6 +23,7 @@
 #include "modal/sweep.hpp"
 
 #include <array>
+#include <functional>
 #include <iosfwd>
 #include <optional>
 #include <stdexcept>
@@ -170,6 +171,10 @@ void write_trajectory_csv(std::ostream& out, const Trajectory& trajectory);
 // lower triangle when `symmetric`, else "general". `comment` goes on a %-line.
 // Throws ReportError when the file cannot be written.
 void write_matrix_market(const std::string& path, const SparseMatrix& A, bool symmetric, const std::string& comment);
+// Receives a file's text in pieces (OutputFiles::add with a writer).
+using TextSink = std::function<void(std::string_view)>;
+// The same text, in pieces of at most about 1 MB, to `sink`.
+void write_matrix_market(const TextSink& sink, const SparseMatrix& A, bool symmetric, const std::string& comment);
 // `--export-matrices DIR`: DIR/M.mtx and DIR/K.mtx, and DIR/D.mtx, DIR/G.mtx
 // where the model has them, of the model as analyzed (constrained: the
 // matrices on the constraint manifold, with DIR/N.mtx the basis mapping them
@@ -178,6 +183,13 @@ void write_matrix_market(const std::string& path, const SparseMatrix& A, bool sy
 // earlier, damped scene) are removed, so that DIR describes this model alone.
 std::vector<std::string> export_matrices(const std::string& dir, const LinearModel& model);
 std::vector<std::string> export_matrices(const std::string& dir, const SparseLinearModel& model);
+class OutputFiles;
+// The same files added to `files` (written, and the stale ones removed, when
+// it commits, all or none with the run's other outputs); the directory is
+// created now. Returns the paths it will write.
+std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir, const LinearModel& model);
+std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir,
+                                            const SparseLinearModel& model);
 inline constexpr const char* exported_matrix_names[] = {"M.mtx", "K.mtx", "D.mtx", "G.mtx", "N.mtx"};
 
 // --- JSON ---------------------------------------------------------------------
@@ -341,14 +353,26 @@ void check_output_directory(const std::string& dir, const std::vector<std::strin
 // its target and, only when all were written completely, renames them into
 // place: either every file is replaced or none (on failure the temporaries
 // are removed and ReportError names the file and the reason).
+// A file may also be given as a writer, called during commit() with a sink
+// for its text (a large matrix is then never held whole in memory), and a
+// path as one to remove once the files are in place (a stale output of an
+// earlier run; not removed when the commit fails).
 class OutputFiles {
  public:
   void add(std::string path, std::string content);
-  bool empty() const { return files_.empty(); }
+  void add(std::string path, std::function<void(const TextSink&)> writer);
+  void remove_after(std::string path);
+  bool empty() const { return files_.empty() && removals_.empty(); }
   std::vector<std::string> commit();
 
  private:
-  std::vector<std::pair<std::string, std::string>> files_;
+  struct File {
+    std::string path;
+    std::string content;
+    std::function<void(const TextSink&)> writer;  // when set, instead of content
+  };
+  std::vector<File> files_;
+  std::vector<std::string> removals_;
 };
 // Interrupted runs (SIGINT, SIGTERM, SIGHUP). OutputFiles' temporaries exist
 // only while commit() writes them; remove_output_temporaries() unlinks those
