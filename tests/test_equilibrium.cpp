@@ -110,6 +110,33 @@ TEST(Equilibrium, NearestEquilibriumWhateverItsStability) {
   EXPECT_EQ(morse_index(dp, up.q), 2);
 }
 
+TEST(Equilibrium, AFamilyThatSweepsPastAnotherIsNotMergedWithIt) {
+  // A long boom free to spin about the vertical (a family of equilibria)
+  // beside two short pendulums: the states (pendulum 1 up, 2 down) and (1
+  // down, 2 up) have the same potential and are two families. The trace of
+  // one, its boom sweeping metres while the pendulums differ by centimetres,
+  // passed within a sixteenth of their distance of the other and was taken
+  // for it (one family listed twice, the other lost); found in review with
+  // R = 10 m, l = 1 cm. Four families, each once, for every pair (R, l).
+  for (const double radius : {1.0, 10.0, 1000.0})
+    for (const double l : {1.0, 0.01, 1e-4}) {
+      SCOPED_TRACE("R " + std::to_string(radius) + " l " + std::to_string(l));
+      SystemDescription d;
+      d.gravity = Vec3(0, 0, -9.81);
+      d.bodies.push_back(hinge("spin", -1, Vec3::Zero(), 1, Vec3(radius, 0, 0), Vec3::UnitZ()));
+      d.bodies.push_back(hinge("p1", -1, Vec3(0, 5, 0), 1, Vec3(0, 0, -l)));
+      d.bodies.push_back(hinge("p2", -1, Vec3(0, -5, 0), 1, Vec3(0, 0, -l)));
+      const System s(d);
+      const std::vector<Equilibrium> all = find_equilibria(s);
+      ASSERT_EQ(all.size(), 4u);
+      std::vector<std::pair<int, int>> states;  // pendulums down (0) or up (1)
+      for (const Equilibrium& e : all)
+        states.emplace_back(std::cos(e.q[1]) < 0 ? 1 : 0, std::cos(e.q[2]) < 0 ? 1 : 0);
+      std::sort(states.begin(), states.end());
+      EXPECT_EQ(states, (std::vector<std::pair<int, int>>{{0, 0}, {0, 1}, {1, 0}, {1, 1}}));
+    }
+}
+
 TEST(Equilibrium, SaysWhatMovedTheStartBeforeNewton) {
   // The iteration count is Newton's (the polish); steps before it are named,
   // so that "0 Newton iterations" never stands for an equilibrium that another

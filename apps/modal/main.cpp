@@ -370,7 +370,7 @@ int main(int argc, char** argv) {
       ->add_option("--report", analyze_out.report,
                    "write one self-contained HTML page (no network needed to open it): scene, equilibrium, "
                    "stability, the mode table, each mode animated over the equilibrium (or its shape as a bar "
-                   "chart), with --energy the energy shares and participation; the name must end in .html")
+                   "chart), with --energy the energy shares and participation; the name must end in .html or .htm")
       ->type_name("FILE.html");
   analyze->add_flag("--require-stable", require_stable,
                     "exit with status 3 if the equilibrium is unstable (divergence or flutter)");
@@ -444,7 +444,7 @@ int main(int argc, char** argv) {
   equilibria
       ->add_option("--report", equilibria_out.report,
                    "write one self-contained HTML page: the equilibria with their stability and energy, and each "
-                   "one's frequency table; the name must end in .html")
+                   "one's frequency table; the name must end in .html or .htm")
       ->type_name("FILE.html");
 
   // --- sweep ---
@@ -526,7 +526,7 @@ int main(int argc, char** argv) {
   simulate
       ->add_option("--report", simulate_out.report,
                    "write one self-contained HTML page: the coordinates and the energy error against time; the "
-                   "name must end in .html")
+                   "name must end in .html or .htm")
       ->type_name("FILE.html");
 
   // --- amplitude ---
@@ -564,7 +564,7 @@ int main(int argc, char** argv) {
   amplitude
       ->add_option("--report", amplitude_out.report,
                    "write one self-contained HTML page: the period ratio and the departure from the linear "
-                   "frequency against amplitude, the 1 % and 10 % amplitudes marked; the name must end in .html")
+                   "frequency against amplitude, the 1 % and 10 % amplitudes marked; the name must end in .html or .htm")
       ->type_name("FILE.html");
 
   // --- convert ---

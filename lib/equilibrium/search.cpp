@@ -14,6 +14,7 @@
 // O(n·depth + n²)) + the polishes (a few O(n³) steps each).
 #include "equilibrium/problem.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <nlopt.hpp>
 
@@ -259,42 +260,66 @@ bool same_straight_family(const System& s, Workspace& w, const Equilibrium& a, c
 // of the family) each polished back onto the equilibria, until b is reached.
 // Steps are measured and their sense kept in the positions of the points the
 // potential sees (potential_points), which do not change with a rotation
-// vector's chart. A trace gives up where the Jacobian has no null direction
-// (an isolated equilibrium), a polish fails or lands at another potential or
-// far from the step's target, the family closes on itself, or after 100
-// steps of a sixteenth of the distance from a to b each way. The cost, only
-// for pairs of equal potential that the other tests did not join: up to 200
-// polishes and singular value decompositions of n × n.
+// vector's chart: a sixteenth of the distance from a to b, and within two
+// such steps of b, a step of the whole remaining distance towards it, which
+// on b's own family lands at b up to the family's curvature (the distance
+// falls quadratically, to a millionth of the coordinates' scale). A family
+// that only passes near b (another family of the same potential, a long
+// boom's sweep past a short pendulum's) does not bring the distance down by
+// half a step, and the trace gives up. It also gives up where the Jacobian
+// has no null direction (an isolated equilibrium), a polish fails or lands
+// at another potential or far from its target, the family closes on itself,
+// after 100 steps each way, or when `budget` (steps, each an n × n
+// decomposition, shared by one deduplication) runs out.
 bool same_curved_family(const System& s, Workspace& w, const EquilibriumOptions& options, const Equilibrium& a,
-                        const Equilibrium& b, double scale) {
+                        const Equilibrium& b, double scale, long& budget) {
   if (s.has_constraints()) return false;  // the null direction of J would leave the constraint manifold
   Problem p(s);
   const VectorX pa = potential_points(s, w, a.q);
   const VectorX pb = potential_points(s, w, b.q);
   const double h = (pb - pa).norm() / 16;
   if (!(h > 0)) return false;
+  // The tangent: the singular (eigen-)vector of the least singular value (|eigenvalue|), if J is singular.
+  auto null_direction = [&](const VectorX& q) -> std::optional<VectorX> {
+    const MatrixX& j = p.jacobian(q);
+    if (p.symmetric_jacobian()) {
+      const Eigen::SelfAdjointEigenSolver<MatrixX> es(j);
+      if (es.info() != Eigen::Success || es.eigenvalues().size() == 0) return std::nullopt;
+      Eigen::Index least = 0;
+      const double smallest = es.eigenvalues().cwiseAbs().minCoeff(&least);
+      if (!(smallest <= 1e-6 * es.eigenvalues().cwiseAbs().maxCoeff())) return std::nullopt;
+      return VectorX(es.eigenvectors().col(least));
+    }
+    const Eigen::JacobiSVD<MatrixX> svd(j, Eigen::ComputeFullV);
+    const VectorX& sigma = svd.singularValues();
+    if (sigma.size() == 0 || !(sigma(sigma.size() - 1) <= 1e-6 * sigma(0))) return std::nullopt;
+    return VectorX(svd.matrixV().col(sigma.size() - 1));
+  };
   for (const double sense : {1.0, -1.0}) {
     VectorX q = a.q;
     VectorX pq = pa;
     VectorX last_step;  // of the points
-    for (int step = 0; step < 100; ++step) {
-      const Eigen::JacobiSVD<MatrixX> svd(p.jacobian(q), Eigen::ComputeFullV);
-      const VectorX& sigma = svd.singularValues();
-      if (sigma.size() == 0 || !(sigma(sigma.size() - 1) <= 1e-6 * sigma(0))) break;
-      VectorX z = svd.matrixV().col(sigma.size() - 1);
+    for (int step = 0; step < 100 && budget > 0; ++step, --budget) {
+      const std::optional<VectorX> z = null_direction(q);
+      if (!z) break;
       // The points' motion along z, by a difference of a millionth of a step.
       const double eps = 1e-6 * h;
-      const VectorX dp = (potential_points(s, w, q + eps * z) - pq) / eps;
+      const VectorX dp = (potential_points(s, w, q + eps * *z) - pq) / eps;
       if (!(dp.norm() > 0)) break;  // z moves nothing V sees
-      const double direction = last_step.size() == 0 ? sense : (dp.dot(last_step) >= 0 ? 1.0 : -1.0);
-      Polished next = polish(p, q + direction * (h / dp.norm()) * z, options);
+      const double to_b = (pb - pq).norm();
+      const bool approach = to_b < 2 * h;
+      double direction = last_step.size() == 0 ? sense : (dp.dot(last_step) >= 0 ? 1.0 : -1.0);
+      if (approach) direction = dp.dot(pb - pq) >= 0 ? 1.0 : -1.0;
+      const double length = approach ? to_b : h;
+      Polished next = polish(p, q + direction * (length / dp.norm()) * *z, options);
       if (!next.converged || !(std::abs(next.best.potential - a.potential) <= 1e-10 * scale)) break;
       const VectorX pn = potential_points(s, w, next.best.q);
       if (!((pn - pq).norm() <= 3 * h)) break;
       last_step = pn - pq;
       q = next.best.q;
       pq = pn;
-      if ((pq - pb).norm() <= h / 2) return true;
+      if (configuration_distance(s, q, b.q) < 1e-6) return true;  // b itself (deduplicate_and_sort's test)
+      if (approach && !((pb - pq).norm() <= 0.5 * to_b)) break;  // passing near b, not onto it
       if (step > 2 && (pq - pa).norm() <= h / 2) break;  // round the family and back to a without meeting b
     }
   }
@@ -308,6 +333,11 @@ void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, st
   const VectorX q0 = s.initial_configuration();
   std::vector<Equilibrium> kept;
   std::vector<VectorX> kept_points;
+  // Steps of the curved-family traces for this list, each an n × n
+  // decomposition: about 1e10 flops in all (20000 steps up to 37
+  // coordinates, 4630 at 60, 100 at 215, one at 1000).
+  const double n = std::max(1, s.size());
+  long budget = static_cast<long>(std::min(20000.0, 1e10 / (10 * n * n * n)));
   for (Equilibrium& e : list) {
     const VectorX points = potential_points(s, w, e.q);
     bool duplicate = false;
@@ -318,10 +348,14 @@ void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, st
         duplicate = true;
       } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale() ||
                  same_straight_family(s, w, e, k) ||
-                 (equal_potential(s, w, e, k) && same_curved_family(s, w, options, e, k, potential_scale(s, w, e, k)))) {
+                 (equal_potential(s, w, e, k) &&
+                  same_curved_family(s, w, options, e, k, potential_scale(s, w, e, k), budget))) {
         // Another member of the same continuous family: keep the representative
         // nearest the initial configuration.
-        if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) k = e;
+        if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) {
+          k = e;
+          kept_points[i] = points;
+        }
         duplicate = true;
       }
       if (duplicate) break;

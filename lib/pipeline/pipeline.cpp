@@ -734,7 +734,7 @@ void check_outputs(Command command, const Outputs& outputs, const std::string& s
     // A page a browser opens by its name: refused before computing, not renamed.
     const std::string extension = std::filesystem::path(outputs.report).extension().string();
     if (extension != ".html" && extension != ".htm")
-      throw ReportError(outputs.report + ": --report writes an HTML page; give the file a name ending in .html");
+      throw ReportError(outputs.report + ": --report writes an HTML page; give the file a name ending in .html (or .htm)");
   }
   if (command == Command::analyze && !outputs.csv.empty() && outputs.csv.back() == '/')
     throw ReportError(outputs.csv + ": --csv takes a prefix of the files' names, and this one ends in a directory "

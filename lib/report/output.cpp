@@ -265,13 +265,16 @@ std::vector<std::string> OutputFiles::commit() {
   files_.clear();
   std::vector<std::string> removals = std::move(removals_);
   removals_.clear();
+  // Every stale file is tried; those that stay are named together.
+  std::string failed;
   for (const std::string& path : removals) {
     std::error_code ec;
-    if (std::find(written.begin(), written.end(), path) == written.end() && fs::is_regular_file(path, ec) &&
-        !fs::remove(path, ec))
-      throw ReportError(path + ": cannot remove the output of an earlier run (" + ec.message() +
-                        "); this run's files were written");
+    if (std::find(written.begin(), written.end(), path) != written.end() || !fs::is_regular_file(path, ec)) continue;
+    if (!fs::remove(path, ec) && ec)  // false without an error: it is gone already
+      failed += (failed.empty() ? "" : "; ") + path + " (" + ec.message() + ")";
   }
+  if (!failed.empty())
+    throw ReportError("cannot remove the output of an earlier run: " + failed + "; this run's files were written");
   return written;
 }
 

@@ -468,15 +468,20 @@ CriticalValue refine(const Evaluator& evaluate, const SweepAxis& axis, double a,
     const double slope = std::abs(decided_fb - decided_fa) / std::abs(decided_b - decided_a);
     if (secant && slope > 0 && std::isfinite(slope)) c.error = std::max(c.error, undecided_error / slope);
   }
-  if (c.refined && std::abs(b - a) > options.tolerance * std::max(std::abs(a), std::abs(b)))
+  if (c.refined && 2 * c.error > options.tolerance * std::max(std::abs(a), std::abs(b))) {
     // Refined to the absolute floor near 0, not to the tolerance of the value:
-    // say so, with the interval a narrower sweep would search.
+    // say so, with the interval. A narrower sweep locates a change that is
+    // not at 0 itself; one at 0 has no scale, and its bracket is the answer.
+    const double low = c.value - c.error, high = c.value + c.error;
     notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) +
                     " lies within 1e-6 of the swept range (" + short_text(span) +
                     ") from 0, where the refinement stops at " + short_text(1e-6 * options.tolerance) +
                     " of the range rather than " + short_text(options.tolerance) + " of the value: it lies between " +
-                    short_text(std::min(a, b)) + " and " + short_text(std::max(a, b)) +
-                    "; sweep that interval to locate it further");
+                    short_text(low) + " and " + short_text(high) +
+                    (low <= 0 && high >= 0 ? ", an interval that holds 0; unless the change is at 0 itself, a sweep "
+                                             "of that interval locates it further"
+                                           : "; a sweep of that interval locates it further"));
+  }
   if (!c.refined && c.evaluations >= options.max_evaluations)
     notes.push_back("the change at " + axis.name + " ≈ " + short_text(c.value) + " was not refined to the tolerance within " +
                     std::to_string(options.max_evaluations) + " evaluations");
