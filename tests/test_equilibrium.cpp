@@ -137,6 +137,44 @@ TEST(Equilibrium, AFamilyThatSweepsPastAnotherIsNotMergedWithIt) {
     }
 }
 
+TEST(Equilibrium, AStiffElementDoesNotMergeTheOthersEquilibria) {
+  // Two pendulums and a slide held by a spring of stiffness ks: the
+  // pendulums' up-down and down-up states (potential 0 both, horizontal
+  // pendulums on the segment between) were taken for one straight family
+  // from ks = 1e10 on, whose force scale made the segment's gravity torques
+  // look like rounding: one equilibrium lost (two, and three, at 1e11).
+  // Now the segment's direction must also be a null direction of J, row by
+  // row. (From ks = 1e14 the acceptance of an equilibrium itself, relative
+  // to the whole force scale, fails to tell these torques from rounding:
+  // issue 15, part 1.)
+  for (const double ks : {1.0, 1e3, 1e6, 1e9, 1e12}) {
+    SCOPED_TRACE("ks " + std::to_string(ks));
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    d.bodies.push_back(hinge("p1", -1, Vec3(0, 5, 0), 1, Vec3(0, 0, -1)));
+    d.bodies.push_back(hinge("p2", -1, Vec3(0, -5, 0), 1, Vec3(0, 0, -1)));
+    Body slide;
+    slide.name = "s";
+    slide.joint = JointType::slide;
+    slide.axis = Vec3::UnitX();
+    slide.origin = Vec3(0, 20, 0);
+    slide.mass = 1;
+    slide.stiffness = ks;
+    slide.rest = VectorX::Zero(1);
+    d.bodies.push_back(slide);
+    const System s(d);
+    const std::vector<Equilibrium> all = find_equilibria(s);
+    ASSERT_EQ(all.size(), 4u);
+    std::vector<std::pair<int, int>> states;
+    for (const Equilibrium& e : all) {
+      states.emplace_back(std::cos(e.q[0]) < 0 ? 1 : 0, std::cos(e.q[1]) < 0 ? 1 : 0);
+      EXPECT_NEAR(e.q[2], 0.0, 1e-12);
+    }
+    std::sort(states.begin(), states.end());
+    EXPECT_EQ(states, (std::vector<std::pair<int, int>>{{0, 0}, {0, 1}, {1, 0}, {1, 1}}));
+  }
+}
+
 TEST(Equilibrium, SaysWhatMovedTheStartBeforeNewton) {
   // The iteration count is Newton's (the polish); steps before it are named,
   // so that "0 Newton iterations" never stands for an equilibrium that another

@@ -278,6 +278,16 @@ TEST_F(Pipeline, ExportedMatricesAreWrittenAllOrNoneWithTheOtherFiles) {
   EXPECT_FALSE(fs::exists(mx / "D.mtx"));
 }
 
+TEST_F(Pipeline, ASurveyIsNotFailedByAPointBetweenTwoEquilibria) {
+  // The family tests evaluate the model between two equilibria; on the
+  // spring chain a point there has a spring with coincident ends, whose
+  // NumericalError failed the whole survey (exit 4). Now such a pair is two
+  // rows, and the survey lists the chain at rest.
+  const auto r = run({"equilibria", models + "spring_chain.toml"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("equilibria found"), std::string::npos) << r.out;
+}
+
 TEST_F(Pipeline, ComplexShapeColumnsLineUp) {
   // amplitude@phase cells run to 16 characters; the columns were 12 wide
   // and every longer cell pushed the rest of its row out of line.
