@@ -674,8 +674,8 @@ PYBIND11_MODULE(_modal, m) {
           "potential", [](const modal::Analysis& a) { return a.equilibrium().potential; }, "V at the equilibrium, J")
       .def_property_readonly(
           "residual", [](const modal::Analysis& a) { return a.equilibrium().residual; },
-          "the equilibrium's relative residual of |grad V - Q|: against the forces acting, beyond the rounding "
-          "level of the springs' forces (modal::relative_residual)")
+          "the equilibrium's relative residual of |grad V - Q|, as a whole and on each coordinate: against the "
+          "forces acting, beyond the rounding level of the springs' forces (modal::relative_residual)")
       .def_property_readonly(
           "sparse", [](const modal::Analysis& a) { return a.sparse.has_value(); },
           "True when the sparse path ran (M and K are scipy.sparse matrices)")

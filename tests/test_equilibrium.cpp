@@ -144,10 +144,9 @@ TEST(Equilibrium, AStiffElementDoesNotMergeTheOthersEquilibria) {
   // from ks = 1e10 on, whose force scale made the segment's gravity torques
   // look like rounding: one equilibrium lost (two, and three, at 1e11).
   // Now the segment's direction must also be a null direction of J, row by
-  // row. (From ks = 1e14 the acceptance of an equilibrium itself, relative
-  // to the whole force scale, fails to tell these torques from rounding:
-  // issue 15, part 1.)
-  for (const double ks : {1.0, 1e3, 1e6, 1e9, 1e12}) {
+  // row. (From ks = 1e14 the acceptance of an equilibrium itself told these
+  // torques from rounding no more: below.)
+  for (const double ks : {1.0, 1e3, 1e6, 1e9, 1e12, 1e14, 1e16}) {
     SCOPED_TRACE("ks " + std::to_string(ks));
     SystemDescription d;
     d.gravity = Vec3(0, 0, -9.81);
@@ -172,6 +171,52 @@ TEST(Equilibrium, AStiffElementDoesNotMergeTheOthersEquilibria) {
     }
     std::sort(states.begin(), states.end());
     EXPECT_EQ(states, (std::vector<std::pair<int, int>>{{0, 0}, {0, 1}, {1, 0}, {1, 1}}));
+  }
+}
+
+TEST(Equilibrium, AStiffElementDoesNotHideTheOthersUnbalancedForces) {
+  // Pendulums of masses and lengths graded over six decades beside slides
+  // held by springs of 1e6 … 1e16 N/m. Measured against the whole scene's
+  // force scale (the stiff springs at 100 % strain) the pendulums' gravity
+  // torques at any angle were rounding: from 1e14 N/m `modal analyze` took
+  // the start itself (0.1 rad, torque 1.4 N·m) for the equilibrium and
+  // `modal equilibria` listed 7–58. Each coordinate's residual is now also
+  // measured against its own forces. Reference (closed form): a pendulum is
+  // balanced at θ = 0 or π only, a slide at its spring's rest position; P
+  // pendulums have 2^P equilibria.
+  std::mt19937 rng(15);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 12; ++trial) {
+    const int pendulums = 2 + trial % 2;
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    for (int i = 0; i < pendulums; ++i) {
+      const double m = std::pow(10.0, -3 + 6 * unit(rng)), l = std::pow(10.0, -3 + 6 * unit(rng));
+      d.bodies.push_back(hinge("p" + std::to_string(i), -1, Vec3(0, 5.0 * i, 0), m, Vec3(0, 0, -l)));
+    }
+    for (int i = 0; i < 2; ++i) {
+      Body slide;
+      slide.name = "s" + std::to_string(i);
+      slide.joint = JointType::slide;
+      slide.axis = Vec3::UnitX();
+      slide.origin = Vec3(0, -5.0 - i, 0);
+      slide.mass = std::pow(10.0, -3 + 6 * unit(rng));
+      slide.stiffness = std::pow(10.0, 6 + 10 * unit(rng));
+      slide.rest = VectorX::Zero(1);
+      d.bodies.push_back(slide);
+    }
+    const System s(d);
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    VectorX start = VectorX::Zero(s.size());
+    for (int i = 0; i < pendulums; ++i) start[i] = 0.1 + 0.2 * unit(rng);
+    // The start is no equilibrium, whatever the slides' stiffness.
+    Workspace w(s);
+    EXPECT_GT(relative_residual(s, w, start, equilibrium_residual(s, w, start)), 1e-3);
+    const Equilibrium e = find_equilibrium(s, start);
+    for (int i = 0; i < pendulums; ++i) EXPECT_NEAR(std::sin(e.q[i]), 0.0, 1e-9);
+    for (int i = pendulums; i < s.size(); ++i) EXPECT_NEAR(e.q[i], 0.0, 1e-12);
+    EXPECT_LE(e.residual, kTol);
+    EXPECT_EQ(find_equilibria(s).size(), std::size_t{1} << pendulums);
   }
 }
 

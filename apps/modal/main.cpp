@@ -417,8 +417,8 @@ int main(int argc, char** argv) {
       ->check(positive(modal::max_step_factor));
   analyze
       ->add_option("--eq-tol", ao.equilibrium_tolerance,
-                   "equilibrium: accepted relative residual of |grad V - Q| (against the forces acting, "
-                   "beyond the rounding level of the springs' forces)")
+                   "equilibrium: accepted relative residual of |grad V - Q|, as a whole and on each coordinate "
+                   "(against the forces acting, beyond the rounding level of the springs' forces)")
       ->check(between(1e-16, 1e-2))
       ->capture_default_str();
   analyze->add_option("--export-matrices", analyze_out.matrices,

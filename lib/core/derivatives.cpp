@@ -997,6 +997,55 @@ SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX&
 
 double force_scale(const System& s, Workspace& w, const VectorX& q) { return force_scales(s, w, q).full; }
 
+namespace {
+
+// Visits every element that produces a generalized force at q, with the
+// magnitudes the force scales count (units of force, or of moment for a turn):
+//   v.point_load(at, f)                     a force through a point (gravity, a
+//                                            dead or follower load, a centrifugal force)
+//   v.turn_load(body, m)                    a moment on a body's rotations (|Ω|²‖I‖)
+//   v.joint_spring(k, full, acting, round)  on coordinate k itself (a moment, or a
+//                                            force for a length)
+//   v.spring(a, b, full, acting, round)     a spring's force through its two ends
+// full: the spring at 100 % strain (a joint spring at 1 rad or the length
+// scale) beyond its actual strain; acting: the force at q; round: the size
+// its rounding is relative to (for a spring, with the distances of its ends
+// from the origin, from which its length is computed).
+template <class Visitor>
+void visit_force_elements(const System& s, const TreeState<double>& st, const VectorX& q, Visitor& v) {
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    const Attachment com{static_cast<int>(b), body.com};
+    if (body.mass != 0.0) v.point_load(com, body.mass * s.gravity().norm());
+    if (s.rotating()) {
+      // Centrifugal forces: m|Ω|²|x| at the centre of mass, |Ω|²‖I‖ on the body's rotations.
+      const double w2 = s.frame_rotation().squaredNorm();
+      if (body.mass != 0.0) v.point_load(com, body.mass * w2 * model::world_point(st, com).norm());
+      v.turn_load(static_cast<int>(b), w2 * body.inertia.norm());
+    }
+    if (body.stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    model::joint_spring_gradient(body, q.data() + k0, s.joint_size(static_cast<int>(b)), [&](int i, double force) {
+      const double unit = s.coordinates()[static_cast<std::size_t>(k0 + i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
+      const double strain = std::abs(force) / body.stiffness;
+      const double full = body.stiffness * (strain + unit);
+      v.joint_spring(k0 + i, full, body.stiffness * strain, full);
+    });
+  }
+  for (const DeadLoad& l : s.loads()) v.point_load(l.at, l.force.norm());
+  for (const FollowerLoad& l : s.followers()) v.point_load(l.at, l.force.norm());
+  for (const Spring& sp : s.springs()) {
+    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
+    const double len = (xa - xb).norm();
+    const double stretch = std::abs(len - sp.rest_length), longest = std::max(sp.rest_length, len);
+    v.spring(sp.a, sp.b, sp.stiffness * (stretch + longest), sp.stiffness * stretch,
+             sp.stiffness * (stretch + longest + xa.norm() + xb.norm()));
+  }
+}
+
+}  // namespace
+
 ForceScales force_scales(const System& s, Workspace& w, const VectorX& q) {
   if (s.is_map()) {
     check_size(s, q, "force_scale");
@@ -1004,51 +1053,105 @@ ForceScales force_scales(const System& s, Workspace& w, const VectorX& q) {
     return {full, full, full};
   }
   const TreeState<double>& st = kinematics(s, w, q);
-  const PathJacobianNorms jacobian(s, st);
-  double scale = 0;  // the loads, which both scales count
-  double full = 0, acting = 0, rounding = 0;  // the springs' part of each; Σ (element's full)²
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const Body& body = bodies[b];
-    if (body.mass != 0.0) {
-      const Attachment at{static_cast<int>(b), body.com};
-      scale += body.mass * s.gravity().norm() * jacobian.point(at);
+  struct Sums {
+    const PathJacobianNorms jacobian;
+    double loads = 0;                           // which every scale counts
+    double full = 0, acting = 0, rounding = 0;  // the springs' part of each; rounding: Σ (element's)²
+    void point_load(const Attachment& at, double f) { loads += f * jacobian.point(at); }
+    void turn_load(int body, double m) { loads += m * std::sqrt(jacobian.turn2(body)); }
+    void joint_spring(int, double f, double a, double r) {
+      full += f;
+      acting += a;
+      rounding += r * r;
     }
-    if (s.rotating()) {
-      // Centrifugal forces: m|Ω|²|x| at the centre of mass, |Ω|²‖I‖ on the body's rotations.
-      const double w2 = s.frame_rotation().squaredNorm();
-      if (body.mass != 0.0) {
-        const Attachment at{static_cast<int>(b), body.com};
-        const Vec3 x = model::world_point(st, at);
-        scale += body.mass * w2 * x.norm() * jacobian.point(at);
+    void spring(const Attachment& a, const Attachment& b, double f, double act, double r) {
+      const double reach = jacobian.point(a) + jacobian.point(b);
+      full += f * reach;
+      acting += act * reach;
+      rounding += std::pow(r * reach, 2);
+    }
+  } sums{PathJacobianNorms(s, st)};
+  visit_force_elements(s, st, q, sums);
+  return {sums.loads + sums.full, sums.loads + sums.acting, std::sqrt(sums.rounding) + sums.loads};
+}
+
+CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {
+    check_size(s, q, "coordinate_force_scales");
+    return {};
+  }
+  const TreeState<double>& st = kinematics(s, w, q);
+  const auto nb = s.bodies().size();
+  // Per body b and scale (full, acting, rounding): F, the forces acting on
+  // points of b's subtree, and D, each times its point's distance from b's
+  // joint centre (the moment arm about it), summed from the leaves up with
+  // |x − p_a| ≤ |x − p_b| + |p_b − p_a|; T, the turn loads of the subtree.
+  // Coordinate k of body b then moves them by at most |ω_k| D + |u_k| F.
+  struct Sums {
+    const System& s;
+    const TreeState<double>& st;
+    std::vector<std::array<double, 3>> F, D;
+    std::vector<double> T;
+    CoordinateForceScales out;
+    void add(const Attachment& at, const std::array<double, 3>& f) {
+      if (at.body < 0) return;
+      const auto b = static_cast<std::size_t>(at.body);
+      const double arm = model::relative_point(st, at).norm();
+      for (std::size_t c = 0; c < 3; ++c) {
+        F[b][c] += f[c];
+        D[b][c] += f[c] * arm;
       }
-      scale += w2 * body.inertia.norm() * std::sqrt(jacobian.turn2(static_cast<int>(b)));
     }
-    if (body.stiffness == 0.0) continue;
+    void point_load(const Attachment& at, double f) { add(at, {f, f, f}); }
+    void turn_load(int body, double m) { T[static_cast<std::size_t>(body)] += m; }
+    void joint_spring(int k, double f, double a, double r) {
+      out.full[k] += f;
+      out.acting[k] += a;
+      out.rounding[k] += r;
+    }
+    void spring(const Attachment& a, const Attachment& b, double f, double act, double r) {
+      add(a, {f, act, r});
+      add(b, {f, act, r});
+    }
+  } sums{s, st, std::vector<std::array<double, 3>>(nb, {0.0, 0.0, 0.0}),
+         std::vector<std::array<double, 3>>(nb, {0.0, 0.0, 0.0}), std::vector<double>(nb, 0.0),
+         CoordinateForceScales{VectorX::Zero(s.size()), VectorX::Zero(s.size()), VectorX::Zero(s.size())}};
+  visit_force_elements(s, st, q, sums);
+  for (std::size_t b = nb; b-- > 0;) {
     const int k0 = s.first_coordinate(static_cast<int>(b));
-    model::joint_spring_gradient(body, q.data() + k0, s.joint_size(static_cast<int>(b)), [&](int i, double force) {
-      const double unit = s.coordinates()[static_cast<std::size_t>(k0 + i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
-      const double strain = std::abs(force) / body.stiffness;
-      full += body.stiffness * (strain + unit);
-      acting += body.stiffness * strain;
-      rounding += std::pow(body.stiffness * (strain + unit), 2);
-    });
+    for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k) {
+      const double turn = st.omega[static_cast<std::size_t>(k)].norm();
+      const double move = st.centre_velocity[static_cast<std::size_t>(k)].norm();
+      const double loads = turn * sums.T[b];
+      sums.out.full[k] += turn * sums.D[b][0] + move * sums.F[b][0] + loads;
+      sums.out.acting[k] += turn * sums.D[b][1] + move * sums.F[b][1] + loads;
+      sums.out.rounding[k] += turn * sums.D[b][2] + move * sums.F[b][2] + loads;
+    }
+    const int parent = s.bodies()[b].parent;
+    if (parent < 0) continue;
+    const auto p = static_cast<std::size_t>(parent);
+    const double d = st.offset[b].norm();
+    for (std::size_t c = 0; c < 3; ++c) {
+      sums.F[p][c] += sums.F[b][c];
+      sums.D[p][c] += sums.D[b][c] + sums.F[b][c] * d;
+    }
+    sums.T[p] += sums.T[b];
   }
-  for (const DeadLoad& l : s.loads())
-    scale += l.force.norm() * jacobian.point(l.at);
-  for (const FollowerLoad& l : s.followers())
-    scale += l.force.norm() * jacobian.point(l.at);
-  for (const Spring& sp : s.springs()) {
-    const Vec3 xa = model::world_point(st, sp.a), xb = model::world_point(st, sp.b);
-    const double len = (xa - xb).norm();
-    const double reach = jacobian.point(sp.a) + jacobian.point(sp.b), stretch = std::abs(len - sp.rest_length);
-    full += sp.stiffness * (stretch + std::max(sp.rest_length, len)) * reach;
-    acting += sp.stiffness * stretch * reach;
-    // The length from world points, each rounded to ε of its distance from
-    // the origin: a net far from it has rounding far above ε k L.
-    rounding += std::pow(sp.stiffness * (stretch + std::max(sp.rest_length, len) + xa.norm() + xb.norm()) * reach, 2);
-  }
-  return {scale + full, scale + acting, std::sqrt(rounding) + scale};
+  return sums.out;
+}
+
+double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r) {
+  return relative_residual(s, w, q, r, force_scales(s, w, q));
+}
+
+double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales) {
+  double relative = relative_residual(r.norm(), scales);
+  if (s.is_map() || s.has_constraints()) return relative;
+  const CoordinateForceScales each = coordinate_force_scales(s, w, q);
+  for (Eigen::Index k = 0; k < r.size(); ++k)
+    if (each.full[k] > 0)
+      relative = std::max(relative, relative_residual(std::abs(r[k]), {each.full[k], each.acting[k], each.rounding[k]}));
+  return relative;
 }
 
 double relative_residual(double residual_norm, const ForceScales& scales) {

@@ -83,9 +83,10 @@ const MatrixX& Problem::jacobian(const VectorX& q) {
   return j_;
 }
 
-double Problem::relative_residual(const VectorX& q, double residual_norm) {
+double Problem::relative_residual(const VectorX& q, const VectorX& r) {
   const ForceScales scales = force_scales(s_, w_, q);
-  if (scales.full > 0 && std::isfinite(scales.full)) return modal::relative_residual(residual_norm, scales);
+  if (scales.full > 0 && std::isfinite(scales.full)) return modal::relative_residual(s_, w_, q, r, scales);
+  const double residual_norm = r.norm();
   if (residual_norm == 0) return 0;
   const MatrixX& j = jacobian(q);
   return residual_norm / (j.norm() + DBL_MIN);
@@ -125,7 +126,7 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
     const VectorX r = p.residual(q);
     if (!finite(r)) return out;
     const double rnorm = r.norm();
-    const double rel = p.relative_residual(q, rnorm);
+    const double rel = p.relative_residual(q, r);
     if (rel < best_rel) {
       best_rel = rel;
       out.best = record(p, q, rnorm, rel, it);
@@ -195,7 +196,7 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
     const VectorX r = p.residual(q);
     if (!finite(r)) break;
     const double rnorm = r.norm();
-    if (p.relative_residual(q, rnorm) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
+    if (p.relative_residual(q, r) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
     const MatrixX js = p.jacobian(q) * scale.asDiagonal();  // ∂r/∂(q/scale)
     if (!js.allFinite()) break;
     const VectorX rs = r;                                                          // residual in force units

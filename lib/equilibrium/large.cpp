@@ -311,9 +311,9 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     return d;
   };
   VectorX q = canonical_coordinates(s, start);
-  auto relative = [&](const VectorX& x, double rnorm) {
+  auto relative = [&](const VectorX& x, const VectorX& r) {
     const ForceScales scales = force_scales(s, w, x);
-    return scales.full > 0 ? relative_residual(rnorm, scales) : rnorm;
+    return scales.full > 0 ? relative_residual(s, w, x, r, scales) : r.norm();
   };
 
   // Progress (EquilibriumOptions::progress): the digits of the relative
@@ -350,7 +350,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     double accepted_rel = 0;
     for (int it = 0; it <= options.max_iterations; ++it) {
       const double rnorm = r.norm();
-      const double rel = relative(q, rnorm);
+      const double rel = relative(q, r);
       if (rel < best.residual) {
         best.q = q;
         best.residual = rel;
@@ -448,7 +448,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     double& mu = damping.mu;
     for (int it = 0; it < 200; ++it) {
       const double rnorm = r.norm();
-      const double rel = relative(q, rnorm);
+      const double rel = relative(q, r);
       if (rel < best.residual) {
         best.q = q;
         best.residual = rel;

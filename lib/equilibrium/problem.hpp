@@ -29,14 +29,14 @@ class Problem {
 
   double potential(const VectorX& q) { return modal::potential(s_, w_, q); }
 
-  // ‖r‖ made relative: modal::relative_residual(‖r‖, force_scales(q)) (‖r‖
-  // against the forces at 100 % strain, and its excess over their rounding
-  // against the acting forces). The full scale is a sum of the
+  // r made relative: modal::relative_residual(s, w, q, r) (‖r‖ against the
+  // forces at 100 % strain, and its excess over their rounding against the
+  // acting forces; each |r_k| likewise against coordinate k's own). The full scale is a sum of the
   // magnitudes of all force-producing elements, so it is 0 only when nothing
   // produces a force; then V is constant, r ≡ 0, and we fall back to the
   // absolute measure ‖r‖ / (‖J‖_F · 1 + DBL_MIN) (the force a unit displacement
   // would produce), which is 0 for r = 0.
-  double relative_residual(const VectorX& q, double residual_norm);
+  double relative_residual(const VectorX& q, const VectorX& r);
 
   int residual_evaluations = 0;
   int jacobian_evaluations = 0;

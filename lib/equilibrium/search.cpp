@@ -143,7 +143,7 @@ VectorX minimize_residual(Problem& p, const VectorX& start) {
   const VectorX r0 = p.residual(start);
   // Stop once the relative residual is 1e-8: Newton's quadratic convergence
   // does the rest far more cheaply than L-BFGS on the squared residual.
-  const double rel0 = p.relative_residual(start, r0.norm());
+  const double rel0 = p.relative_residual(start, r0);
   const double target = rel0 > 0 ? 1e-8 * r0.norm() / rel0 : 0.0;  // 1e-8 × the force scale
   opt.set_stopval(0.5 * target * target);
   opt.set_ftol_rel(1e-12);

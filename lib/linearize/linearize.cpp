@@ -10,8 +10,9 @@
 // as computed, not symmetrized. has_gyroscopic is set only when G is not zero
 // (a one-coordinate system in a rotating frame keeps the symmetric solver).
 // q̄ is an equilibrium when ∇V(q̄) = Q(q̄, 0) (dampers exert no force at rest;
-// follower loads do); its relative residual is relative_residual(‖∇V − Q‖₂,
-// force_scales(q̄)) (modal/core.hpp).
+// follower loads do); its relative residual is relative_residual(s, w, q̄,
+// ∇V − Q) (modal/core.hpp: ‖∇V − Q‖₂ against the scene's force scale and
+// each entry against its coordinate's).
 #include "modal/linearize.hpp"
 
 #include <Eigen/QR>
@@ -55,7 +56,7 @@ MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 // The relative residual (modal::relative_residual) of the generalized force r left
 // unbalanced at q; NotAnEquilibrium (naming the coordinate) above `tolerance`.
 double require_equilibrium(const System& s, Workspace& ws, const VectorX& q, const VectorX& r, double tolerance) {
-  const double residual = relative_residual(r.norm(), force_scales(s, ws, q));
+  const double residual = relative_residual(s, ws, q, r);
   if (residual <= tolerance) return residual;
   Eigen::Index worst = 0;
   r.cwiseAbs().maxCoeff(&worst);

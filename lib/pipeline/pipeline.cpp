@@ -80,8 +80,8 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
 
   Workspace ws(sys);
   const ForceScales scales = force_scales(sys, ws, at);
-  const double residual = equilibrium_residual(sys, ws, at).norm();
-  const double relative = scales.full > 0 ? relative_residual(residual, scales) : residual;
+  const VectorX residual = equilibrium_residual(sys, ws, at);
+  const double relative = scales.full > 0 ? relative_residual(sys, ws, at, residual, scales) : residual.norm();
   std::string nearest;
   if (e) {
     nearest = fmt::format("nearest equilibrium found at {}", format_point(names, e->q));

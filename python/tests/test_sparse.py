@@ -82,10 +82,11 @@ def test_dense_and_sparse_agree(models):
 
 
 def test_loose_equilibrium_systematic_part(models):
-    # The pre-tensioned net accepted at --eq-tol 1e-4 (at its flat start):
+    # The pre-tensioned net accepted at --eq-tol 1e-2 (at its flat start, where
+    # a node's weight is 2.4e-3 of its own springs' forces):
     # its estimates carry the equilibrium's change of K, reported apart as
     # systematic_errors, and no separated modes are claimed to be one.
-    loose = modal.analyze(models / "net.toml", modes=6, eq_tol=1e-4)
+    loose = modal.analyze(models / "net.toml", modes=6, eq_tol=1e-2)
     exact = modal.analyze(models / "net.toml", modes=6)
     assert np.all(loose.systematic_errors > 0) and np.all(loose.systematic_errors <= loose.errors)
     assert np.all(exact.systematic_errors == 0)

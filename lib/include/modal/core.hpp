@@ -473,6 +473,31 @@ ForceScales force_scales(const System& s, Workspace& w, const VectorX& q);
 // positive scale.
 double relative_residual(double residual_norm, const ForceScales& scales);
 
+// The same scales coordinate by coordinate (n each, units of ∇V's entry): the
+// forces of the elements that coordinate k moves, each times how far k moves
+// its point (bounded by |ω_k| × the point's arm about k's joint centre +
+// |u_k|, arms summed up the tree by the triangle inequality: O(n)); `rounding`
+// summed linearly. One stiff element then does not hide the others' unbalanced
+// forces: beside a slide of 1e14 N/m, two pendulums' gravity torques are 1e-13
+// of the whole scene's force scale but all of their own coordinates'. Maps:
+// empty vectors.
+struct CoordinateForceScales {
+  VectorX full;
+  VectorX acting;
+  VectorX rounding;
+};
+CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, const VectorX& q);
+
+// The relative residual of the generalized force r (n, without constraint
+// reactions) left unbalanced at q: the larger of relative_residual(‖r‖,
+// force_scales(q)) and, for every coordinate with a positive scale,
+// relative_residual(|r_k|, coordinate k's scales). Scenes with constraints
+// (whose residual carries reactions no element's scale counts) and maps: the
+// first alone.
+double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r);
+// The same with force_scales(s, w, q) already at hand.
+double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales);
+
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
 // The natural inertia scale of every coordinate at q (n; kg·m² for angles,

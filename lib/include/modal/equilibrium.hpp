@@ -104,7 +104,7 @@ std::vector<JointLimitState> joint_limits(const System& s, const VectorX& q);
 struct Equilibrium {
   VectorX q;                 // canonical coordinates (n)
   double potential = 0;      // V(q), J
-  double residual = 0;       // relative residual ‖∇V − Q‖ / force_scale
+  double residual = 0;       // relative residual of ∇V − Q (modal::relative_residual(s, w, q, r))
   double residual_norm = 0;  // ‖∇V − Q‖, same units as ∇V
   int iterations = 0;        // Newton iterations of the final polish
   // Constraint multipliers s (m, N; see Constraint for their meaning as
