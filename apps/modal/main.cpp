@@ -86,25 +86,11 @@ CLI::Validator from_below(double low, double high) {
       "");
 }
 
-// A memory size modal::parse_memory_size reads (4G, 512M, bytes).
-CLI::Validator memory_size() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        try {
-          modal::parse_memory_size(text);
-          return {};
-        } catch (const modal::InputError&) {
-          return "must be a size such as 4G, 512M or a number of bytes above 0, got '" + text + "'";
-        }
-      },
-      "");
-}
-
 struct SceneArgs {
   std::string file;
   std::vector<std::string> sets;
   bool allow_outside_data = false;
-  std::string max_memory;
+  double max_memory = 0;  // bytes (modal::SceneLimits::memory); 0: not given
   std::string format = "auto";
 };
 
@@ -125,18 +111,27 @@ void add_scene_options(CLI::App* cmd, SceneArgs& s) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_flag("--allow-outside-data", s.allow_outside_data,
                 "read data files (a network's CSV) from anywhere, not only from the scene file's directory and below");
-  cmd->add_option("--max-memory", s.max_memory,
-                  "memory the scene and the command may use, e.g. 4G or 512M (default: what the machine has "
-                  "available); larger work is refused before it starts")
-      ->type_name("SIZE")
-      ->check(memory_size());
+  // Read once, with the command line: a size modal::parse_memory_size reads (4G, 512M, bytes).
+  cmd->add_option_function<std::string>(
+         "--max-memory",
+         [&s](const std::string& text) {
+           try {
+             s.max_memory = modal::parse_memory_size(text);
+           } catch (const modal::InputError&) {
+             throw CLI::ValidationError("--max-memory", "must be a size such as 4G, 512M or a number of bytes above "
+                                                        "0, got '" + text + "'");
+           }
+         },
+         "memory the scene and the command may use, e.g. 4G or 512M (default: what the machine has "
+         "available); larger work is refused before it starts")
+      ->type_name("SIZE");
   add_format_option(cmd, s.format);
 }
 
 modal::Model load(const SceneArgs& s) {
   modal::SceneLimits limits;
   limits.allow_outside_data = s.allow_outside_data;
-  if (!s.max_memory.empty()) limits.memory = modal::parse_memory_size(s.max_memory);
+  limits.memory = s.max_memory;
   return modal::load_model(s.file, s.sets, limits, *modal::parse_scene_format(s.format));
 }
 
@@ -181,7 +176,7 @@ void set_scene(Request& request, const SceneArgs& s) {
   request.scene_file = s.file;
   request.sets = s.sets;
   request.limits.allow_outside_data = s.allow_outside_data;
-  if (!s.max_memory.empty()) request.limits.memory = modal::parse_memory_size(s.max_memory);
+  request.limits.memory = s.max_memory;
   request.format = *modal::parse_scene_format(s.format);
 }
 #endif

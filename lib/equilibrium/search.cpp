@@ -223,22 +223,17 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   return v;
 }
 
-// Whether a and b lie on one straight family of equilibria (a free
-// translation, a neutral slide, a rotation about a symmetry axis written as a
-// hinge): equal potential, and the segment between them (angles the short way
-// round) is made of equilibria. A curved family fails the segment test and is
-// left to the point-signature test; the cost is three residuals per pair.
 // The scale against which two equilibria's potentials are compared.
 double potential_scale(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
   return std::max({std::abs(a.potential), std::abs(b.potential), force_scale(s, w, a.q)});
 }
 
-bool equal_potential(const System& s, Workspace& w, const Equilibrium& a, const Equilibrium& b) {
-  return std::abs(a.potential - b.potential) <= 1e-10 * potential_scale(s, w, a, b);
-}
-
+// Whether a and b, of equal potential, lie on one straight family of
+// equilibria (a free translation, a neutral slide, a rotation about a
+// symmetry axis written as a hinge): the segment between them (angles the
+// short way round) is made of equilibria. A curved family fails the segment
+// test and is left to same_curved_family; the cost is three residuals per pair.
 bool same_straight_family(const System& s, Workspace& w, Problem& p, const Equilibrium& a, const Equilibrium& b) {
-  if (!equal_potential(s, w, a, b)) return false;
   VectorX d = b.q - a.q;
   for (int i = 0; i < s.size(); ++i)
     if (s.coordinates()[static_cast<std::size_t>(i)].periodic &&
@@ -286,10 +281,9 @@ bool same_straight_family(const System& s, Workspace& w, Problem& p, const Equil
 // at another potential or far from its target, the family closes on itself,
 // after 100 steps each way, or when `budget` (steps, each an n × n
 // decomposition, shared by one deduplication) runs out.
-bool same_curved_family(const System& s, Workspace& w, const EquilibriumOptions& options, const Equilibrium& a,
-                        const Equilibrium& b, double scale, long& budget) {
+bool same_curved_family(const System& s, Workspace& w, Problem& p, const EquilibriumOptions& options,
+                        const Equilibrium& a, const Equilibrium& b, double scale, long& budget) {
   if (s.has_constraints()) return false;  // the null direction of J would leave the constraint manifold
-  Problem p(s);
   const VectorX pa = potential_points(s, w, a.q);
   const VectorX pb = potential_points(s, w, b.q);
   const double h = (pb - pa).norm() / 16;
@@ -341,7 +335,7 @@ bool same_curved_family(const System& s, Workspace& w, const EquilibriumOptions&
   return false;
 }
 
-// same_straight_family or same_curved_family. A point between them where the
+// Equal potential, and same_straight_family or same_curved_family. A point between them where the
 // model cannot be evaluated (a spring whose ends meet, on the segment from
 // one compressed-through chain to another) makes them two rows, not a failed
 // survey (the straight test's residuals threw "coincident end points" on
@@ -349,8 +343,9 @@ bool same_curved_family(const System& s, Workspace& w, const EquilibriumOptions&
 bool one_family(const System& s, Workspace& w, Problem& p, const EquilibriumOptions& options, const Equilibrium& a,
                 const Equilibrium& b, long& budget) {
   try {
-    return same_straight_family(s, w, p, a, b) ||
-           (equal_potential(s, w, a, b) && same_curved_family(s, w, options, a, b, potential_scale(s, w, a, b), budget));
+    const double scale = potential_scale(s, w, a, b);
+    if (!(std::abs(a.potential - b.potential) <= 1e-10 * scale)) return false;
+    return same_straight_family(s, w, p, a, b) || same_curved_family(s, w, p, options, a, b, scale, budget);
   } catch (const NumericalError&) {
     return false;
   }
