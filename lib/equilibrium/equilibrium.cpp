@@ -92,27 +92,48 @@ double Problem::relative_residual(const VectorX& q, const VectorX& r) {
   return residual_norm / (j.norm() + DBL_MIN);
 }
 
-VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric) {
+VectorX Problem::stiffness_scales(const VectorX& q) {
+  if (s_.is_map()) return VectorX();
+  VectorX c = coordinate_force_scales(s_, w_, q).full;
+  for (int i = 0; i < s_.size(); ++i)
+    if (s_.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length) c[i] /= s_.length_scale();
+  const double largest = c.size() > 0 ? c.maxCoeff() : 0.0;
+  if (!(largest > 0) || !std::isfinite(largest)) return VectorX();
+  for (Eigen::Index i = 0; i < c.size(); ++i)
+    if (!(c[i] > 0)) c[i] = largest;
+  return c;
+}
+
+VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const VectorX& stiffness) {
   const Eigen::Index n = j.rows();
   if (n == 0) return VectorX(0);
+  // Solved as (S J S)(S⁻¹ d) = −S r with S = diag(stiffness)^-½: the cutoffs
+  // below are then relative to each coordinate's own stiffness, not to the
+  // stiffest coordinate's. Unscaled, a slide of 1e14 N/m made the pendulums
+  // beside it "zero modes" (9.8 N·m/rad, below 1000 ε × 1e14) and Newton took
+  // no step at all.
+  VectorX scale = VectorX::Ones(n);
+  if (stiffness.size() == n) scale = stiffness.cwiseSqrt().cwiseInverse();
+  const MatrixX js = scale.asDiagonal() * j * scale.asDiagonal();
+  const VectorX rs = scale.cwiseProduct(r);
   if (!symmetric) {
-    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(j);
+    Eigen::CompleteOrthogonalDecomposition<MatrixX> cod(js);
     cod.setThreshold(1e3 * std::numeric_limits<double>::epsilon());
-    return -cod.solve(r);
+    return -scale.cwiseProduct(cod.solve(rs));
   }
   if (n > 24) {  // fast path: the usual stable equilibrium of a large scene
-    const Eigen::LLT<MatrixX> llt(j);
-    if (llt.info() == Eigen::Success && llt.rcond() > 1e-10) return -llt.solve(r);
+    const Eigen::LLT<MatrixX> llt(js);
+    if (llt.info() == Eigen::Success && llt.rcond() > 1e-10) return -scale.cwiseProduct(llt.solve(rs));
   }
-  const Eigen::SelfAdjointEigenSolver<MatrixX> es(j);
+  const Eigen::SelfAdjointEigenSolver<MatrixX> es(js);
   if (es.info() != Eigen::Success) return VectorX::Zero(n);
   const VectorX& lambda = es.eigenvalues();
   // Zero modes (ignorable coordinates) come out as rounding-size eigenvalues:
-  // dropped below 1000 ε of the largest, giving the minimum-norm step.
+  // dropped below 1000 ε of the largest, giving the step of least scaled norm.
   const double cutoff = 1e3 * std::numeric_limits<double>::epsilon() * lambda.cwiseAbs().maxCoeff();
-  VectorX c = es.eigenvectors().transpose() * r;
+  VectorX c = es.eigenvectors().transpose() * rs;
   for (Eigen::Index i = 0; i < n; ++i) c[i] = std::abs(lambda[i]) > cutoff ? c[i] / lambda[i] : 0.0;
-  return -(es.eigenvectors() * c);
+  return -scale.cwiseProduct(es.eigenvectors() * c);
 }
 
 Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options) {
@@ -147,7 +168,7 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       // bounds the cost: 60 steps of × 0.5 span 18 orders of magnitude.
       if (refinements++ == 60 || rnorm == 0.0) return out;
       const MatrixX& j = p.jacobian(q);
-      const VectorX d = newton_step(j, r, p.symmetric_jacobian());
+      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
       const VectorX qt = q + d;
       const VectorX& rt = p.residual(qt);
       if (!finite(d) || !finite(rt) || rt.norm() > 0.5 * rnorm) return out;
@@ -157,7 +178,7 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
     if (it >= options.max_iterations) return out;
     const MatrixX& j = p.jacobian(q);
     if (!j.allFinite()) return out;
-    const VectorX d = newton_step(j, r, p.symmetric_jacobian());
+    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
     // Backtracking (Armijo) on f = ½‖r‖², whose gradient is Jᵀr.
     const double f0 = 0.5 * rnorm * rnorm;
     const double slope = (j.transpose() * r).dot(d);
@@ -184,7 +205,10 @@ namespace {
 // (lengths / length scale), with each step also limited to 0.5 (rad or length
 // scales) so the iteration stays near the start and converges to the nearby
 // equilibrium whatever its stability (it solves r = 0; it does not minimize V).
-// Returns the point reached, and in `steps` the steps taken; the caller
+// The damping is Marquardt's, μ times each coordinate's own squared
+// stiffness (Problem::stiffness_scales), so a stiff element does not damp the
+// others' steps to nothing (a slide of 1e14 N/m had pendulums beside it
+// damped by 1e20: no step taken). Returns the point reached, and in `steps` the steps taken; the caller
 // polishes it.
 VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options, int& steps) {
   steps = 0;
@@ -202,11 +226,16 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
     const VectorX rs = r;                                                          // residual in force units
     const MatrixX a = js.transpose() * js;
     const VectorX g = js.transpose() * rs;
-    if (mu < 0) mu = 1e-8 * std::max(a.diagonal().maxCoeff(), DBL_MIN);
+    VectorX damping = p.stiffness_scales(q);
+    if (damping.size() == s.size())
+      damping = damping.cwiseProduct(scale).cwiseAbs2();  // units of JᵀJ in the scaled coordinates
+    else
+      damping = VectorX::Constant(s.size(), std::max(a.diagonal().maxCoeff(), DBL_MIN));
+    if (mu < 0) mu = 1e-8;
     bool accepted = false;
     for (int k = 0; k < 30; ++k) {
       MatrixX am = a;
-      am.diagonal().array() += mu;
+      am.diagonal() += mu * damping;
       const Eigen::LLT<MatrixX> llt(am);
       VectorX dx = llt.info() == Eigen::Success ? VectorX(-llt.solve(g)) : VectorX::Zero(s.size());
       const double len = dx.norm();

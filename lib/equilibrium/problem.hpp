@@ -38,6 +38,14 @@ class Problem {
   // would produce), which is 0 for r = 0.
   double relative_residual(const VectorX& q, const VectorX& r);
 
+  // A stiffness scale per coordinate (n, units of J_kk: N·m/rad, N/m): the
+  // full force scale of coordinate k (coordinate_force_scales) per radian or
+  // length scale; a coordinate that no element moves takes the largest.
+  // Independent of the rounding in J (a zero mode's J_kk is rounding of its
+  // own elements' scale, not 1). Empty for maps and where nothing produces a
+  // force.
+  VectorX stiffness_scales(const VectorX& q);
+
   int residual_evaluations = 0;
   int jacobian_evaluations = 0;
 
@@ -48,12 +56,15 @@ class Problem {
   MatrixX j_;
 };
 
-// Minimum-norm least-squares solution d of J d = −r (J may be singular: zero
-// modes of ignorable coordinates). Large, well-conditioned positive definite J:
+// Least-squares solution d of J d = −r of least norm in S⁻¹d, S =
+// diag(stiffness)^-½ (J may be singular: zero modes of ignorable
+// coordinates), solved in the scaled form S J S, whose cutoffs are thereby
+// relative to each coordinate's own stiffness (Problem::stiffness_scales;
+// empty: unscaled). Large, well-conditioned positive definite S J S:
 // Cholesky. Otherwise a symmetric eigen-decomposition with eigenvalues below
 // a relative cutoff discarded (or a complete orthogonal decomposition when J
 // is not symmetric).
-VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric);
+VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const VectorX& stiffness);
 
 // Result of a Newton polish: success, or the best point reached (for messages).
 struct Polished {
