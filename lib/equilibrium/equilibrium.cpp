@@ -136,6 +136,22 @@ VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const Ve
   return -scale.cwiseProduct(es.eigenvectors() * c);
 }
 
+namespace {
+
+// Weights of the residual's entries (n): 1 / coordinate k's full force scale
+// (its stiffness scale per radian or length scale, times that unit), so that
+// ‖W r‖ sees every coordinate's unbalanced force against its own forces;
+// ones where there are no stiffness scales (maps). Unweighted, a graded
+// chain's light link (forces 1e-14 N·m beside 1e4) was invisible to the
+// line search and to Levenberg–Marquardt's normal equations, whose JᵀJ
+// squared the grading: the light link ended at 180° from a start of 0.2 rad.
+VectorX residual_weights(const System& s, const VectorX& stiffness) {
+  if (stiffness.size() != s.size()) return VectorX::Ones(s.size());
+  return stiffness.cwiseProduct(coordinate_scales(s)).cwiseInverse();
+}
+
+}  // namespace
+
 Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options) {
   const System& s = p.system();
   Polished out;
@@ -168,20 +184,25 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       // bounds the cost: 60 steps of × 0.5 span 18 orders of magnitude.
       if (refinements++ == 60 || rnorm == 0.0) return out;
       const MatrixX& j = p.jacobian(q);
-      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
+      const VectorX stiffness = p.stiffness_scales(q);
+      const VectorX weight = residual_weights(s, stiffness);
+      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), stiffness);
       const VectorX qt = q + d;
       const VectorX& rt = p.residual(qt);
-      if (!finite(d) || !finite(rt) || rt.norm() > 0.5 * rnorm) return out;
+      if (!finite(d) || !finite(rt) || weight.cwiseProduct(rt).norm() > 0.5 * weight.cwiseProduct(r).norm()) return out;
       q = qt;
       continue;
     }
     if (it >= options.max_iterations) return out;
     const MatrixX& j = p.jacobian(q);
     if (!j.allFinite()) return out;
-    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
-    // Backtracking (Armijo) on f = ½‖r‖², whose gradient is Jᵀr.
-    const double f0 = 0.5 * rnorm * rnorm;
-    const double slope = (j.transpose() * r).dot(d);
+    const VectorX stiffness = p.stiffness_scales(q);
+    const VectorX weight = residual_weights(s, stiffness);
+    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), stiffness);
+    // Backtracking (Armijo) on f = ½‖W r‖², whose gradient is JᵀW²r.
+    const VectorX wr = weight.cwiseProduct(r);
+    const double f0 = 0.5 * wr.squaredNorm();
+    const double slope = (weight.asDiagonal() * (j * d)).dot(wr);
     if (!(slope < 0) || !finite(d)) return out;  // no descent left: stalled
     double t = 1;
     bool accepted = false;
@@ -189,7 +210,7 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       const VectorX qt = q + t * d;
       const VectorX& rt = p.residual(qt);
       if (!finite(rt)) continue;
-      if (0.5 * rt.squaredNorm() <= f0 + 1e-4 * t * slope) {
+      if (0.5 * weight.cwiseProduct(rt).squaredNorm() <= f0 + 1e-4 * t * slope) {
         q = qt;
         accepted = true;
         break;
@@ -205,11 +226,12 @@ namespace {
 // (lengths / length scale), with each step also limited to 0.5 (rad or length
 // scales) so the iteration stays near the start and converges to the nearby
 // equilibrium whatever its stability (it solves r = 0; it does not minimize V).
-// The damping is Marquardt's, μ times each coordinate's own squared
-// stiffness (Problem::stiffness_scales), so a stiff element does not damp the
-// others' steps to nothing (a slide of 1e14 N/m had pendulums beside it
-// damped by 1e20: no step taken). Returns the point reached, and in `steps` the steps taken; the caller
-// polishes it.
+// Its residual is weighted per coordinate (residual_weights: each entry
+// against its coordinate's own forces), so that the normal equations and the
+// damping μ × the largest diagonal are on one scale: unweighted, a slide of
+// 1e14 N/m damped the pendulums beside it by 1e20 (no step taken), and a
+// graded chain's light link was lost in JᵀJ. Returns the point reached, and
+// in `steps` the steps taken; the caller polishes it.
 VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options, int& steps) {
   steps = 0;
   const System& s = p.system();
@@ -219,30 +241,25 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
   for (int it = 0; it < 2 * options.max_iterations; ++it) {
     const VectorX r = p.residual(q);
     if (!finite(r)) break;
-    const double rnorm = r.norm();
     if (p.relative_residual(q, r) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
-    const MatrixX js = p.jacobian(q) * scale.asDiagonal();  // ∂r/∂(q/scale)
+    const VectorX weight = residual_weights(s, p.stiffness_scales(q));
+    const MatrixX js = weight.asDiagonal() * p.jacobian(q) * scale.asDiagonal();  // ∂(W r)/∂(q/scale)
     if (!js.allFinite()) break;
-    const VectorX rs = r;                                                          // residual in force units
+    const VectorX rs = weight.cwiseProduct(r);
     const MatrixX a = js.transpose() * js;
     const VectorX g = js.transpose() * rs;
-    VectorX damping = p.stiffness_scales(q);
-    if (damping.size() == s.size())
-      damping = damping.cwiseProduct(scale).cwiseAbs2();  // units of JᵀJ in the scaled coordinates
-    else
-      damping = VectorX::Constant(s.size(), std::max(a.diagonal().maxCoeff(), DBL_MIN));
-    if (mu < 0) mu = 1e-8;
+    if (mu < 0) mu = 1e-8 * std::max(a.diagonal().maxCoeff(), DBL_MIN);
     bool accepted = false;
     for (int k = 0; k < 30; ++k) {
       MatrixX am = a;
-      am.diagonal() += mu * damping;
+      am.diagonal().array() += mu;
       const Eigen::LLT<MatrixX> llt(am);
       VectorX dx = llt.info() == Eigen::Success ? VectorX(-llt.solve(g)) : VectorX::Zero(s.size());
       const double len = dx.norm();
       if (len > 0.5) dx *= 0.5 / len;
       const VectorX qt = q + scale.cwiseProduct(dx);
       const VectorX& rt = p.residual(qt);
-      if (finite(rt) && rt.norm() < rnorm) {
+      if (finite(rt) && weight.cwiseProduct(rt).norm() < rs.norm()) {
         q = canonical_coordinates(s, qt);
         mu = std::max(mu / 4, 1e-300);
         accepted = true;
