@@ -8,6 +8,7 @@
 //  - a ball-joint spherical pendulum (singular Hessian: spin about the rod);
 //  - determinism.
 #include "modal/equilibrium.hpp"
+#include "modal/scene.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -260,6 +261,58 @@ TEST(Equilibrium, GradedChainsSettleAtTheNearestEquilibrium) {
     EXPECT_EQ(e.method.find("multi-start"), std::string::npos) << e.method;
     EXPECT_LE(e.residual, kTol);
     for (int i = 0; i < s.size(); ++i) EXPECT_NEAR(e.q[i], 0.0, 1e-9) << "link " << i;
+  }
+}
+
+TEST(Equilibrium, ASceneFarFromTheOriginSettlesAsAtTheOrigin) {
+  // Found in review of the per-coordinate measure: (1) a sagging net 3 km
+  // from the origin was refused ("no equilibrium found", relative 1.75e-12):
+  // a node's residual is then rounding of its springs' world points, 1e-11 of
+  // its own forces, which only the whole-scene measure had hidden; (2) a
+  // hanging chain beside a bead 1e9 m out on a 1 mm spring was refused: the
+  // bead's length column, in units of the scene's length scale (1e9 m),
+  // damped every link's step away. Reference: the same scene at the origin
+  // (translation changes nothing), and the closed form for the chain (links
+  // hanging, the bead at its spring's rest length).
+  auto net = [](int size, double origin, double prestrain) {
+    const std::string text = "gravity = [0, 0, -9.81]\n[[lattice]]\nname = \"n\"\nsize = [" + std::to_string(size) +
+                             ", " + std::to_string(size) + ", 1]\nplane = \"xy\"\nspacing = 0.1\nmass = 0.01\n"
+                             "stiffness = 100\nprestrain = " + std::to_string(prestrain) + "\nfixed = \"boundary\"\n"
+                             "origin = [" + std::to_string(origin) + ", " + std::to_string(origin) + ", 0]\n";
+    return build_system(parse_scene(text, "net.toml"));
+  };
+  for (const int size : {6, 9})
+    for (const double prestrain : {0.0, 0.01}) {
+      const System home = net(size, 0, prestrain);
+      const Equilibrium reference = find_equilibrium(home, home.initial_configuration());
+      for (const double origin : {10.0, 1e3, 3e3, 1e4}) {
+        SCOPED_TRACE("net " + std::to_string(size) + " prestrain " + std::to_string(prestrain) + " at " +
+                     std::to_string(origin));
+        const System far = net(size, origin, prestrain);
+        const Equilibrium e = find_equilibrium(far, far.initial_configuration());
+        EXPECT_LE(e.residual, kTol);
+        // A pre-tensioned net's sag (m) from its flat start, by Newton: the
+        // same as at the origin to the rounding of positions origin m out
+        // (1e-12 m at 1e4 m), amplified by the net's compliance. (From a
+        // slack start the route, and so which equilibrium, may differ.)
+        if (prestrain > 0) {
+          EXPECT_LE((e.q - reference.q).lpNorm<Eigen::Infinity>(), 1e-6 * reference.q.lpNorm<Eigen::Infinity>());
+        }
+      }
+    }
+  for (const int links : {1, 30}) {
+    SCOPED_TRACE(std::to_string(links) + " links");
+    std::string text = "[parameters]\nX = 1e9\n[[chain]]\nname = \"c\"\nlinks = " + std::to_string(links) +
+                       "\nlength = 1\nmass = 1\ninitial = [";
+    for (int i = 0; i < links; ++i) text += (i ? ", " : "") + std::to_string(0.3 * std::sin(1.0 + 3.0 * i));
+    text += "]\n[[particle]]\nname = \"bead\"\nposition = [\"X\", 0, 0]\nmass = 1e-6\nfixed = [false, true, true]\n"
+            "[[spring]]\na = \"world\"\nb = \"bead\"\na_point = [\"X - 1e-3\", 0, 0]\nstiffness = 1\n";
+    const System s = build_system(parse_scene(text, "far.toml"));
+    const Equilibrium e = find_equilibrium(s, s.initial_configuration());
+    EXPECT_EQ(e.method.find("multi-start"), std::string::npos) << e.method;
+    EXPECT_LE(e.residual, kTol);
+    for (int i = 0; i < links; ++i) EXPECT_NEAR(e.q[i], 0.0, 1e-9) << "link " << i;
+    EXPECT_NEAR(e.q[links], 0.0, 1e-6);  // the bead at its spring's rest length (its start), to the rounding of 1e9 m
   }
 }
 

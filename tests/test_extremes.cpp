@@ -491,3 +491,34 @@ TEST(Extremes, HugeGravityIsNotAZeroMode) {
       expect_within_estimate(r.modes[j], ref[j], "g = " + number(g) + ", mode " + std::to_string(j + 1));
   }
 }
+
+namespace {
+
+TEST(Extremes, WhereACompressedSpringsEndsMeetIsNoEquilibrium) {
+  // models/spring_chain.toml (three masses on slides between walls, springs
+  // of rest length a) compressed until its three masses meet: V is not
+  // differentiable there (each inner spring's force has no direction), yet
+  // the survey listed it as a stable equilibrium. The smooth equilibria
+  // (closed form: every spring at its rest length, or some flipped through,
+  // 5 configurations, no two masses closer than a/2) stay; the meeting point
+  // is no equilibrium and has no linear model.
+  const Scene scene = load_scene(std::string(MODAL_SOURCE_DIR) + "/models/spring_chain.toml");
+  const System s = build_system(scene);
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  EXPECT_EQ(all.size(), 5u);
+  for (const Equilibrium& e : all) {
+    const double x1 = 1 + e.q[0], x2 = 2 + e.q[1], x3 = 3 + e.q[2];  // positions, a = 1
+    EXPECT_GT(std::min({std::abs(x1 - x2), std::abs(x2 - x3)}), 0.25) << e.q.transpose();
+  }
+  VectorX met(3);
+  met << 1, 1e-12, -1;  // all three at x = 2a, within 1e-12 m (exactly together, ∇V throws)
+  try {
+    linearize(s, met);
+    ADD_FAILURE() << "linearized where V is not differentiable";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("meet at this configuration"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'mass1' and 'mass2'"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace

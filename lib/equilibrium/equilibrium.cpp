@@ -92,16 +92,31 @@ double Problem::relative_residual(const VectorX& q, const VectorX& r) {
   return residual_norm / (j.norm() + DBL_MIN);
 }
 
+namespace {
+
+// v with its entries that are not positive (or not finite) set to its
+// largest; empty if none is positive.
+VectorX positive_or_largest(VectorX v) {
+  double largest = 0;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (std::isfinite(v[i])) largest = std::max(largest, v[i]);
+  if (!(largest > 0)) return VectorX();
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (!(v[i] > 0) || !std::isfinite(v[i])) v[i] = largest;
+  return v;
+}
+
+}  // namespace
+
 VectorX Problem::stiffness_scales(const VectorX& q) {
   if (s_.is_map()) return VectorX();
-  VectorX c = coordinate_force_scales(s_, w_, q).full;
-  for (int i = 0; i < s_.size(); ++i)
-    if (s_.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length) c[i] /= s_.length_scale();
-  const double largest = c.size() > 0 ? c.maxCoeff() : 0.0;
-  if (!(largest > 0) || !std::isfinite(largest)) return VectorX();
-  for (Eigen::Index i = 0; i < c.size(); ++i)
-    if (!(c[i] > 0)) c[i] = largest;
-  return c;
+  return positive_or_largest(coordinate_force_scales(s_, w_, q).stiffness);
+}
+
+VectorX Problem::residual_weights(const VectorX& q) {
+  const VectorX full = s_.is_map() ? VectorX() : positive_or_largest(coordinate_force_scales(s_, w_, q).full);
+  if (full.size() != s_.size()) return VectorX::Ones(s_.size());
+  return full.cwiseInverse();
 }
 
 VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const VectorX& stiffness) {
@@ -136,22 +151,6 @@ VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const Ve
   return -scale.cwiseProduct(es.eigenvectors() * c);
 }
 
-namespace {
-
-// Weights of the residual's entries (n): 1 / coordinate k's full force scale
-// (its stiffness scale per radian or length scale, times that unit), so that
-// ‖W r‖ sees every coordinate's unbalanced force against its own forces;
-// ones where there are no stiffness scales (maps). Unweighted, a graded
-// chain's light link (forces 1e-14 N·m beside 1e4) was invisible to the
-// line search and to Levenberg–Marquardt's normal equations, whose JᵀJ
-// squared the grading: the light link ended at 180° from a start of 0.2 rad.
-VectorX residual_weights(const System& s, const VectorX& stiffness) {
-  if (stiffness.size() != s.size()) return VectorX::Ones(s.size());
-  return stiffness.cwiseProduct(coordinate_scales(s)).cwiseInverse();
-}
-
-}  // namespace
-
 Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options) {
   const System& s = p.system();
   Polished out;
@@ -169,6 +168,10 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       out.best = record(p, q, rnorm, rel, it);
     }
     if (rel <= options.tolerance && !out.converged) {
+      // Where a compressed spring's ends meet, V is not differentiable: the
+      // "balance" there is of a force without direction, no equilibrium
+      // (models/spring_chain.toml listed three coincident masses as stable).
+      if (!p.differentiable_at(q)) return out;
       out.converged = true;
       out.best = record(p, q, rnorm, rel, it);
     }
@@ -184,9 +187,8 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       // bounds the cost: 60 steps of × 0.5 span 18 orders of magnitude.
       if (refinements++ == 60 || rnorm == 0.0) return out;
       const MatrixX& j = p.jacobian(q);
-      const VectorX stiffness = p.stiffness_scales(q);
-      const VectorX weight = residual_weights(s, stiffness);
-      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), stiffness);
+      const VectorX weight = p.residual_weights(q);
+      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
       const VectorX qt = q + d;
       const VectorX& rt = p.residual(qt);
       if (!finite(d) || !finite(rt) || weight.cwiseProduct(rt).norm() > 0.5 * weight.cwiseProduct(r).norm()) return out;
@@ -196,9 +198,8 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
     if (it >= options.max_iterations) return out;
     const MatrixX& j = p.jacobian(q);
     if (!j.allFinite()) return out;
-    const VectorX stiffness = p.stiffness_scales(q);
-    const VectorX weight = residual_weights(s, stiffness);
-    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), stiffness);
+    const VectorX weight = p.residual_weights(q);
+    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
     // Backtracking (Armijo) on f = ½‖W r‖², whose gradient is JᵀW²r.
     const VectorX wr = weight.cwiseProduct(r);
     const double f0 = 0.5 * wr.squaredNorm();
@@ -226,11 +227,13 @@ namespace {
 // (lengths / length scale), with each step also limited to 0.5 (rad or length
 // scales) so the iteration stays near the start and converges to the nearby
 // equilibrium whatever its stability (it solves r = 0; it does not minimize V).
-// Its residual is weighted per coordinate (residual_weights: each entry
-// against its coordinate's own forces), so that the normal equations and the
-// damping μ × the largest diagonal are on one scale: unweighted, a slide of
-// 1e14 N/m damped the pendulums beside it by 1e20 (no step taken), and a
-// graded chain's light link was lost in JᵀJ. Returns the point reached, and
+// Its residual is weighted per coordinate (Problem::residual_weights: each
+// entry against its coordinate's own forces), and its damping is Marquardt's,
+// μ × each column's own diagonal of the normal equations: unweighted and
+// damped by μ × the largest diagonal, a slide of 1e14 N/m damped the
+// pendulums beside it by 1e20 (no step taken), a bead 1e9 m out (a length
+// column of 1e12) did the same to a chain, and a graded chain's light link
+// was lost in JᵀJ. Returns the point reached, and
 // in `steps` the steps taken; the caller polishes it.
 VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options, int& steps) {
   steps = 0;
@@ -242,17 +245,19 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
     const VectorX r = p.residual(q);
     if (!finite(r)) break;
     if (p.relative_residual(q, r) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
-    const VectorX weight = residual_weights(s, p.stiffness_scales(q));
+    const VectorX weight = p.residual_weights(q);
     const MatrixX js = weight.asDiagonal() * p.jacobian(q) * scale.asDiagonal();  // ∂(W r)/∂(q/scale)
     if (!js.allFinite()) break;
     const VectorX rs = weight.cwiseProduct(r);
     const MatrixX a = js.transpose() * js;
     const VectorX g = js.transpose() * rs;
-    if (mu < 0) mu = 1e-8 * std::max(a.diagonal().maxCoeff(), DBL_MIN);
+    // A column of rounding only (a zero mode) is damped at 1e-16 of the largest.
+    const VectorX damping = a.diagonal().cwiseMax(1e-16 * std::max(a.diagonal().maxCoeff(), DBL_MIN));
+    if (mu < 0) mu = 1e-8;
     bool accepted = false;
     for (int k = 0; k < 30; ++k) {
       MatrixX am = a;
-      am.diagonal().array() += mu;
+      am.diagonal() += mu * damping;
       const Eigen::LLT<MatrixX> llt(am);
       VectorX dx = llt.info() == Eigen::Success ? VectorX(-llt.solve(g)) : VectorX::Zero(s.size());
       const double len = dx.norm();

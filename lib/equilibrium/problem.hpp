@@ -28,6 +28,8 @@ class Problem {
   bool symmetric_jacobian() const { return !s_.has_follower_loads(); }
 
   double potential(const VectorX& q) { return modal::potential(s_, w_, q); }
+  // False where V is not differentiable (modal::spring_with_meeting_ends).
+  bool differentiable_at(const VectorX& q) { return !spring_with_meeting_ends(s_, w_, q); }
 
   // r made relative: modal::relative_residual(s, w, q, r) (‖r‖ against the
   // forces at 100 % strain, and its excess over their rounding against the
@@ -38,13 +40,19 @@ class Problem {
   // would produce), which is 0 for r = 0.
   double relative_residual(const VectorX& q, const VectorX& r);
 
-  // A stiffness scale per coordinate (n, units of J_kk: N·m/rad, N/m): the
-  // full force scale of coordinate k (coordinate_force_scales) per radian or
-  // length scale; a coordinate that no element moves takes the largest.
-  // Independent of the rounding in J (a zero mode's J_kk is rounding of its
-  // own elements' scale, not 1). Empty for maps and where nothing produces a
-  // force.
+  // A stiffness scale per coordinate (n, units of J_kk: N·m/rad, N/m):
+  // coordinate_force_scales(q).stiffness, a coordinate without one taking the
+  // largest. Independent of the rounding in J (a zero mode's J_kk is rounding
+  // of its own elements' scale, not 1). Empty for maps and where no element
+  // has a stiffness.
   VectorX stiffness_scales(const VectorX& q);
+  // Weights of the residual's entries (n): 1 / coordinate k's full force
+  // scale (coordinate_force_scales(q).full, a coordinate without one taking
+  // the largest), so that ‖W r‖ sees every coordinate's unbalanced force
+  // against its own forces. Ones for maps. Unweighted, a graded chain's light
+  // link (forces 1e-14 of the heavy one's) was invisible to the line search
+  // and to Levenberg–Marquardt's JᵀJ, and it ended at 180° from 0.2 rad.
+  VectorX residual_weights(const VectorX& q);
 
   int residual_evaluations = 0;
   int jacobian_evaluations = 0;

@@ -394,6 +394,17 @@ class Workspace {
 // --- potential energy (V_eff = V − T₀ in a rotating frame) ---------------------
 double potential(const System& s, Workspace& w, const VectorX& q);                     // V, J
 const VectorX& potential_gradient(const System& s, Workspace& w, const VectorX& q);   // ∇V, n
+// The first spring of positive rest length whose ends meet at q: |x_a − x_b|
+// at most √ε × its rest length, or within the rounding of the ends' positions
+// (8ε (|x_a| + |x_b|)): its index in s.springs() and the ends' distance (m); nullopt if
+// none. V is not differentiable there (the spring's force has no direction):
+// no equilibrium, no linear model. (A spring of rest length 0 is smooth
+// through its ends' meeting.)
+struct MeetingEnds {
+  std::size_t spring = 0;
+  double distance = 0;  // m
+};
+std::optional<MeetingEnds> spring_with_meeting_ends(const System& s, Workspace& w, const VectorX& q);
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
 
 // Σ|terms| of ∇∇V entry by entry (n×n, ≥ |∇∇V| componentwise): the sum of
@@ -479,12 +490,17 @@ double relative_residual(double residual_norm, const ForceScales& scales);
 // |u_k|, arms summed up the tree by the triangle inequality: O(n)); `rounding`
 // summed linearly. One stiff element then does not hide the others' unbalanced
 // forces: beside a slide of 1e14 N/m, two pendulums' gravity torques are 1e-13
-// of the whole scene's force scale but all of their own coordinates'. Maps:
-// empty vectors.
+// of the whole scene's force scale but all of their own coordinates'.
+// `stiffness` (units of ∇∇V's diagonal entry: N·m/rad, N/m): a scale of
+// ∂²V/∂q_k², the springs' k |∂x/∂q_k|² (bounded like the arms above), the
+// joint springs' k and the acting loads' curvature |ω_k|² × their moment
+// arms; from the elements, not from ∇∇V, so a zero mode's rounding is not
+// mistaken for a stiffness. Maps: empty vectors.
 struct CoordinateForceScales {
   VectorX full;
   VectorX acting;
   VectorX rounding;
+  VectorX stiffness;
 };
 CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, const VectorX& q);
 
