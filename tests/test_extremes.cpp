@@ -14,6 +14,7 @@
 #include "modal/linearize.hpp"
 #include "modal/modes.hpp"
 #include "modal/scene.hpp"
+#include "program.hpp"
 
 #include <gtest/gtest.h>
 
@@ -518,6 +519,91 @@ TEST(Extremes, WhereACompressedSpringsEndsMeetIsNoEquilibrium) {
   } catch (const NumericalError& e) {
     EXPECT_NE(std::string(e.what()).find("meet at this configuration"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("'mass1' and 'mass2'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Extremes, AStartWhereASpringsEndsCoincideIsNoStartButTheSurveyGoesOn) {
+  // The chain's three masses written at one point (x = 0.3 m; rest lengths
+  // 1 m, walls at 0 and 4 m): ∇V cannot be evaluated at the initial
+  // configuration. The survey had stopped there ("a spring … has coincident
+  // end points"); its other starts find the chain's 5 equilibria (every
+  // spring carrying the same axial force, none with its ends within 0.25 m). The
+  // nearest-equilibrium search goes on from the survey; with 600 more
+  // coordinates (beads on springs of their own) it is the sparse path's,
+  // which cannot start there, and says so naming the spring.
+  auto chain = [](int beads) {
+    std::string t = "title = \"coincident start\"\n";
+    for (int i = 1; i <= 3; ++i)
+      t += "[[body]]\nname = \"mass" + std::to_string(i) + "\"\njoint = \"slide\"\naxis = [1, 0, 0]\norigin = [0.3, 0, 0]\nmass = 1.0\n";
+    const char* ends[][2] = {{"world", "mass1"}, {"mass1", "mass2"}, {"mass2", "mass3"}, {"mass3", "world"}};
+    for (const auto& e : ends)
+      t += std::string("[[spring]]\na = \"") + e[0] + "\"\nb = \"" + e[1] + "\"\nstiffness = 1.0\nrest_length = 1.0\n" +
+           (std::string(e[1]) == "world" ? "b_point = [4, 0, 0]\n" : "");
+    for (int j = 0; j < beads; ++j)
+      t += "[[body]]\nname = \"bead" + std::to_string(j) + "\"\njoint = \"slide\"\naxis = [0, 1, 0]\norigin = [" +
+           std::to_string(10 + j) + ", 0.5, 0]\nmass = 1.0\n[[spring]]\na = \"world\"\na_point = [" + std::to_string(10 + j) +
+           ", 0, 0]\nb = \"bead" + std::to_string(j) + "\"\nstiffness = 1.0\nrest_length = 0.3\n";
+    return build_system(parse_scene(t, "coincident.toml"));
+  };
+  const System small = chain(0);
+  const std::vector<Equilibrium> all = find_equilibria(small);
+  EXPECT_EQ(all.size(), 5u);
+  for (const Equilibrium& e : all) {
+    // Balance along x: every spring carries the same axial force k (|d| − 1) sign d.
+    const double x[] = {0, 0.3 + e.q[0], 0.3 + e.q[1], 0.3 + e.q[2], 4};
+    auto force = [&](int i) {
+      const double d = x[i + 1] - x[i];
+      return (std::abs(d) - 1) * (d > 0 ? 1 : -1);
+    };
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_GT(std::abs(x[i + 1] - x[i]), 0.25) << e.q.transpose();
+      EXPECT_NEAR(force(i), force(0), 1e-12) << e.q.transpose();
+    }
+  }
+  const Equilibrium nearest = find_equilibrium(small, small.initial_configuration());
+  EXPECT_LE(nearest.residual, 1e-12);
+  const System large = chain(600);
+  try {
+    find_equilibrium(large, large.initial_configuration());
+    ADD_FAILURE() << "a search started where V is not differentiable";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("initial configuration is no start"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("between 'mass1' and 'mass2'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Extremes, WhereACompressedSpringsEndsMeetTheConstrainedSearchFindsNoEquilibrium) {
+  // The same chain beside a bead held by a distance constraint (so the
+  // constrained solver runs the survey): its Newton steps on the KKT system
+  // had accepted four points where a spring's ends meet (mass1 at the wall,
+  // or mass1 on mass2), each then refused by linearize. Only the 5 smooth
+  // equilibria of the chain (the bead at its only place) are equilibria.
+  std::string text = modal::test::slurp(std::string(MODAL_SOURCE_DIR) + "/models/spring_chain.toml");
+  ASSERT_FALSE(text.empty());
+  text += R"(
+[[body]]
+name = "bead"
+joint = "slide"
+axis = [0, 1, 0]
+origin = [20, 0, 0]
+mass = 1.0
+
+[[constraint]]
+name = "rod"
+type = "distance"
+a = "bead"
+b = "world"
+b_point = [20, 1, 0]
+)";
+  const System s = build_system(parse_scene(text, "spring_chain_bead.toml"));
+  ASSERT_TRUE(s.has_constraints());
+  const std::vector<Equilibrium> all = find_equilibria(s);
+  EXPECT_EQ(all.size(), 5u);
+  for (const Equilibrium& e : all) {
+    const double x1 = 1 + e.q[0], x2 = 2 + e.q[1], x3 = 3 + e.q[2];  // positions, a = 1; walls at 0 and 4
+    EXPECT_GT(std::min({std::abs(x1), std::abs(x1 - x2), std::abs(x2 - x3), std::abs(4 - x3)}), 0.25) << e.q.transpose();
+    EXPECT_NEAR(e.q[3], 0.0, 1e-9);
+    EXPECT_NO_THROW(linearize(s, e.q));
   }
 }
 

@@ -414,8 +414,7 @@ void for_each_cotangent(const System& s, const TreeState<R>& st, Deposit&& depos
     const Spring& sp = s.springs()[i];
     const SiteT<R> a = attachment_site(st, sp.a), b = attachment_site(st, sp.b);
     if (sp.rest_length != 0.0 && value((a.x - b.x).squaredNorm()) == 0.0)
-      throw NumericalError("a spring of rest length " + std::to_string(sp.rest_length) +
-                           " m has coincident end points: its force direction is undefined");
+      throw NumericalError(describe_meeting_ends(s, MeetingEnds{i, 0.0}));
     auto energy = [&sp](const auto& d) {
       using S = std::decay_t<decltype(d[0])>;
       return model::spring_stretch_energy<S>(sp, model::V3<S>(d[0], d[1], d[2]));
@@ -872,6 +871,21 @@ std::optional<MeetingEnds> spring_with_meeting_ends(const System& s, Workspace& 
   return std::nullopt;
 }
 
+std::string describe_meeting_ends(const System& s, const MeetingEnds& meet) {
+  const Spring& sp = s.springs().at(meet.spring);
+  auto end = [&](const Attachment& a) {
+    return a.body < 0 ? std::string("the world") : "'" + s.bodies()[static_cast<std::size_t>(a.body)].name + "'";
+  };
+  auto number = [](double v, int digits) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+    return std::string(buffer);
+  };
+  return "the ends of the spring between " + end(sp.a) + " and " + end(sp.b) + " (rest length " +
+         number(sp.rest_length, 4) + " m) meet at this configuration (" + number(meet.distance, 3) +
+         " m apart): V is not differentiable there (the spring's force has no direction)";
+}
+
 double potential(const System& s, Workspace& w, const VectorX& q) {
   if (s.is_map()) {
     check_size(s, q, "potential");
@@ -1179,14 +1193,15 @@ CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, con
   return sums.out;
 }
 
-double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r) {
-  return relative_residual(s, w, q, r, force_scales(s, w, q));
-}
+namespace {
 
-double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales) {
+// relative_residual(s, w, q, r) with the whole-scene scales at hand.
+double relative_residual_with(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales,
+                              const CoordinateForceScales* given) {
   double relative = relative_residual(r.norm(), scales);
   if (s.is_map() || s.has_constraints()) return relative;
-  const CoordinateForceScales each = coordinate_force_scales(s, w, q);
+  const CoordinateForceScales computed = given ? CoordinateForceScales{} : coordinate_force_scales(s, w, q);
+  const CoordinateForceScales& each = given ? *given : computed;
   // A coordinate whose residual is within its rounding level (8ε × its
   // rounding scale, which counts the springs' world points' distances from
   // the origin) adds nothing: a net 3 km from the origin carries 1e-11 of a
@@ -1195,6 +1210,19 @@ double relative_residual(const System& s, Workspace& w, const VectorX& q, const 
     if (each.full[k] > 0 && std::abs(r[k]) > 8 * std::numeric_limits<double>::epsilon() * each.rounding[k])
       relative = std::max(relative, relative_residual(std::abs(r[k]), {each.full[k], each.acting[k], each.rounding[k]}));
   return relative;
+}
+
+}  // namespace
+
+double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r) {
+  return relative_residual_with(s, w, q, r, force_scales(s, w, q), nullptr);
+}
+
+std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w, const VectorX& q, const VectorX& r,
+                                                  const CoordinateForceScales* each) {
+  const ForceScales scales = force_scales(s, w, q);
+  if (!(scales.full > 0) || !std::isfinite(scales.full)) return std::nullopt;
+  return relative_residual_with(s, w, q, r, scales, each);
 }
 
 double relative_residual(double residual_norm, const ForceScales& scales) {

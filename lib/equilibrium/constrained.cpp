@@ -147,6 +147,9 @@ Newton newton(Constrained& k, const VectorX& q0, const EquilibriumOptions& optio
   for (int it = 0;; ++it) {
     if (!p.finite()) return out;
     const bool accepted = p.measured <= options.tolerance && p.violation <= options.tolerance * k.length();
+    // Where a compressed spring's ends meet V is not differentiable: no
+    // equilibrium (as in the unconstrained polish).
+    if (accepted && !out.converged && !k.problem().differentiable_at(p.q)) return out;
     if (accepted && !out.converged) out.converged = true;
     if (p.merit < out.best_merit || (accepted && out.best.q.size() == 0)) {
       out.best_merit = p.merit;

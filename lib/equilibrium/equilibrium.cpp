@@ -83,9 +83,18 @@ const MatrixX& Problem::jacobian(const VectorX& q) {
   return j_;
 }
 
+const CoordinateForceScales& Problem::coordinate_scales(const VectorX& q) {
+  if (scales_q_.size() != q.size() || scales_q_ != q) {
+    scales_ = coordinate_force_scales(s_, w_, q);
+    scales_q_ = q;
+  }
+  return scales_;
+}
+
 double Problem::relative_residual(const VectorX& q, const VectorX& r) {
-  const ForceScales scales = force_scales(s_, w_, q);
-  if (scales.full > 0 && std::isfinite(scales.full)) return modal::relative_residual(s_, w_, q, r, scales);
+  if (const std::optional<double> relative =
+          modal::relative_residual_if_scaled(s_, w_, q, r, s_.is_map() ? nullptr : &coordinate_scales(q)))
+    return *relative;
   const double residual_norm = r.norm();
   if (residual_norm == 0) return 0;
   const MatrixX& j = jacobian(q);
@@ -110,11 +119,11 @@ VectorX positive_or_largest(VectorX v) {
 
 VectorX Problem::stiffness_scales(const VectorX& q) {
   if (s_.is_map()) return VectorX();
-  return positive_or_largest(coordinate_force_scales(s_, w_, q).stiffness);
+  return positive_or_largest(coordinate_scales(q).stiffness);
 }
 
 VectorX Problem::residual_weights(const VectorX& q) {
-  const VectorX full = s_.is_map() ? VectorX() : positive_or_largest(coordinate_force_scales(s_, w_, q).full);
+  const VectorX full = s_.is_map() ? VectorX() : positive_or_largest(coordinate_scales(q).full);
   if (full.size() != s_.size()) return VectorX::Ones(s_.size());
   return full.cwiseInverse();
 }
@@ -233,8 +242,8 @@ namespace {
 // damped by μ × the largest diagonal, a slide of 1e14 N/m damped the
 // pendulums beside it by 1e20 (no step taken), a bead 1e9 m out (a length
 // column of 1e12) did the same to a chain, and a graded chain's light link
-// was lost in JᵀJ. Returns the point reached, and
-// in `steps` the steps taken; the caller polishes it.
+// was lost in JᵀJ. Returns the point reached, and in `steps` the steps
+// taken; the caller polishes it.
 VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumOptions& options, int& steps) {
   steps = 0;
   const System& s = p.system();
@@ -372,12 +381,21 @@ std::optional<Equilibrium> polish_equilibrium(const System& s, const VectorX& q,
 
 namespace {
 
-// Overflow is not "no equilibrium": say so before searching.
-void require_finite_energy(const System& s, const VectorX& q) {
+// Overflow is not "no equilibrium": say so before searching. Returns false
+// where ∇V cannot be evaluated at q because a spring's ends coincide there
+// (modal::spring_with_meeting_ends): no start for a local search, though the
+// multi-start search's other starts are.
+bool require_finite_energy(const System& s, const VectorX& q) {
   Workspace w(s);
   const double v = potential(s, w, q);
-  const VectorX& g = potential_gradient(s, w, q);
-  if (std::isfinite(v) && g.allFinite()) return;
+  bool gradient_finite = true;
+  try {
+    gradient_finite = potential_gradient(s, w, q).allFinite();
+  } catch (const NumericalError&) {
+    if (!spring_with_meeting_ends(s, w, q)) throw;
+    if (std::isfinite(v)) return false;
+  }
+  if (std::isfinite(v) && gradient_finite) return true;
   throw NumericalError("the potential energy" + std::string(std::isfinite(v) ? "'s gradient" : "") +
                        " is not finite at the initial configuration: it overflows double precision "
                        "(a mass, stiffness, load or length too large, e.g. beyond 1e150 in SI units); "
@@ -388,8 +406,17 @@ void require_finite_energy(const System& s, const VectorX& q) {
 
 Equilibrium find_equilibrium(const System& s, const VectorX& start, const EquilibriumOptions& options) {
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
-  require_finite_energy(s, start);
+  const bool differentiable = require_finite_energy(s, start);
   if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
+  if (!differentiable && s.size() >= sparse_equilibrium_coordinates) {
+    // The sparse path's Newton steps start from ∇V there, and the dense
+    // path's multi-start search (which can start elsewhere) is not for this
+    // size.
+    Workspace w(s);
+    throw NumericalError("the initial configuration is no start for the search of the nearest equilibrium: " +
+                         describe_meeting_ends(s, *spring_with_meeting_ends(s, w, start)) +
+                         "; move one of its ends in the scene");
+  }
   if (prefers_sparse_equilibrium(s, start)) return find_large_equilibrium(s, start, options);
   Problem p(s);
   int steps = 0;

@@ -39,8 +39,10 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <iomanip>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <vector>
 
 namespace modal {
@@ -312,8 +314,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   };
   VectorX q = canonical_coordinates(s, start);
   auto relative = [&](const VectorX& x, const VectorX& r) {
-    const ForceScales scales = force_scales(s, w, x);
-    return scales.full > 0 ? relative_residual(s, w, x, r, scales) : r.norm();
+    return relative_residual_if_scaled(s, w, x, r).value_or(r.norm());
   };
 
   // Progress (EquilibriumOptions::progress): the digits of the relative
@@ -686,6 +687,15 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
     Problem p(s);
     throw NumericalError(no_equilibrium_message(p, best, 1) +
                          " (large-scene search: L-BFGS, then Newton with the sparse Hessian)");
+  }
+  // Where a compressed spring's ends meet, the balance is of a force without
+  // direction (modal::spring_with_meeting_ends): no equilibrium, as on the
+  // dense path, whose polish accepts no such point.
+  if (const std::optional<MeetingEnds> meet = spring_with_meeting_ends(s, w, best.q)) {
+    std::ostringstream m;
+    m << std::setprecision(3) << "no equilibrium found: the large-scene search came to rest (relative residual "
+      << best.residual << ") where " << describe_meeting_ends(s, *meet) << ", so it is no equilibrium";
+    throw NumericalError(m.str());
   }
   best.potential = potential(s, w, best.q);
   best.limits = joint_limits(s, best.q);

@@ -58,10 +58,17 @@ class Problem {
   int jacobian_evaluations = 0;
 
  private:
+  // coordinate_force_scales(s, w, q), kept for the last q asked: a Newton
+  // iteration asks three times at one point (the relative residual, the
+  // weights and the stiffness scales).
+  const CoordinateForceScales& coordinate_scales(const VectorX& q);
+
   const System& s_;
   Workspace w_;
   VectorX r_;
   MatrixX j_;
+  VectorX scales_q_;
+  CoordinateForceScales scales_;
 };
 
 // Least-squares solution d of J d = −r of least norm in S⁻¹d, S =

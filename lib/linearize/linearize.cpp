@@ -56,18 +56,8 @@ MatrixX symmetric_part(const MatrixX& A) { return 0.5 * (A + A.transpose()); }
 // The relative residual (modal::relative_residual) of the generalized force r left
 // unbalanced at q; NotAnEquilibrium (naming the coordinate) above `tolerance`.
 double require_equilibrium(const System& s, Workspace& ws, const VectorX& q, const VectorX& r, double tolerance) {
-  if (const std::optional<MeetingEnds> meet = spring_with_meeting_ends(s, ws, q)) {
-    const Spring& sp = s.springs()[meet->spring];
-    auto end = [&](const Attachment& a) {
-      return a.body < 0 ? std::string("the world") : "'" + s.bodies()[static_cast<std::size_t>(a.body)].name + "'";
-    };
-    std::ostringstream out;
-    out << "linearize: the ends of spring " << meet->spring + 1 << " (between " << end(sp.a) << " and " << end(sp.b)
-        << ", rest length " << format_number(sp.rest_length, 4) << " m) meet at this configuration ("
-        << format_number(meet->distance, 3) << " m apart): V is not differentiable there (the spring's force has no direction), so it is no "
-           "equilibrium with a linear model";
-    throw NumericalError(out.str());
-  }
+  if (const std::optional<MeetingEnds> meet = spring_with_meeting_ends(s, ws, q))
+    throw NumericalError("linearize: " + describe_meeting_ends(s, *meet) + ", so it is no equilibrium with a linear model");
   const double residual = relative_residual(s, ws, q, r);
   if (residual <= tolerance) return residual;
   Eigen::Index worst = 0;

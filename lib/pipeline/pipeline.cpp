@@ -79,9 +79,8 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
   if (e && configuration_distance(sys, e->q, at) <= accept) return *e;
 
   Workspace ws(sys);
-  const ForceScales scales = force_scales(sys, ws, at);
   const VectorX residual = equilibrium_residual(sys, ws, at);
-  const double relative = scales.full > 0 ? relative_residual(sys, ws, at, residual, scales) : residual.norm();
+  const double relative = relative_residual_if_scaled(sys, ws, at, residual).value_or(residual.norm());
   std::string nearest;
   if (e) {
     nearest = fmt::format("nearest equilibrium found at {}", format_point(names, e->q));

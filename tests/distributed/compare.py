@@ -134,7 +134,7 @@ def main():
         print(r.stderr)
         if r.returncode != status:
             sys.exit("FAIL: exit status %d, expected %d" % (r.returncode, status))
-        if "zero_length" in scene and "coincident end points" not in r.stderr:
+        if "zero_length" in scene and "between 'p2' and 'p3'" not in r.stderr:
             sys.exit("FAIL: the message is not the failing rank's")
         if len(lines) != 1:
             sys.exit("FAIL: expected one message line, got %d" % len(lines))

@@ -405,6 +405,12 @@ struct MeetingEnds {
   double distance = 0;  // m
 };
 std::optional<MeetingEnds> spring_with_meeting_ends(const System& s, Workspace& w, const VectorX& q);
+// The words for it, shared by every stage that meets it: "the ends of the
+// spring between 'a' and the world (rest length 0.1 m) meet at this
+// configuration (2e-17 m apart): V is not differentiable there (the spring's
+// force has no direction)". (No index: a lattice's springs are not in the
+// file, and a distributed rank's part numbers its own.)
+std::string describe_meeting_ends(const System& s, const MeetingEnds& meet);
 const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q);    // ∇∇V, n×n, symmetric
 
 // Σ|terms| of ∇∇V entry by entry (n×n, ≥ |∇∇V| componentwise): the sum of
@@ -511,8 +517,12 @@ CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, con
 // (whose residual carries reactions no element's scale counts) and maps: the
 // first alone.
 double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r);
-// The same with force_scales(s, w, q) already at hand.
-double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales);
+// The same where some element produces a force at q (a positive, finite
+// force_scales(q).full), with coordinate_force_scales(s, w, q) taken from
+// `each` when given; nullopt where none does (V is constant there and r zero
+// or rounding), for the caller's absolute measure.
+std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w, const VectorX& q, const VectorX& r,
+                                                  const CoordinateForceScales* each = nullptr);
 
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
