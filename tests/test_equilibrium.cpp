@@ -175,6 +175,52 @@ TEST(Equilibrium, AStiffElementDoesNotMergeTheOthersEquilibria) {
   }
 }
 
+TEST(Equilibrium, AStiffJointsRoundingDoesNotSplitAFamily) {
+  // A cart on a neutral slide with a pendulum, a stiff light link hinged at
+  // the pendulum's end (a joint spring of 1e4 … 1e12 N·m/rad, 1e-9 … 1e-3
+  // kg), and a free bead on another neutral slide. Closed form: two families,
+  // the pendulum hanging or inverted, the stiff link straight, the cart and
+  // the bead anywhere. The survey's members carry rounding in the stiff
+  // link's angle (1e-40 rad in one, 0 in another), whose product with its
+  // stiffness was all of the row's |J||d|: one family was listed as 13 to
+  // 38 rows (the review's scene: 44 in all).
+  std::mt19937 rng(44);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 6; ++trial) {
+    const double k = std::pow(10.0, 4 + 8 * unit(rng)), ms = std::pow(10.0, -9 + 6 * unit(rng));
+    const double ls = std::pow(10.0, -4 + 2 * unit(rng)), l = std::pow(10.0, -1 + 2 * unit(rng));
+    const double mp = std::pow(10.0, -1 + 2 * unit(rng));
+    SCOPED_TRACE("k " + std::to_string(k) + ", link mass " + std::to_string(ms));
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    Body cart;
+    cart.name = "cart";
+    cart.joint = JointType::slide;
+    cart.axis = Vec3::UnitX();
+    cart.mass = 1;
+    d.bodies.push_back(cart);
+    d.bodies.push_back(hinge("pendulum", 0, Vec3::Zero(), mp, Vec3(0, 0, -l)));
+    Body stiff = hinge("stiff", 1, Vec3(0, 0, -l), ms, Vec3(0, 0, -ls));
+    stiff.stiffness = k;
+    stiff.rest = VectorX::Zero(1);
+    d.bodies.push_back(stiff);
+    Body bead = cart;
+    bead.name = "bead";
+    bead.axis = Vec3::UnitY();
+    bead.origin = Vec3(5, 0, 0);
+    d.bodies.push_back(bead);
+    const System s(d);
+    const std::vector<Equilibrium> all = find_equilibria(s);
+    ASSERT_EQ(all.size(), 2u);
+    const double v = 9.81 * (mp * l + ms * (l + ls));
+    EXPECT_NEAR(all[0].potential, -v, 1e-12 * v);
+    EXPECT_NEAR(all[1].potential, v, 1e-12 * v);
+    EXPECT_NEAR(std::cos(all[0].q[1]), 1.0, 1e-12);
+    EXPECT_NEAR(std::cos(all[1].q[1]), -1.0, 1e-12);
+    for (const Equilibrium& e : all) EXPECT_NEAR(e.q[2], 0.0, 1e-12);
+  }
+}
+
 TEST(Equilibrium, AStiffElementDoesNotHideTheOthersUnbalancedForces) {
   // Pendulums of masses and lengths graded over six decades beside slides
   // held by springs of 1e6 … 1e16 N/m. Measured against the whole scene's

@@ -240,25 +240,37 @@ bool same_straight_family(const System& s, Workspace& w, Problem& p, const Equil
         s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::angle)
       d[i] = std::remainder(d[i], 2 * std::numbers::pi);
   // Along a family r(a + t d) = 0 for every t, so J(a) d = 0: row by row, to
-  // the rounding of |J||d|. Row by row, because the residuals below are
-  // measured against the scene's whole force scale, which one stiff element
-  // (a slide of 1e9 N/m) can make a billion times larger than the forces on
-  // the coordinates that move (two pendulums' up-down and down-up states,
-  // both of potential 0, with horizontal pendulums on the segment between:
-  // merged, one equilibrium lost). With constraints the family's direction
-  // is a null direction of the projected problem, not of J: not tested.
+  // the rounding of |J||d| or 1e-9 of the row's own forces
+  // (coordinate_force_scales), whichever is larger. Row by row, because one
+  // stiff element (a slide of 1e9 N/m) can make the scene's whole force scale
+  // a billion times larger than the forces on the coordinates that move (two
+  // pendulums' up-down and down-up states, both of potential 0, with
+  // horizontal pendulums on the segment between: merged, one equilibrium
+  // lost); and against the row's own forces too, because d carries each
+  // equilibrium's rounding (a stiff joint at 1e-40 rad in one, 0 in the
+  // other), whose product with the row's stiffest entry is all of |J||d| in
+  // a row the family does not move (a cart and a neutral slide beside a
+  // pendulum with a stiff joint: one family of hanging states listed as 13
+  // rows). With constraints the family's direction is a null direction of
+  // the projected problem, not of J: not tested.
   if (!s.has_constraints()) {
+    const VectorX own = s.is_map() ? VectorX::Zero(s.size()) : coordinate_force_scales(s, w, a.q).full;
     const MatrixX& j = p.jacobian(a.q);
     const VectorX moved = j * d;
     const VectorX size = j.cwiseAbs() * d.cwiseAbs();
     for (Eigen::Index i = 0; i < moved.size(); ++i)
-      if (!(std::abs(moved[i]) <= 1e-8 * size[i])) return false;
+      if (!(std::abs(moved[i]) <= std::max(1e-8 * size[i], 1e-9 * own[i]))) return false;
   }
+  // The segment's points are equilibria: each coordinate's residual against
+  // its own forces as well as the scene's (modal::relative_residual); with
+  // constraints, whose reactions the residual leaves out, ‖r‖ against the
+  // scene's whole force scale.
   for (const double t : {0.25, 0.5, 0.75}) {
     const VectorX q = a.q + t * d;
-    const double fs = force_scale(s, w, q);
-    const double r = equilibrium_residual(s, w, q).norm();
-    if (!(r <= 1e-9 * std::max(fs, 1e-300))) return false;
+    const VectorX r = equilibrium_residual(s, w, q);
+    const bool on = s.has_constraints() ? r.norm() <= 1e-9 * std::max(force_scale(s, w, q), 1e-300)
+                                        : relative_residual(s, w, q, r) <= 1e-9;
+    if (!on) return false;
   }
   return true;
 }
