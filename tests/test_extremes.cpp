@@ -421,6 +421,41 @@ TEST(Extremes, LooseEquilibriumClaimsNoFalseMultiplicity) {
   EXPECT_GE(repeats_found, 1);  // and the square nets' true repeats are still claimed
 }
 
+// No multiplicity claimed beside a stiff mode: a cart (neutral slide) with a
+// pendulum, a light link on a stiff joint at its end, and a bead on a second
+// neutral slide, hanging. Closed form: λ = 0 twice (cart with pendulum, the
+// bead), the pendulum's g/l (1 + mp/M) to within the link's share, and the
+// link's k/I, 1e14 … 1e19 times the pendulum's. Only the two zero modes may
+// be claimed as one eigenvalue: "64ε of the largest |λ|" had put the
+// pendulum's λ (estimate 1.4e-3 at 19.6 rad²/s²) into the zero modes' group
+// from a ratio of 7e13 on. (Beyond 1e20 the pendulum's own estimate, about
+// 1e-19 of the stiff λ, reaches its λ: part 3's looseness, not this.)
+TEST(Extremes, AStiffModeDoesNotMergeTheLowerOnes) {
+  std::mt19937 rng(1964);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 6; ++trial) {
+    const double ms = std::pow(10.0, -9 + 6 * unit(rng)), ls = std::pow(10.0, -4 + 2 * unit(rng));
+    const double l = std::pow(10.0, -1 + 2 * unit(rng));
+    const double k = std::pow(10.0, 14 + 5 * unit(rng)) * (9.81 / l * 2) * ms * ls * ls;  // λ ratio × λ × I
+    const std::string what = "k " + number(k) + ", link mass " + number(ms) + ", link " + number(ls) + " m";
+    const std::string text =
+        "gravity = [0, 0, -9.81]\n"
+        "[[body]]\nname = \"cart\"\njoint = \"slide\"\naxis = [1, 0, 0]\nmass = 1\n"
+        "[[body]]\nname = \"pendulum\"\nparent = \"cart\"\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = 1\ncom = [0, 0, " +
+        number(-l) + "]\n[[body]]\nname = \"link\"\nparent = \"pendulum\"\norigin = [0, 0, " + number(-l) +
+        "]\njoint = \"hinge\"\naxis = [0, 1, 0]\nmass = " + number(ms) + "\ncom = [0, 0, " + number(-ls) +
+        "]\nstiffness = " + number(k) +
+        "\n[[body]]\nname = \"bead\"\njoint = \"slide\"\naxis = [0, 1, 0]\norigin = [5, 0, 0]\nmass = 1\n";
+    const System sys = build_system(parse_scene(text, "stiff_link.toml"));
+    const ModalResult r = solve_modes(linearize(sys, VectorX::Zero(sys.size())));
+    ASSERT_EQ(r.modes.size(), 4u) << what;
+    EXPECT_EQ(multiplicity_claims(r), (std::vector<std::pair<int, int>>{{1, 2}})) << what;
+    const double pendulum = 9.81 / l * 2;  // g/l (1 + mp/M), mp = M = 1, the link's share below 1e-3
+    EXPECT_NEAR(r.modes[2].omega2, pendulum, 2e-3 * pendulum) << what;
+    EXPECT_GT(r.modes[3].omega2, 1e3 * pendulum) << what;
+  }
+}
+
 }  // namespace
 
 namespace {
