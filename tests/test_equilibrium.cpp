@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <set>
 #include <random>
 
 namespace {
@@ -30,6 +31,16 @@ constexpr double kTol = 1e-12;
 
 using test::double_pendulum;
 using test::hinge;
+
+// Two pendulums' states at each equilibrium, sorted: (i, j) with 0 hanging
+// and 1 inverted, for the pendulums of coordinates a and b.
+std::vector<std::pair<int, int>> pendulum_states(const std::vector<Equilibrium>& all, int a, int b) {
+  std::vector<std::pair<int, int>> states;
+  for (const Equilibrium& e : all) states.emplace_back(std::cos(e.q[a]) < 0 ? 1 : 0, std::cos(e.q[b]) < 0 ? 1 : 0);
+  std::sort(states.begin(), states.end());
+  return states;
+}
+const std::vector<std::pair<int, int>> kEveryState{{0, 0}, {0, 1}, {1, 0}, {1, 1}};
 
 System pendulum(double m, double l, double g, double k = 0, double rest = 0) {
   SystemDescription d;
@@ -130,11 +141,7 @@ TEST(Equilibrium, AFamilyThatSweepsPastAnotherIsNotMergedWithIt) {
       const System s(d);
       const std::vector<Equilibrium> all = find_equilibria(s);
       ASSERT_EQ(all.size(), 4u);
-      std::vector<std::pair<int, int>> states;  // pendulums down (0) or up (1)
-      for (const Equilibrium& e : all)
-        states.emplace_back(std::cos(e.q[1]) < 0 ? 1 : 0, std::cos(e.q[2]) < 0 ? 1 : 0);
-      std::sort(states.begin(), states.end());
-      EXPECT_EQ(states, (std::vector<std::pair<int, int>>{{0, 0}, {0, 1}, {1, 0}, {1, 1}}));
+      EXPECT_EQ(pendulum_states(all, 1, 2), kEveryState);
     }
 }
 
@@ -165,13 +172,8 @@ TEST(Equilibrium, AStiffElementDoesNotMergeTheOthersEquilibria) {
     const System s(d);
     const std::vector<Equilibrium> all = find_equilibria(s);
     ASSERT_EQ(all.size(), 4u);
-    std::vector<std::pair<int, int>> states;
-    for (const Equilibrium& e : all) {
-      states.emplace_back(std::cos(e.q[0]) < 0 ? 1 : 0, std::cos(e.q[1]) < 0 ? 1 : 0);
-      EXPECT_NEAR(e.q[2], 0.0, 1e-12);
-    }
-    std::sort(states.begin(), states.end());
-    EXPECT_EQ(states, (std::vector<std::pair<int, int>>{{0, 0}, {0, 1}, {1, 0}, {1, 1}}));
+    for (const Equilibrium& e : all) EXPECT_NEAR(e.q[2], 0.0, 1e-12);
+    EXPECT_EQ(pendulum_states(all, 0, 1), kEveryState);
   }
 }
 
@@ -218,6 +220,104 @@ TEST(Equilibrium, AStiffJointsRoundingDoesNotSplitAFamily) {
     EXPECT_NEAR(std::cos(all[0].q[1]), 1.0, 1e-12);
     EXPECT_NEAR(std::cos(all[1].q[1]), -1.0, 1e-12);
     for (const Equilibrium& e : all) EXPECT_NEAR(e.q[2], 0.0, 1e-12);
+  }
+}
+
+TEST(Equilibrium, CounterweightsDoNotMergeAFamilysNeighbours) {
+  // Two beams balanced by counterweights of mass W at ±c (their torques
+  // cancel), each with a bob m at l below its pivot, 30 m apart. Closed
+  // form: 4 isolated equilibria, V = −2mgl (both hanging), 0 twice (one
+  // inverted: the up-down and down-up saddles) and +2mgl. A floor of the
+  // row's own forces in the straight-family test, which count the
+  // counterweights' cancelling torques, merged the two saddles (W = 5 t), and
+  // at W = 1e10 kg all four into one. The bob's torque is 1e-3 … 1e-11 of
+  // the counterweights' (each angle is then known to about ε / that ratio;
+  // at 1e-12 copies of one saddle lie 4e-4 rad apart, and no test of
+  // coinciding points can tell them from distinct equilibria). The first
+  // scene is the review's: 5 t at ±10 m, 1 g at 1 cm (2e-10).
+  std::mt19937 rng(1010);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 8; ++trial) {
+    double c = std::pow(10.0, -1 + 2 * unit(rng));
+    double m = std::pow(10.0, -3 + 3 * unit(rng)), l = std::pow(10.0, -2 + 2 * unit(rng));
+    double W = m * l / (c * std::pow(10.0, -11 + 8 * unit(rng)));
+    if (trial == 0) c = 10, m = 1e-3, l = 1e-2, W = 5000;
+    SCOPED_TRACE("W " + std::to_string(W) + ", bob " + std::to_string(m) + " kg at " + std::to_string(l) + " m");
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    for (int beam = 0; beam < 2; ++beam) {
+      const int pivot = static_cast<int>(d.bodies.size());
+      d.bodies.push_back(hinge("beam" + std::to_string(beam), -1, Vec3(30.0 * beam, 0, 0), m, Vec3(0, 0, -l)));
+      for (const double side : {-1.0, 1.0}) {
+        Body weight;
+        weight.name = "weight" + std::to_string(beam) + (side < 0 ? "l" : "r");
+        weight.parent = pivot;
+        weight.joint = JointType::fixed;
+        weight.origin = Vec3(side * c, 0, 0);
+        weight.mass = W;
+        d.bodies.push_back(weight);
+      }
+    }
+    const System s(d);
+    const std::vector<Equilibrium> all = find_equilibria(s);
+    ASSERT_EQ(all.size(), 4u);
+    EXPECT_EQ(pendulum_states(all, 0, 1), kEveryState);
+  }
+}
+
+TEST(Equilibrium, GradedAndFarScenesKeepEveryEquilibrium) {
+  // The deduplication's "every point the energy sees coincides" compared the
+  // points to 1e-6 of the scene's length scale, more than a short link's
+  // whole length in a graded scene: a double pendulum of 1 km above 1 nm
+  // listed 2 of its 4 equilibria, and a chain of P links beside a bead 1e10
+  // m out (on a spring 1 mm long) 1 of its 2^P. Closed form: every
+  // link hanging or inverted, 2^P equilibria (for the chain; the bead at its
+  // spring's rest length or flipped through its anchor).
+  std::mt19937 rng(2048);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 4; ++trial) {
+    const double l1 = std::pow(10.0, 1 + 2 * unit(rng)), l2 = std::pow(10.0, -9 + 3 * unit(rng));
+    const double m1 = std::pow(10.0, -1 + 2 * unit(rng)), m2 = std::pow(10.0, -6 + 3 * unit(rng));
+    SCOPED_TRACE("graded double pendulum " + std::to_string(l1) + " m above " + std::to_string(l2) + " m");
+    const System s = double_pendulum(m1, m2, l1, l2, 9.81);
+    EXPECT_EQ(find_equilibria(s).size(), 4u);
+  }
+  for (const int links : {2, 3, 4}) {
+    SCOPED_TRACE(std::to_string(links) + " links beside a far bead");
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    for (int i = 0; i < links; ++i)
+      d.bodies.push_back(hinge("c" + std::to_string(i), i - 1, i == 0 ? Vec3::Zero() : Vec3(0, 0, -1), 1, Vec3(0, 0, -1)));
+    Body bead;
+    bead.name = "bead";
+    bead.joint = JointType::slide;
+    bead.axis = Vec3::UnitX();
+    bead.origin = Vec3(1e10, 0, 0);
+    bead.mass = 1e-6;
+    d.bodies.push_back(bead);
+    Spring spring;
+    spring.a = Attachment{-1, Vec3(1e10 - 1e-3, 0, 0)};
+    spring.b = Attachment{links, Vec3::Zero()};
+    spring.stiffness = 1;
+    // As written (the distance in double): 1e-3 itself is not a distance
+    // representable 1e10 m out, whose spacing is 1.9e-6 m.
+    spring.rest_length = (bead.origin - spring.a.point).norm();
+    d.springs.push_back(spring);
+    const System s(d);
+    // Every hanging/inverted state of the links (the survey, which starts
+    // the bead within ±2 length scales, finds the bead's flipped states
+    // through its anchor only now and then).
+    std::set<int> states;
+    for (const Equilibrium& e : find_equilibria(s)) {
+      int bits = 0;
+      for (int i = 0; i < links; ++i) {
+        const double absolute = std::remainder(e.q.head(i + 1).sum(), 2 * std::numbers::pi);
+        EXPECT_NEAR(std::sin(absolute), 0.0, 1e-9);
+        bits |= (std::cos(absolute) < 0 ? 1 : 0) << i;
+      }
+      states.insert(bits);
+    }
+    EXPECT_EQ(states.size(), std::size_t{1} << links);
   }
 }
 

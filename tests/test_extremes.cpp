@@ -563,9 +563,9 @@ TEST(Extremes, AStartWhereASpringsEndsCoincideIsNoStartButTheSurveyGoesOn) {
   // configuration. The survey had stopped there ("a spring … has coincident
   // end points"); its other starts find the chain's 5 equilibria (every
   // spring carrying the same axial force, none with its ends within 0.25 m). The
-  // nearest-equilibrium search goes on from the survey; with 600 more
-  // coordinates (beads on springs of their own) it is the sparse path's,
-  // which cannot start there, and says so naming the spring.
+  // nearest-equilibrium search goes on from the survey; with 1000 more
+  // coordinates (beads on springs of their own) it is the large-scene
+  // search's, which cannot start there, and says so naming the spring.
   auto chain = [](int beads) {
     std::string t = "title = \"coincident start\"\n";
     for (int i = 1; i <= 3; ++i)
@@ -597,7 +597,7 @@ TEST(Extremes, AStartWhereASpringsEndsCoincideIsNoStartButTheSurveyGoesOn) {
   }
   const Equilibrium nearest = find_equilibrium(small, small.initial_configuration());
   EXPECT_LE(nearest.residual, 1e-12);
-  const System large = chain(600);
+  const System large = chain(1000);
   try {
     find_equilibrium(large, large.initial_configuration());
     ADD_FAILURE() << "a search started where V is not differentiable";

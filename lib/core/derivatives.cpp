@@ -1221,7 +1221,7 @@ double relative_residual(const System& s, Workspace& w, const VectorX& q, const 
 std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w, const VectorX& q, const VectorX& r,
                                                   const CoordinateForceScales* each) {
   const ForceScales scales = force_scales(s, w, q);
-  if (!(scales.full > 0) || !std::isfinite(scales.full)) return std::nullopt;
+  if (!(scales.full > 0)) return std::nullopt;
   return relative_residual_with(s, w, q, r, scales, each);
 }
 

@@ -408,10 +408,10 @@ Equilibrium find_equilibrium(const System& s, const VectorX& start, const Equili
   if (start.size() != s.size()) throw std::invalid_argument("find_equilibrium: start has the wrong size");
   const bool differentiable = require_finite_energy(s, start);
   if (s.has_constraints()) return find_constrained_equilibrium(s, start, options);
-  if (!differentiable && s.size() >= sparse_equilibrium_coordinates) {
-    // The sparse path's Newton steps start from ∇V there, and the dense
-    // path's multi-start search (which can start elsewhere) is not for this
-    // size.
+  if (!differentiable && is_large_system(s)) {
+    // The large-scene search's Newton steps start from ∇V there, and the
+    // multi-start search (which can start elsewhere, as the dense path's
+    // fallback does below) is for at most large_system_coordinates.
     Workspace w(s);
     throw NumericalError("the initial configuration is no start for the search of the nearest equilibrium: " +
                          describe_meeting_ends(s, *spring_with_meeting_ends(s, w, start)) +

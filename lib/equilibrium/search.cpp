@@ -169,7 +169,12 @@ namespace {
 // all of them have the same V everywhere nearby up to a motion V cannot see
 // (spin of a point mass about its rod, rotation of a balanced wheel): they are
 // one equilibrium of a continuous family, reported once.
-VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
+// With `arms`, also each body-fixed point's arm (3 each, in the same order):
+// its offset from its body's frame origin, in world axes (R × the point in
+// body axes), then every length coordinate's value with the rounding of its
+// body's world position (2 each), for a comparison at their own scales
+// (arms_agree).
+VectorX potential_points(const System& s, Workspace& w, const VectorX& q, VectorX* arms = nullptr) {
   const std::vector<Pose> poses = body_poses(s, w, q);
   // A map's points (and body axes); its potential expression and Routh terms
   // may see any coordinate, so the coordinates join as for joint springs.
@@ -183,10 +188,12 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
   };
   if (s.is_map())
     for (int i = 0; i < s.size(); ++i) coordinate(i);
+  std::vector<Vec3> offsets;
   auto at = [&](const Attachment& a) {
     if (a.body < 0) return;  // fixed in the world: the same for every configuration
     const Pose& p = poses[static_cast<std::size_t>(a.body)];
-    pts.push_back(p.position + p.rotation * a.point);
+    offsets.push_back(p.rotation * a.point);
+    pts.push_back(p.position + offsets.back());
   };
   for (std::size_t b = 0; b < s.bodies().size(); ++b)
     if (s.bodies()[b].mass != 0.0) at({static_cast<int>(b), s.bodies()[b].com});
@@ -218,9 +225,55 @@ VectorX potential_points(const System& s, Workspace& w, const VectorX& q) {
       continue;
     for (int i = k0; i < k0 + s.joint_size(static_cast<int>(b)); ++i) coordinate(i);
   }
-  VectorX v(3 * static_cast<Eigen::Index>(pts.size()));
-  for (std::size_t i = 0; i < pts.size(); ++i) v.segment<3>(3 * static_cast<Eigen::Index>(i)) = pts[i];
-  return v;
+  auto stacked = [](const std::vector<Vec3>& list) {
+    VectorX v(3 * static_cast<Eigen::Index>(list.size()));
+    for (std::size_t i = 0; i < list.size(); ++i) v.segment<3>(3 * static_cast<Eigen::Index>(i)) = list[i];
+    return v;
+  };
+  if (arms) {
+    std::vector<std::pair<double, double>> lengths;
+    if (!s.is_map())
+      for (std::size_t b = 0; b < s.bodies().size(); ++b) {
+        const int k0 = s.first_coordinate(static_cast<int>(b));
+        for (int k = k0; k < k0 + s.joint_size(static_cast<int>(b)); ++k)
+          if (s.coordinates()[static_cast<std::size_t>(k)].kind == CoordinateKind::length)
+            lengths.emplace_back(q[k], 64 * std::numeric_limits<double>::epsilon() * poses[b].position.norm());
+      }
+    const VectorX rotated = stacked(offsets);
+    arms->resize(rotated.size() + 2 * static_cast<Eigen::Index>(lengths.size()));
+    arms->head(rotated.size()) = rotated;
+    for (std::size_t i = 0; i < lengths.size(); ++i) {
+      (*arms)[rotated.size() + 2 * static_cast<Eigen::Index>(i)] = lengths[i].first;
+      (*arms)[rotated.size() + 2 * static_cast<Eigen::Index>(i) + 1] = lengths[i].second;
+    }
+  }
+  return stacked(pts);
+}
+
+// Whether two configurations' arms (potential_points) agree, each to 1e-4 of
+// its own length (an angle of 1e-4 rad): the world points alone are compared
+// to 1e-6 of the scene's length scale, which in a graded scene is more than a
+// short link's whole length (a link of 1e-9 m below one of 1 km: its hanging
+// and inverted states, 2e-9 m apart, were taken for one family, and two of a
+// graded double pendulum's four equilibria were not listed; an 8-link chain
+// beside a bead 1e10 m out was listed as 1 of its 2⁸). Not tighter: where
+// large cancelling forces limit the angles' accuracy (a beam balanced by
+// counterweights of 1e10 kg), copies of one equilibrium differ by 1e-6 rad.
+// Length coordinates likewise, to 1e-4 of their values or the rounding of
+// their body's world position (a slide's point has no arm: a bead flipped
+// through its spring's anchor, 2 mm from its other state 1e10 m out, was
+// merged with it).
+bool arms_agree(const VectorX& a, const VectorX& b, Eigen::Index rotated) {
+  if (a.size() != b.size()) return false;
+  for (Eigen::Index i = 0; i + 3 <= rotated; i += 3) {
+    const double length = std::max(a.segment<3>(i).norm(), b.segment<3>(i).norm());
+    if (!((a.segment<3>(i) - b.segment<3>(i)).norm() <= 1e-4 * length)) return false;
+  }
+  for (Eigen::Index i = rotated; i + 2 <= a.size(); i += 2) {
+    const double allowed = std::max({1e-4 * std::max(std::abs(a[i]), std::abs(b[i])), a[i + 1], b[i + 1]});
+    if (!(std::abs(a[i] - b[i]) <= allowed)) return false;
+  }
+  return true;
 }
 
 // The scale against which two equilibria's potentials are compared.
@@ -240,26 +293,33 @@ bool same_straight_family(const System& s, Workspace& w, Problem& p, const Equil
         s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::angle)
       d[i] = std::remainder(d[i], 2 * std::numbers::pi);
   // Along a family r(a + t d) = 0 for every t, so J(a) d = 0: row by row, to
-  // the rounding of |J||d| or 1e-9 of the row's own forces
-  // (coordinate_force_scales), whichever is larger. Row by row, because one
-  // stiff element (a slide of 1e9 N/m) can make the scene's whole force scale
-  // a billion times larger than the forces on the coordinates that move (two
-  // pendulums' up-down and down-up states, both of potential 0, with
-  // horizontal pendulums on the segment between: merged, one equilibrium
-  // lost); and against the row's own forces too, because d carries each
-  // equilibrium's rounding (a stiff joint at 1e-40 rad in one, 0 in the
-  // other), whose product with the row's stiffest entry is all of |J||d| in
-  // a row the family does not move (a cart and a neutral slide beside a
-  // pendulum with a stiff joint: one family of hanging states listed as 13
-  // rows). With constraints the family's direction is a null direction of
-  // the projected problem, not of J: not tested.
+  // the rounding of |J||d|. Row by row, because one stiff element (a slide of
+  // 1e9 N/m) can make the scene's whole force scale a billion times larger
+  // than the forces on the coordinates that move (two pendulums' up-down and
+  // down-up states, both of potential 0, with horizontal pendulums on the
+  // segment between: merged, one equilibrium lost). The entries of d at the
+  // rounding level of their coordinate (64ε of its values, of 1 rad or of
+  // the length scale) are each member's rounding, not the family's
+  // direction, and are left out: a stiff joint at 1e-40 rad in one member
+  // and 0 in another made its stiffness times 1e-40 all of |J||d| in rows
+  // the family does not move (a cart and a neutral bead beside a pendulum
+  // with a stiff light link: its two families listed as 44 rows). (Not a
+  // floor of the row's own forces, which count a counterweight's cancelling
+  // torques: two balanced beams' up-down and down-up states merged again.)
+  // With constraints the family's direction is a null direction of the
+  // projected problem, not of J: not tested.
   if (!s.has_constraints()) {
-    const VectorX own = s.is_map() ? VectorX::Zero(s.size()) : coordinate_force_scales(s, w, a.q).full;
+    constexpr double rounding = 64 * std::numeric_limits<double>::epsilon();
+    for (int i = 0; i < s.size(); ++i) {
+      const double unit =
+          s.coordinates()[static_cast<std::size_t>(i)].kind == CoordinateKind::length ? s.length_scale() : 1.0;
+      if (std::abs(d[i]) <= rounding * std::max({std::abs(a.q[i]), std::abs(b.q[i]), unit})) d[i] = 0;
+    }
     const MatrixX& j = p.jacobian(a.q);
     const VectorX moved = j * d;
     const VectorX size = j.cwiseAbs() * d.cwiseAbs();
     for (Eigen::Index i = 0; i < moved.size(); ++i)
-      if (!(std::abs(moved[i]) <= std::max(1e-8 * size[i], 1e-9 * own[i]))) return false;
+      if (!(std::abs(moved[i]) <= 1e-8 * size[i])) return false;
   }
   // The segment's points are equilibria: each coordinate's residual against
   // its own forces as well as the scene's (modal::relative_residual); with
@@ -370,27 +430,34 @@ void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, st
   Problem p(s);
   const VectorX q0 = s.initial_configuration();
   std::vector<Equilibrium> kept;
-  std::vector<VectorX> kept_points;
+  std::vector<VectorX> kept_points, kept_arms;
+  std::size_t length_coordinates = 0;
+  if (!s.is_map())
+    for (const Coordinate& c : s.coordinates()) length_coordinates += c.kind == CoordinateKind::length;
   // Steps of the curved-family traces for this list, each an n × n
   // decomposition: about 1e10 flops in all (20000 steps up to 37
   // coordinates, 4630 at 60, 100 at 215, one at 1000).
   const double n = std::max(1, s.size());
   long budget = static_cast<long>(std::min(20000.0, 1e10 / (10 * n * n * n)));
   for (Equilibrium& e : list) {
-    const VectorX points = potential_points(s, w, e.q);
+    VectorX arms;
+    const VectorX points = potential_points(s, w, e.q, &arms);
+    const Eigen::Index rotated = arms.size() - 2 * static_cast<Eigen::Index>(length_coordinates);
     bool duplicate = false;
     for (std::size_t i = 0; i < kept.size(); ++i) {
       Equilibrium& k = kept[i];
       if (configuration_distance(s, e.q, k.q) < 1e-6) {  // the same point (angles modulo 2π)
         if (e.residual < k.residual) k = e;
         duplicate = true;
-      } else if ((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale() ||
+      } else if (((points - kept_points[i]).lpNorm<Eigen::Infinity>() <= 1e-6 * s.length_scale() &&
+                  arms_agree(arms, kept_arms[i], rotated)) ||
                  one_family(s, w, p, options, e, k, budget)) {
         // Another member of the same continuous family: keep the representative
         // nearest the initial configuration.
         if (configuration_distance(s, e.q, q0) < configuration_distance(s, k.q, q0)) {
           k = e;
           kept_points[i] = points;
+          kept_arms[i] = arms;
         }
         duplicate = true;
       }
@@ -399,6 +466,7 @@ void deduplicate_and_sort(const System& s, const EquilibriumOptions& options, st
     if (!duplicate) {
       kept.push_back(e);
       kept_points.push_back(points);
+      kept_arms.push_back(arms);
     }
   }
   std::stable_sort(kept.begin(), kept.end(), [](const Equilibrium& a, const Equilibrium& b) {

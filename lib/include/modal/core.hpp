@@ -517,10 +517,11 @@ CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, con
 // (whose residual carries reactions no element's scale counts) and maps: the
 // first alone.
 double relative_residual(const System& s, Workspace& w, const VectorX& q, const VectorX& r);
-// The same where some element produces a force at q (a positive, finite
-// force_scales(q).full), with coordinate_force_scales(s, w, q) taken from
-// `each` when given; nullopt where none does (V is constant there and r zero
-// or rounding), for the caller's absolute measure.
+// The same where some element produces a force at q (a positive
+// force_scales(q).full; ∞ for r ≠ 0 where that scale overflows), with
+// coordinate_force_scales(s, w, q) taken from `each` when given; nullopt
+// where none does (V is constant there and r zero or rounding), for the
+// caller's absolute measure.
 std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w, const VectorX& q, const VectorX& r,
                                                   const CoordinateForceScales* each = nullptr);
 
