@@ -428,8 +428,9 @@ TEST(Extremes, LooseEquilibriumClaimsNoFalseMultiplicity) {
 // link's k/I, 1e14 … 1e19 times the pendulum's. Only the two zero modes may
 // be claimed as one eigenvalue: "64ε of the largest |λ|" had put the
 // pendulum's λ (estimate 1.4e-3 at 19.6 rad²/s²) into the zero modes' group
-// from a ratio of 7e13 on. (Beyond 1e20 the pendulum's own estimate, about
-// 1e-19 of the stiff λ, reaches its λ: part 3's looseness, not this.)
+// from a ratio of 7e13 on. (The pendulum's own estimate, 1e-19 of the stiff
+// λ while the link was solved in its absolute angle, is now about 1e-13 of
+// its own λ at every ratio: Graded.StiffJointsKeepTheSoftModes.)
 TEST(Extremes, AStiffModeDoesNotMergeTheLowerOnes) {
   std::mt19937 rng(1964);
   std::uniform_real_distribution<double> unit(0, 1);

@@ -1439,6 +1439,41 @@ std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const Vec
   return parent;
 }
 
+void keep_favourable_links(const System& s, const MatrixX& M, const MatrixX& K, std::vector<int>& parents) {
+  const Eigen::Index n = M.rows();
+  if (n != s.size() || M.cols() != n || K.rows() != n || K.cols() != n ||
+      static_cast<Eigen::Index>(parents.size()) != n)
+    throw std::invalid_argument("keep_favourable_links: M, K (n×n) and one parent entry per coordinate are required");
+  // Links measured from a hinge only: the parent a ball's component (a ball
+  // chain's spin from the ball above) lost digits of M in relative angles
+  // that the estimates did not state, even at these margins.
+  std::vector<char> hinge(static_cast<std::size_t>(n), 0);
+  for (std::size_t b = 0; b < s.bodies().size(); ++b)
+    if (s.bodies()[b].joint == JointType::hinge) hinge[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)))] = 1;
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  // The digits of the pair's Schur complement onto j lost in each basis: the
+  // diagonal entry there over |S|, at most 1/ε (S below ε of the entry: all).
+  auto losses = [](const MatrixX& X, Eigen::Index j, Eigen::Index k) -> std::pair<double, double> {
+    const double relative = std::abs(X(j, j)), absolute = std::abs(X(j, j) - 2 * X(j, k) + X(k, k));
+    if (X(k, k) == 0 || !std::isfinite(relative) || !std::isfinite(absolute)) return {1.0, 1.0};
+    const double schur = std::abs(X(j, j) - X(j, k) * X(j, k) / X(k, k));
+    auto loss = [&](double entry) {
+      if (entry == 0) return 1.0;
+      return schur > eps * entry ? std::max(1.0, entry / schur) : 1 / eps;
+    };
+    return {loss(relative), loss(absolute)};
+  };
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const int j = parents[static_cast<std::size_t>(k)];
+    if (j < 0 || !hinge[static_cast<std::size_t>(j)]) continue;
+    const auto [mass_relative, mass_absolute] = losses(M, j, k);
+    const auto [stiffness_relative, stiffness_absolute] = losses(K, j, k);
+    const double relative = std::max(mass_relative, stiffness_relative);
+    if (relative <= 1e2 && std::max(mass_absolute, stiffness_absolute) >= 1e4 * relative)
+      parents[static_cast<std::size_t>(k)] = -1;
+  }
+}
+
 AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const VectorX& q,
                                         const std::vector<int>& parents) {
   const int n = s.size();

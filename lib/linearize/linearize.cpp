@@ -238,7 +238,8 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   }
   if (!s.is_map() && !s.has_constraints() && !s.has_follower_loads() && !s.has_frame_coupling() &&
       options.derivatives == DerivativeMethod::exact) {
-    const std::vector<int> parents = absolute_angle_parents(s, ws, q);
+    std::vector<int> parents = absolute_angle_parents(s, ws, q);
+    keep_favourable_links(s, model.M, model.K, parents);
     if (std::any_of(parents.begin(), parents.end(), [](int p) { return p >= 0; })) {
       model.absolute = absolute_angle_model(s, ws, q, parents);
       model.absolute.K_magnitude *= 4 * std::numeric_limits<double>::epsilon();
