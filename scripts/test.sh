@@ -9,6 +9,19 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=${MODAL_JOBS:-$(nproc)}
+# At most one compile per 6 GB of available memory: a test translation unit
+# with long double references takes 2 GB to compile, 5.2 GB under the
+# sanitizers (tests/test_graded.cpp, measured), and where nproc reports more
+# cores than the memory feeds, parallel compiles can be killed (a CI build
+# stopped in test_tree and test_graded at once, with no compiler message;
+# the likely cause, not a certain one).
+if [ -z "${MODAL_JOBS:-}" ] && [ -r /proc/meminfo ]; then
+  available_kb=$(awk '/^MemAvailable:/ {print $2}' /proc/meminfo)
+  memory_jobs=$(( ${available_kb:-0} / (6 * 1024 * 1024) ))
+  if [ "$memory_jobs" -lt 1 ]; then memory_jobs=1; fi
+  if [ "$memory_jobs" -lt "$jobs" ]; then jobs=$memory_jobs; fi
+fi
+echo "test.sh: $jobs parallel jobs"
 # Compiles go through ccache where it is installed (setup-debian.sh installs
 # it), with paths taken relative to this checkout, so that a fresh clone on a
 # machine that built modal before recompiles only what changed.
