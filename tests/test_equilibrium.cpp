@@ -16,6 +16,7 @@
 #include "systems.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -41,6 +42,26 @@ std::vector<std::pair<int, int>> pendulum_states(const std::vector<Equilibrium>&
   return states;
 }
 const std::vector<std::pair<int, int>> kEveryState{{0, 0}, {0, 1}, {1, 0}, {1, 1}};
+
+// Appends a bead of `mass` kg on a slide along x through (D, 0, 0), held from
+// the world point (D − L, 0, 0) (as rounded) by a spring of stiffness k N/m and
+// rest length L m; returns the spring.
+Spring& add_bead_on_spring(SystemDescription& d, double D, double mass, double k, double L) {
+  Body bead;
+  bead.name = "bead";
+  bead.joint = JointType::slide;
+  bead.axis = Vec3::UnitX();
+  bead.origin = Vec3(D, 0, 0);
+  bead.mass = mass;
+  d.bodies.push_back(bead);
+  Spring spring;
+  spring.a = Attachment{-1, Vec3(D - L, 0, 0)};
+  spring.b = Attachment{static_cast<int>(d.bodies.size()) - 1, Vec3::Zero()};
+  spring.stiffness = k;
+  spring.rest_length = L;
+  d.springs.push_back(spring);
+  return d.springs.back();
+}
 
 System pendulum(double m, double l, double g, double k = 0, double rest = 0) {
   SystemDescription d;
@@ -288,21 +309,10 @@ TEST(Equilibrium, GradedAndFarScenesKeepEveryEquilibrium) {
     d.gravity = Vec3(0, 0, -9.81);
     for (int i = 0; i < links; ++i)
       d.bodies.push_back(hinge("c" + std::to_string(i), i - 1, i == 0 ? Vec3::Zero() : Vec3(0, 0, -1), 1, Vec3(0, 0, -1)));
-    Body bead;
-    bead.name = "bead";
-    bead.joint = JointType::slide;
-    bead.axis = Vec3::UnitX();
-    bead.origin = Vec3(1e10, 0, 0);
-    bead.mass = 1e-6;
-    d.bodies.push_back(bead);
-    Spring spring;
-    spring.a = Attachment{-1, Vec3(1e10 - 1e-3, 0, 0)};
-    spring.b = Attachment{links, Vec3::Zero()};
-    spring.stiffness = 1;
+    Spring& spring = add_bead_on_spring(d, 1e10, 1e-6, 1, 1e-3);
     // As written (the distance in double): 1e-3 itself is not a distance
     // representable 1e10 m out, whose spacing is 1.9e-6 m.
-    spring.rest_length = (bead.origin - spring.a.point).norm();
-    d.springs.push_back(spring);
+    spring.rest_length = (d.bodies.back().origin - spring.a.point).norm();
     const System s(d);
     // Every hanging/inverted state of the links (the survey, which starts
     // the bead within ±2 length scales, finds the bead's flipped states
@@ -318,6 +328,109 @@ TEST(Equilibrium, GradedAndFarScenesKeepEveryEquilibrium) {
       states.insert(bits);
     }
     EXPECT_EQ(states.size(), std::size_t{1} << links);
+  }
+}
+
+TEST(Equilibrium, ABalanceDoublesCannotResolveIsRefusedForWhatItIs) {
+  // A bead D m out on a slide, on a spring of rest length L whose anchor
+  // lies L before it: D = 1e8 … 1e12 m, L = 0.1 … 10 mm, so the positions
+  // near the equilibrium are doubles ulp(D) = 1.5e-8 … 1.2e-4 m apart, and
+  // every one leaves a residual of k·|x − a − L| beyond 1e-12 of the spring's
+  // force kL. The search was refused with "nothing in the scene can balance
+  // it", untrue: the spring balances the bead, but doubles cannot place it.
+  // Reference: the residual of every double x within 4 ulp of the two
+  // equilibria a ± L, exactly in long double (x − a is exact by Sterbenz's
+  // lemma), and a ± L themselves. Beside the bead, sometimes a sprung arm at
+  // the origin.
+  // Without gravity: a load across the slide would count in the bead's force
+  // scale (a known looseness of that scale) and make its relative residual
+  // smaller than the reference's |x − a − L| / L.
+  std::mt19937 rng(4242);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 8; ++trial) {
+    const double D = std::pow(10.0, 8 + 4 * unit(rng)), L = std::pow(10.0, -4 + 2 * unit(rng));
+    const double k = std::pow(10.0, -2 + 6 * unit(rng)), mass = std::pow(10.0, -6 + 6 * unit(rng));
+    SCOPED_TRACE("bead " + std::to_string(D) + " m out, spring " + std::to_string(L) + " m of " + std::to_string(k) +
+                 " N/m");
+    SystemDescription d;
+    d.gravity = Vec3::Zero();
+    const bool pendulum = trial % 2 == 1;
+    if (pendulum) {
+      d.bodies.push_back(hinge("arm", -1, Vec3::Zero(), 1 + unit(rng), Vec3(0, 0, -0.5 - unit(rng))));
+      d.bodies.back().stiffness = 1 + 9 * unit(rng);
+    }
+    const long double a = add_bead_on_spring(d, D, mass, k, L).a.point.x();
+    const System s(d);
+    const int bead_q = pendulum ? 1 : 0;
+
+    // The two equilibria: the bead at its spring's rest length beyond the
+    // anchor, or flipped through it.
+    const std::array<long double, 2> targets = {a + static_cast<long double>(L), a - static_cast<long double>(L)};
+    double closest = std::numeric_limits<double>::infinity();
+    for (const long double target : targets) {
+      double x = static_cast<double>(target);
+      for (int i = 0; i < 4; ++i) x = std::nextafter(x, 0.0);
+      for (int i = 0; i < 9; ++i, x = std::nextafter(x, 2 * D))
+        closest = std::min(closest, static_cast<double>(std::abs(std::abs(static_cast<long double>(x) - a) - L) / L));
+    }
+    ASSERT_GT(closest, 1e-10) << "not a scene doubles cannot balance";
+
+    for (const bool survey : {false, true}) {
+      std::string message;
+      try {
+        if (survey)
+          find_equilibria(s);
+        else
+          find_equilibrium(s, s.initial_configuration());
+      } catch (const NumericalError& e) {
+        message = e.what();
+      }
+      EXPECT_NE(message.find("within the rounding of the forces"), std::string::npos) << message;
+      EXPECT_EQ(message.find("nothing in the scene can balance"), std::string::npos) << message;
+      // The tolerance it names accepts a point within a few ulp of the equilibrium.
+      const std::size_t at = message.find("a tolerance of ");
+      if (at == std::string::npos) {
+        // named wherever it can be given: not above --eq-tol's range, nor
+        // where the spring is shorter than the rounding of its ends' positions
+        EXPECT_TRUE(closest > 1e-2 || message.find("meet at this configuration") != std::string::npos) << message;
+        continue;
+      }
+      EquilibriumOptions loose;
+      loose.tolerance = std::stod(message.substr(at + 15));
+      // Alone, the bead's residual is relative to its spring's force k·max(L,
+      // |x − a|) + k|stretch|; beside the arm, to the whole scene's (a
+      // residual within its rounding is measured against the whole scene).
+      if (!pendulum) {
+        EXPECT_GE(loose.tolerance, closest / (1 + 2 * closest)) << message;
+      }
+      const Equilibrium e = find_equilibrium(s, s.initial_configuration(), loose);
+      const long double reached = static_cast<long double>(D) + e.q[bead_q];
+      EXPECT_LE(std::min(std::abs(reached - targets[0]), std::abs(reached - targets[1])),
+                4 * (std::nextafter(D, 2 * D) - D));
+      if (pendulum) {
+        EXPECT_NEAR(e.q[0], 0.0, 1e-9);
+      }
+    }
+  }
+  // A bead 1 … 1000 m out on a spring of 1 m has its equilibrium to the
+  // default tolerance (positions 1.1e-13 m apart at most); a bead that
+  // nothing holds is still told so.
+  for (const double D : {1.0, 30.0, 1000.0}) {
+    SystemDescription d;
+    const double anchor = add_bead_on_spring(d, D, 1e-3, 10, 1).a.point.x();
+    const System held(d);
+    const Equilibrium e = find_equilibrium(held, held.initial_configuration());
+    EXPECT_LE(e.residual, EquilibriumOptions{}.tolerance);
+    EXPECT_NEAR(D + e.q[0], anchor + 1, 1e-12 * D);
+    d.springs.clear();
+    d.loads.push_back(DeadLoad{Attachment{0, Vec3::Zero()}, Vec3(1, 0, 0)});
+    const System pushed(d);
+    try {
+      find_equilibrium(pushed, pushed.initial_configuration());
+      ADD_FAILURE() << "a pushed bead nothing holds has no equilibrium";
+    } catch (const NumericalError& e) {
+      EXPECT_EQ(std::string(e.what()).find("within the rounding"), std::string::npos) << e.what();
+    }
   }
 }
 

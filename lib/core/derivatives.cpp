@@ -1195,6 +1195,10 @@ CoordinateForceScales coordinate_force_scales(const System& s, Workspace& w, con
 
 namespace {
 
+// The rounding level of a computed force against its rounding scale
+// (ForceScales::rounding, CoordinateForceScales::rounding).
+constexpr double rounding_level = 8 * std::numeric_limits<double>::epsilon();
+
 // relative_residual(s, w, q, r) with the whole-scene scales at hand.
 double relative_residual_with(const System& s, Workspace& w, const VectorX& q, const VectorX& r, const ForceScales& scales,
                               const CoordinateForceScales* given) {
@@ -1207,7 +1211,7 @@ double relative_residual_with(const System& s, Workspace& w, const VectorX& q, c
   // the origin) adds nothing: a net 3 km from the origin carries 1e-11 of a
   // node's own forces as rounding, which the whole-scene measure hides.
   for (Eigen::Index k = 0; k < r.size(); ++k)
-    if (each.full[k] > 0 && std::abs(r[k]) > 8 * std::numeric_limits<double>::epsilon() * each.rounding[k])
+    if (each.full[k] > 0 && std::abs(r[k]) > rounding_level * each.rounding[k])
       relative = std::max(relative, relative_residual(std::abs(r[k]), {each.full[k], each.acting[k], each.rounding[k]}));
   return relative;
 }
@@ -1225,12 +1229,19 @@ std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w,
   return relative_residual_with(s, w, q, r, scales, each);
 }
 
+std::optional<ResidualRounding> residual_rounding(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map() || s.has_constraints()) return std::nullopt;
+  const ForceScales scales = force_scales(s, w, q);
+  if (!(scales.full > 0) || !std::isfinite(scales.rounding)) return std::nullopt;
+  return ResidualRounding{rounding_level * scales.rounding, rounding_level * coordinate_force_scales(s, w, q).rounding};
+}
+
 double relative_residual(double residual_norm, const ForceScales& scales) {
   if (residual_norm == 0) return 0;
   if (!(scales.full > 0) || !std::isfinite(scales.full)) return std::numeric_limits<double>::infinity();
   const double relative = residual_norm / scales.full;
   const double level = scales.rounding > 0 ? scales.rounding : scales.full;
-  const double beyond_rounding = residual_norm - 8 * std::numeric_limits<double>::epsilon() * level;
+  const double beyond_rounding = residual_norm - rounding_level * level;
   if (!(beyond_rounding > 0)) return relative;
   if (!(scales.acting > 0)) return std::numeric_limits<double>::infinity();
   return std::max(relative, beyond_rounding / scales.acting);

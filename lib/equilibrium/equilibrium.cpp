@@ -297,20 +297,44 @@ std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int star
   m << std::setprecision(3);
   m << "no equilibrium found: the residual ‖∇V − Q‖ could not be reduced below " << best.residual_norm
     << " (relative " << best.residual << ") from " << starts << " start" << (starts == 1 ? "" : "s");
+  Workspace w(s);
+  std::optional<ResidualRounding> rounding;
+  Eigen::Index worst = -1;
   if (best.q.size() == s.size() && s.size() > 0) {
     const VectorX r = p.residual(best.q);
+    rounding = residual_rounding(s, w, best.q);
+    if (rounding && !(r.norm() <= rounding->whole)) rounding.reset();
     std::vector<int> order(static_cast<std::size_t>(s.size()));
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(r[a]) > std::abs(r[b]); });
     const double largest = std::abs(r[order[0]]);
+    worst = order[0];
     m << "; the unbalanced generalized force is largest on coordinate ";
     int named = 0;
     for (int i : order) {
       if (named == 3 || std::abs(r[i]) < 0.1 * largest || (named > 0 && r[i] == 0)) break;
       const Coordinate& c = s.coordinates()[static_cast<std::size_t>(i)];
       m << (named == 0 ? "" : ", then ") << c.name << " (" << r[i] << " " << force_unit(c.kind) << ")";
+      if (rounding && !(std::abs(r[i]) <= rounding->each[i])) rounding.reset();  // one named beyond its rounding
       ++named;
     }
+  }
+  if (rounding) {
+    // Not an unbalanced load: the forces themselves are computed no closer
+    // than this (world points rounded to ε of their distance from the origin).
+    const Coordinate& c = s.coordinates()[static_cast<std::size_t>(worst)];
+    m << " — within the rounding of the forces computed at these positions (±" << rounding->each[worst] << " "
+      << force_unit(c.kind) << " on " << c.name
+      << ": 8ε × each of its springs' stiffness times its length and its ends' distances from the origin, to ε of "
+         "which they are rounded), so it cannot be told from zero: double precision resolves these forces no closer";
+    if (const std::optional<MeetingEnds> meet = spring_with_meeting_ends(s, w, best.q))
+      m << "; and " << describe_meeting_ends(s, *meet) << ", so no tolerance accepts this point";
+    else if (best.residual <= 1e-2)
+      m << "; a tolerance of " << std::pow(10.0, std::ceil(std::log10(best.residual)))
+        << " (`modal analyze --eq-tol`, EquilibriumOptions::tolerance) accepts this point";
+    m << "; without a rotating frame, the same scene moved nearer the origin has the same modes and is computed "
+         "more closely";
+    return m.str();
   }
   m << " — nothing in the scene can balance it (e.g. a body that can fall freely under gravity, or a load no "
        "spring or joint resists)";

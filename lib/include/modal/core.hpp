@@ -525,6 +525,23 @@ double relative_residual(const System& s, Workspace& w, const VectorX& q, const 
 std::optional<double> relative_residual_if_scaled(const System& s, Workspace& w, const VectorX& q, const VectorX& r,
                                                   const CoordinateForceScales* each = nullptr);
 
+// The rounding of ∇V − Q as computed at q (units of ∇V's entries: N, N·m):
+// `whole` = 8ε × force_scales(q).rounding for its 2-norm, `each` (n) = 8ε ×
+// coordinate_force_scales(q).rounding for its entries. These scales count
+// every spring's ends' distances from the origin, to ε of which the world
+// points are rounded, so far from the origin they exceed the forces
+// themselves: a bead 1e10 m out on a spring of 1 N/m and 1 mm rest length
+// has forces of 1e-3 N computed to ±3.6e-5 N. A residual within them
+// (‖r‖ ≤ whole, |r_k| ≤ each_k) cannot be told from zero in this
+// evaluation. nullopt for maps, scenes with constraints (whose residual
+// carries reactions these scales do not count) and where no element
+// produces a force.
+struct ResidualRounding {
+  double whole = 0;
+  VectorX each;
+};
+std::optional<ResidualRounding> residual_rounding(const System& s, Workspace& w, const VectorX& q);
+
 // --- kinetic energy, forces --------------------------------------------------
 const MatrixX& mass_matrix(const System& s, Workspace& w, const VectorX& q);          // M(q), n×n
 // The natural inertia scale of every coordinate at q (n; kg·m² for angles,
