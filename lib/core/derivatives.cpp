@@ -33,6 +33,7 @@
 #include "core/map.hpp"
 #include "core/map_eval.hpp"
 #include "core/model.hpp"
+#include "core/text.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -876,13 +877,9 @@ std::string describe_meeting_ends(const System& s, const MeetingEnds& meet) {
   auto end = [&](const Attachment& a) {
     return a.body < 0 ? std::string("the world") : "'" + s.bodies()[static_cast<std::size_t>(a.body)].name + "'";
   };
-  auto number = [](double v, int digits) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-    return std::string(buffer);
-  };
+  using text::format_number;
   return "the ends of the spring between " + end(sp.a) + " and " + end(sp.b) + " (rest length " +
-         number(sp.rest_length, 4) + " m) meet at this configuration (" + number(meet.distance, 3) +
+         format_number(sp.rest_length, 4) + " m) meet at this configuration (" + format_number(meet.distance, 3) +
          " m apart): V is not differentiable there (the spring's force has no direction)";
 }
 

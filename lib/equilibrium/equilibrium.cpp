@@ -6,6 +6,7 @@
 // positive definite J, else a symmetric eigen-decomposition). Newton converges
 // quadratically at a regular equilibrium, so a polish costs a few Jacobians.
 #include "equilibrium/problem.hpp"
+#include "core/text.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -287,7 +288,7 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
   return q;
 }
 
-const char* force_unit(CoordinateKind k) { return k == CoordinateKind::length ? "N" : "N·m"; }
+using text::force_unit;
 
 }  // namespace
 

@@ -14,6 +14,7 @@
 // ∇V − Q) (modal/core.hpp: ‖∇V − Q‖₂ against the scene's force scale and
 // each entry against its coordinate's).
 #include "modal/linearize.hpp"
+#include "core/text.hpp"
 
 #include <Eigen/QR>
 #include <Eigen/SparseCholesky>
@@ -29,14 +30,8 @@
 namespace modal {
 namespace {
 
-std::string format_number(double v, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
-
-// Unit of the generalized force conjugate to a coordinate.
-const char* force_unit(CoordinateKind kind) { return kind == CoordinateKind::length ? "N" : "N·m"; }
+using text::force_unit;
+using text::format_number;
 
 // Throws NumericalError naming `what` when A has a non-finite entry.
 void require_finite(const MatrixX& A, const char* what, const std::vector<std::string>& names) {

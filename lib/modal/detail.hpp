@@ -11,6 +11,8 @@
 
 #include "modal/modes.hpp"
 
+#include "core/text.hpp"
+
 #include <Eigen/Cholesky>
 
 #include <complex>
@@ -161,7 +163,6 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
 // largest within a relative 1e-12 (ties broken by rounding), the first.
 Eigen::Index dominant_index(const Eigen::VectorXcd& v);
 
-// printf-style "%.{digits}g" of v.
-std::string format_number(double v, int digits = 4);
+using text::format_number;  // core/text.hpp
 
 }  // namespace modal::detail

@@ -472,11 +472,5 @@ Eigen::Index dominant_index(const Eigen::VectorXcd& v) {
   return 0;
 }
 
-std::string format_number(double v, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
-
 }  // namespace detail
 }  // namespace modal
