@@ -276,6 +276,19 @@ TEST_F(Pipeline, ExportedMatricesAreWrittenAllOrNoneWithTheOtherFiles) {
   again.commit();
   EXPECT_NE(text(mx / "K.mtx"), k_before);
   EXPECT_FALSE(fs::exists(mx / "D.mtx"));
+
+  // A directory the run would create (with a missing parent) is not left
+  // behind, empty, by a commit that fails; a successful one makes both.
+  const fs::path fresh = dir / "new_parent" / "matrices";
+  modal::OutputFiles failing;
+  modal::add_matrix_exports(failing, fresh.string(), *plain.linear);
+  failing.add((dir / "no_such_directory" / "x.json").string(), std::string("{}"));
+  EXPECT_THROW(failing.commit(), modal::ReportError);
+  EXPECT_FALSE(fs::exists(dir / "new_parent")) << "a failed run left the directory it made";
+  modal::OutputFiles succeeding;
+  modal::add_matrix_exports(succeeding, fresh.string(), *plain.linear);
+  succeeding.commit();
+  EXPECT_EQ(text(fresh / "K.mtx"), text(mx / "K.mtx"));
 }
 
 TEST_F(Pipeline, ASurveyIsNotFailedByAPointBetweenTwoEquilibria) {

@@ -51,13 +51,6 @@ void write_matrix_market(const std::string& path, const SparseMatrix& A, bool sy
 
 namespace {
 
-void make_directory(const std::string& dir) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec || !std::filesystem::is_directory(dir))
-    throw ReportError(dir + ": cannot create the directory" + (ec ? " (" + ec.message() + ")" : std::string(": a file of this name exists")));
-}
-
 std::string in(const std::string& dir, const char* name) { return (std::filesystem::path(dir) / name).string(); }
 
 // DIR's exported matrices that this export does not write: removed when the
@@ -72,7 +65,7 @@ void remove_stale(OutputFiles& files, const std::string& dir, const std::vector<
 }  // namespace
 
 std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir, const LinearModel& model) {
-  make_directory(dir);
+  files.add_directory(dir);
   std::vector<std::string> written;
   auto put = [&](const char* name, const MatrixX& A, bool symmetric, const std::string& what) {
     written.push_back(in(dir, name));
@@ -92,7 +85,7 @@ std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::strin
 
 std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir,
                                             const SparseLinearModel& model) {
-  make_directory(dir);
+  files.add_directory(dir);
   std::vector<std::string> written{in(dir, "M.mtx"), in(dir, "K.mtx")};
   files.add(written[0], [&model](const TextSink& sink) { write_matrix_market(sink, model.M, true, "mass matrix M"); });
   files.add(written[1],

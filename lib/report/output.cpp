@@ -206,7 +206,41 @@ void OutputFiles::add(std::string path, std::function<void(const TextSink&)> wri
 
 void OutputFiles::remove_after(std::string path) { removals_.push_back(std::move(path)); }
 
+void OutputFiles::add_directory(std::string path) { directories_.push_back(std::move(path)); }
+
+namespace {
+
+// The directories a commit created, deepest first: removed on every way out
+// but a complete commit (they are empty then: their files were temporaries).
+struct CreatedDirectories {
+  std::vector<fs::path> paths;
+  bool kept = false;
+  ~CreatedDirectories() {
+    if (kept) return;
+    std::error_code ec;
+    for (const fs::path& p : paths) fs::remove(p, ec);  // removes nothing that is not empty
+  }
+  void create(const std::string& dir) {
+    std::error_code ec;
+    std::vector<fs::path> missing;
+    for (fs::path p = fs::absolute(dir, ec).lexically_normal(); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+      missing.push_back(p);
+      if (p == p.parent_path()) break;
+    }
+    fs::create_directories(dir, ec);
+    for (const fs::path& p : missing)  // deepest first
+      if (fs::is_directory(p)) paths.push_back(p);
+    if (ec || !fs::is_directory(dir))
+      throw ReportError(dir + ": cannot create the directory" +
+                        (ec ? " (" + ec.message() + ")" : std::string(": a file of this name exists")));
+  }
+};
+
+}  // namespace
+
 std::vector<std::string> OutputFiles::commit() {
+  CreatedDirectories created;
+  for (const std::string& dir : directories_) created.create(dir);
   // Removed on every way out but a complete rename (destructors), and by the
   // signal handler while they exist.
   std::vector<Temporary> temps(files_.size());
@@ -262,7 +296,9 @@ std::vector<std::string> OutputFiles::commit() {
     written.push_back(files_[i].path);
   }
   end_renames();
+  created.kept = true;
   files_.clear();
+  directories_.clear();
   std::vector<std::string> removals = std::move(removals_);
   removals_.clear();
   // Every stale file is tried; those that stay are named together.

@@ -186,7 +186,8 @@ std::vector<std::string> export_matrices(const std::string& dir, const SparseLin
 class OutputFiles;
 // The same files added to `files` (written, and the stale ones removed, when
 // it commits, all or none with the run's other outputs); the directory is
-// created now. Returns the paths it will write.
+// created by the commit (OutputFiles::add_directory). Returns the paths it
+// will write.
 std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir, const LinearModel& model);
 std::vector<std::string> add_matrix_exports(OutputFiles& files, const std::string& dir,
                                             const SparseLinearModel& model);
@@ -356,13 +357,17 @@ void check_output_directory(const std::string& dir, const std::vector<std::strin
 // A file may also be given as a writer, called during commit() with a sink
 // for its text (a large matrix is then never held whole in memory), and a
 // path as one to remove once the files are in place (a stale output of an
-// earlier run; not removed when the commit fails).
+// earlier run; not removed when the commit fails), and a directory to create
+// (with its missing parents) before the files are written: the directories
+// a commit created are removed again when it fails, so a failed run leaves
+// no trace.
 class OutputFiles {
  public:
   void add(std::string path, std::string content);
   void add(std::string path, std::function<void(const TextSink&)> writer);
   void remove_after(std::string path);
-  bool empty() const { return files_.empty() && removals_.empty(); }
+  void add_directory(std::string path);
+  bool empty() const { return files_.empty() && removals_.empty() && directories_.empty(); }
   std::vector<std::string> commit();
 
  private:
@@ -373,6 +378,7 @@ class OutputFiles {
   };
   std::vector<File> files_;
   std::vector<std::string> removals_;
+  std::vector<std::string> directories_;
 };
 // Interrupted runs (SIGINT, SIGTERM, SIGHUP). OutputFiles' temporaries exist
 // only while commit() writes them; remove_output_temporaries() unlinks those
