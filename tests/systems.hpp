@@ -7,18 +7,32 @@
 
 namespace modal::test {
 
-// A hinge body (axis normalized) with a point mass, or an inertia added by the caller.
-inline Body hinge(const std::string& name, int parent, const Vec3& origin, double mass, const Vec3& com,
-                  const Vec3& axis = Vec3::UnitY()) {
+// A body on a one-axis joint (axis normalized) at `origin` in its parent's
+// frame, with a point mass at its frame origin.
+inline Body axis_body(const std::string& name, int parent, JointType joint, const Vec3& origin, double mass,
+                      const Vec3& axis) {
   Body b;
   b.name = name;
   b.parent = parent;
-  b.joint = JointType::hinge;
+  b.joint = joint;
   b.axis = axis.normalized();
   b.origin = origin;
   b.mass = mass;
+  return b;
+}
+
+// A hinge body with a point mass at `com`, or an inertia added by the caller.
+inline Body hinge(const std::string& name, int parent, const Vec3& origin, double mass, const Vec3& com,
+                  const Vec3& axis = Vec3::UnitY()) {
+  Body b = axis_body(name, parent, JointType::hinge, origin, mass, axis);
   b.com = com;
   return b;
+}
+
+// A slide body, its point mass at its frame origin.
+inline Body slide(const std::string& name, int parent, const Vec3& origin, double mass,
+                  const Vec3& axis = Vec3::UnitX()) {
+  return axis_body(name, parent, JointType::slide, origin, mass, axis);
 }
 
 // docs/design.md R1: pivot → rod l1 → m1 → rod l2 → m2, hinges about y, point

@@ -32,6 +32,7 @@ constexpr double kTol = 1e-12;
 
 using test::double_pendulum;
 using test::hinge;
+using test::slide;
 
 // Two pendulums' states at each equilibrium, sorted: (i, j) with 0 hanging
 // and 1 inverted, for the pendulums of coordinates a and b.
@@ -47,13 +48,7 @@ const std::vector<std::pair<int, int>> kEveryState{{0, 0}, {0, 1}, {1, 0}, {1, 1
 // the world point (D − L, 0, 0) (as rounded) by a spring of stiffness k N/m and
 // rest length L m; returns the spring.
 Spring& add_bead_on_spring(SystemDescription& d, double D, double mass, double k, double L) {
-  Body bead;
-  bead.name = "bead";
-  bead.joint = JointType::slide;
-  bead.axis = Vec3::UnitX();
-  bead.origin = Vec3(D, 0, 0);
-  bead.mass = mass;
-  d.bodies.push_back(bead);
+  d.bodies.push_back(slide("bead", -1, Vec3(D, 0, 0), mass));
   Spring spring;
   spring.a = Attachment{-1, Vec3(D - L, 0, 0)};
   spring.b = Attachment{static_cast<int>(d.bodies.size()) - 1, Vec3::Zero()};
@@ -216,22 +211,13 @@ TEST(Equilibrium, AStiffJointsRoundingDoesNotSplitAFamily) {
     SCOPED_TRACE("k " + std::to_string(k) + ", link mass " + std::to_string(ms));
     SystemDescription d;
     d.gravity = Vec3(0, 0, -9.81);
-    Body cart;
-    cart.name = "cart";
-    cart.joint = JointType::slide;
-    cart.axis = Vec3::UnitX();
-    cart.mass = 1;
-    d.bodies.push_back(cart);
+    d.bodies.push_back(slide("cart", -1, Vec3::Zero(), 1));
     d.bodies.push_back(hinge("pendulum", 0, Vec3::Zero(), mp, Vec3(0, 0, -l)));
     Body stiff = hinge("stiff", 1, Vec3(0, 0, -l), ms, Vec3(0, 0, -ls));
     stiff.stiffness = k;
     stiff.rest = VectorX::Zero(1);
     d.bodies.push_back(stiff);
-    Body bead = cart;
-    bead.name = "bead";
-    bead.axis = Vec3::UnitY();
-    bead.origin = Vec3(5, 0, 0);
-    d.bodies.push_back(bead);
+    d.bodies.push_back(slide("bead", -1, Vec3(5, 0, 0), 1, Vec3::UnitY()));
     const System s(d);
     const std::vector<Equilibrium> all = find_equilibria(s);
     ASSERT_EQ(all.size(), 2u);

@@ -335,6 +335,9 @@ class TridiagonalPencil {
 // justify (unresolved, from the analysis), the worst first, within a budget
 // of about 4n³ flops (at least 3e8: every mode of a small scene); three steps
 // each, one LU factorization (partial pivoting) per step (details below).
+// The budget counts factorizations: one for each run's block step (below),
+// given to whole runs first, the worst first, so no run is split; then three
+// per mode, the worst mode first.
 // Where the solver's error exceeds the low eigenvalues themselves (a stiff
 // link 1e23 × softer than its pendulum), its vectors of those modes are an
 // arbitrary basis of their subspace (a cart-pendulum's: the coordinate
@@ -355,22 +358,37 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const VectorX& unreso
   for (Eigen::Index i = 0; i < m && i < unresolved.size(); ++i)
     if (unresolved(i) > 10) candidates.push_back(i);
   if (candidates.empty()) return false;
+  constexpr int steps = 3;
+  // The budget in LU factorizations (2n³/3 flops each): one per run's block
+  // step, given to the runs first (each whole, however long: it is one
+  // factorization), the worst run first; then `steps` per mode, the worst
+  // mode first.
+  const double nd = static_cast<double>(n);
+  auto budget = std::max(1L, static_cast<long>(std::max(3e8, 4 * nd * nd * nd) / ((2.0 / 3.0) * nd * nd * nd)));
+  struct Run {
+    Eigen::Index start, size;
+    double worst;
+  };
+  std::vector<Run> runs;
+  for (std::size_t first = 0; first < candidates.size();) {  // candidates ascend here
+    std::size_t last = first;
+    while (last + 1 < candidates.size() && candidates[last + 1] == candidates[last] + 1) ++last;
+    Run run{candidates[first], static_cast<Eigen::Index>(last - first + 1), 0.0};
+    for (std::size_t c = first; c <= last; ++c) run.worst = std::max(run.worst, unresolved(candidates[c]));
+    runs.push_back(run);
+    first = last + 1;
+  }
+  std::stable_sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.worst > b.worst; });
+  runs.resize(std::min(runs.size(), static_cast<std::size_t>(budget)));
+  budget -= static_cast<long>(runs.size());
   std::stable_sort(candidates.begin(), candidates.end(),
                    [&](Eigen::Index a, Eigen::Index b) { return unresolved(a) > unresolved(b); });
-  constexpr int steps = 3;  // and one block step per run: at most one more factorization per mode
-  const double nd = static_cast<double>(n), per_mode = (steps + 1) * (2.0 / 3.0) * nd * nd * nd;
-  const auto budget = static_cast<std::size_t>(std::max(1.0, std::max(3e8, 4 * nd * nd * nd) / per_mode));
-  if (candidates.size() > budget) candidates.resize(budget);
+  candidates.resize(std::min(candidates.size(), static_cast<std::size_t>(budget / steps)));
   MatrixX MPhi = M * Phi;
   bool changed = false;
   {  // The block step over each run of consecutive candidates (see above).
-    std::vector<Eigen::Index> sorted = candidates;
-    std::sort(sorted.begin(), sorted.end());
-    for (std::size_t first = 0; first < sorted.size();) {
-      std::size_t last = first;
-      while (last + 1 < sorted.size() && sorted[last + 1] == sorted[last] + 1) ++last;
-      const Eigen::Index start = sorted[first], size = static_cast<Eigen::Index>(last - first + 1);
-      first = last + 1;
+    for (const Run& run : runs) {
+      const Eigen::Index start = run.start, size = run.size;
       const auto X = Phi.middleCols(start, size);
       double largest = 0;
       for (Eigen::Index k = 0; k < size; ++k)
