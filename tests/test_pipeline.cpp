@@ -9,8 +9,11 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -289,6 +292,42 @@ TEST_F(Pipeline, ExportedMatricesAreWrittenAllOrNoneWithTheOtherFiles) {
   modal::add_matrix_exports(succeeding, fresh.string(), *plain.linear);
   succeeding.commit();
   EXPECT_EQ(text(fresh / "K.mtx"), text(mx / "K.mtx"));
+}
+
+TEST_F(Pipeline, AnInterruptDuringTheCommitLeavesNoDirectoryItMade) {
+  // A signal while the commit writes its files (here raised by the writer of
+  // the last file, after the matrices' temporaries are written into the
+  // directories the commit made): the process ends by that signal, and
+  // neither a temporary nor the new directories (nor their new parent) stay.
+  // The handler had removed the temporaries only, leaving the directories.
+  const modal::Analysis plain = modal::analyze(modal::load_model(models + "double_pendulum.toml"));
+  ASSERT_TRUE(plain.linear);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
+    const fs::path parent = dir / ("interrupted_" + std::to_string(signal)), fresh = parent / "deeper" / "matrices";
+    auto interrupted_commit = [&] {
+      modal::remove_output_temporaries_on_signals();
+      modal::OutputFiles files;
+      modal::add_matrix_exports(files, fresh.string(), *plain.linear);
+      files.add((dir / ("x" + std::to_string(signal) + ".json")).string(), [&](const modal::TextSink& sink) {
+        sink("{");
+        std::raise(signal);
+      });
+      files.commit();
+    };
+    const pid_t child = fork();  // the child has this test's directory (a death test's re-executed one would not)
+    if (child == 0) {
+      interrupted_commit();
+      _exit(0);
+    }
+    ASSERT_GT(child, 0);
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == signal) << "status " << status;
+    EXPECT_FALSE(fs::exists(parent)) << "an interrupted run left the directory it made";
+    for (const auto& entry : fs::directory_iterator(dir))
+      EXPECT_EQ(entry.path().filename().string().find(".modal-"), std::string::npos) << entry.path();
+    EXPECT_FALSE(fs::exists(dir / ("x" + std::to_string(signal) + ".json")));
+  }
 }
 
 TEST_F(Pipeline, ASurveyIsNotFailedByAPointBetweenTwoEquilibria) {

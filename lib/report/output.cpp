@@ -40,30 +40,51 @@ fs::path directory_of(const std::string& path) {
   return parent.empty() ? fs::path(".") : parent;
 }
 
-// The temporary files that exist at this moment, for the signal handler:
-// fixed slots of heap copies of their names, claimed and released with atomic
-// exchanges, so that the handler (which may only call async-signal-safe
-// functions) reads them without locks. A run has a handful of outputs; when
-// every slot is taken a temporary is simply not removed on a signal.
-constexpr std::size_t temporary_slots = 64;
-std::array<std::atomic<char*>, temporary_slots> live_temporaries{};
-
-// Registers `path` in a free slot; the slot's index, or temporary_slots when none is free.
-std::size_t register_temporary(const std::string& path) {
-  char* copy = new char[path.size() + 1];
-  std::memcpy(copy, path.c_str(), path.size() + 1);
-  for (std::size_t i = 0; i < temporary_slots; ++i) {
-    char* expected = nullptr;
-    if (live_temporaries[i].compare_exchange_strong(expected, copy)) return i;
+// Paths the signal handler must remove: fixed slots of heap copies of the
+// names, claimed and released with atomic exchanges, so that the handler
+// (which may only call async-signal-safe functions) reads them without locks.
+// A run has a handful of outputs; when every slot is taken a path is simply
+// not removed on a signal.
+template <std::size_t N>
+struct LivePaths {
+  static constexpr std::size_t none = N;
+  std::array<std::atomic<char*>, N> slots{};
+  // Registers `path` in a free slot; the slot's index, or `none`.
+  std::size_t claim(const std::string& path) {
+    char* copy = new char[path.size() + 1];
+    std::memcpy(copy, path.c_str(), path.size() + 1);
+    for (std::size_t i = 0; i < N; ++i) {
+      char* expected = nullptr;
+      if (slots[i].compare_exchange_strong(expected, copy)) return i;
+    }
+    delete[] copy;
+    return none;
   }
-  delete[] copy;
-  return temporary_slots;
-}
+  // Forgets the path of `slot` (kept, or removed already).
+  void release(std::size_t slot) {
+    if (slot < N) delete[] slots[slot].exchange(nullptr);
+  }
+};
 
-// Forgets the temporary of `slot` (after it was renamed into place or removed).
-void release_temporary(std::size_t slot) {
-  if (slot >= temporary_slots) return;
-  delete[] live_temporaries[slot].exchange(nullptr);
+// The temporary files that exist at this moment, and the directories a commit
+// has created and not yet kept (a complete commit keeps them): the handler
+// removes the directories after the temporaries that were in them (rmdir,
+// async-signal-safe, removes only empty ones).
+LivePaths<64> live_temporaries;
+LivePaths<16> live_directories;
+constexpr std::size_t temporary_slots = decltype(live_temporaries)::none;
+
+// Removes the registered directories that are empty, children before their
+// parents (a pass per level, at most one per slot).
+void remove_live_directories() noexcept {
+  for (std::size_t pass = 0; pass < live_directories.slots.size(); ++pass) {
+    bool removed = false;
+    for (std::atomic<char*>& slot : live_directories.slots) {
+      const char* name = slot.load();
+      if (name != nullptr && rmdir(name) == 0) removed = true;
+    }
+    if (!removed) return;
+  }
 }
 
 // A temporary file: removed (and released) when it goes out of scope unless
@@ -77,7 +98,7 @@ struct Temporary {
   Temporary& operator=(const Temporary&) = delete;
   ~Temporary() {
     if (!path.empty() && !kept) std::remove(path.c_str());
-    release_temporary(slot);
+    live_temporaries.release(slot);
   }
 };
 
@@ -90,8 +111,8 @@ int open_temporary(const std::string& path, Temporary& temp) {
   buffer.push_back('\0');
   // The slot is taken before the file exists, so that no signal finds a file
   // without a registration; its name is then filled in by mkstemp.
-  temp.slot = register_temporary(pattern);
-  char* slot_name = temp.slot < temporary_slots ? live_temporaries[temp.slot].load() : nullptr;
+  temp.slot = live_temporaries.claim(pattern);
+  char* slot_name = temp.slot < temporary_slots ? live_temporaries.slots[temp.slot].load() : nullptr;
   const int fd = mkstemp(slot_name != nullptr ? slot_name : buffer.data());
   if (fd >= 0) temp.path.assign(slot_name != nullptr ? slot_name : buffer.data());
   return fd;
@@ -186,10 +207,11 @@ void check_output_directory(const std::string& dir, const std::vector<std::strin
 }
 
 void remove_output_temporaries() noexcept {
-  for (std::atomic<char*>& slot : live_temporaries) {
+  for (std::atomic<char*>& slot : live_temporaries.slots) {
     const char* name = slot.load();
     if (name != nullptr) unlink(name);  // async-signal-safe; a name not yet made by mkstemp is not a file
   }
+  remove_live_directories();
 }
 
 void remove_output_temporaries_on_signals() {
@@ -210,15 +232,26 @@ void OutputFiles::add_directory(std::string path) { directories_.push_back(std::
 
 namespace {
 
-// The directories a commit created, deepest first: removed on every way out
-// but a complete commit (they are empty then: their files were temporaries).
+// The directories a commit created: removed on every way out but a complete
+// commit (they are empty then: their files were temporaries), by the
+// destructor or, on an interrupt, by the signal handler (registered before
+// they exist, as the temporaries are).
 struct CreatedDirectories {
   std::vector<fs::path> paths;
+  std::vector<std::size_t> slots;
   bool kept = false;
+  CreatedDirectories() = default;
+  CreatedDirectories(const CreatedDirectories&) = delete;
+  CreatedDirectories& operator=(const CreatedDirectories&) = delete;
   ~CreatedDirectories() {
-    if (kept) return;
-    std::error_code ec;
-    for (const fs::path& p : paths) fs::remove(p, ec);  // removes nothing that is not empty
+    if (!kept) {
+      // Children before their parents: a longer normal path is never an ancestor of a shorter one.
+      std::sort(paths.begin(), paths.end(),
+                [](const fs::path& a, const fs::path& b) { return a.native().size() > b.native().size(); });
+      std::error_code ec;
+      for (const fs::path& p : paths) fs::remove(p, ec);  // removes nothing that is not empty
+    }
+    for (const std::size_t slot : slots) live_directories.release(slot);
   }
   void create(const std::string& dir) {
     std::error_code ec;
@@ -227,8 +260,9 @@ struct CreatedDirectories {
       missing.push_back(p);
       if (p == p.parent_path()) break;
     }
+    for (const fs::path& p : missing) slots.push_back(live_directories.claim(p.string()));
     fs::create_directories(dir, ec);
-    for (const fs::path& p : missing)  // deepest first
+    for (const fs::path& p : missing)
       if (fs::is_directory(p)) paths.push_back(p);
     if (ec || !fs::is_directory(dir))
       throw ReportError(dir + ": cannot create the directory" +

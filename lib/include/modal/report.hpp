@@ -382,7 +382,8 @@ class OutputFiles {
 };
 // Interrupted runs (SIGINT, SIGTERM, SIGHUP). OutputFiles' temporaries exist
 // only while commit() writes them; remove_output_temporaries() unlinks those
-// that exist at the moment (async-signal-safe), and
+// that exist at the moment and removes the directories the commit has created
+// for them (add_directory) while they are empty (async-signal-safe), and
 // remove_output_temporaries_on_signals() installs handlers that call it and
 // then end the process by the same signal (exit status 128 + signal in a
 // shell: 130, 143, 129), so an interrupt never leaves a temporary or a partial
