@@ -964,6 +964,102 @@ TEST(Graded, StiffJointsKeepTheSoftModes) {
   EXPECT_GT(balls, 0);
 }
 
+// A stiff light hinge under a ball pendulum (or under a hinge pendulum
+// hanging from it): the hinge turns about the ball's y component at rest,
+// and in absolute angles its spring k enters that component's diagonal, so
+// the pendulum's own stiffness was its rounding. keep_favourable_links
+// decided only links measured from a hinge, and this one stayed absolute: a
+// 1 kg ball pendulum of 1 m with a 1e-6 kg, 1 mm tip on 1e10 N·m/rad gave
+// one swing mode 9.770916205 ± 11, "zero" (the eigenvalue, twice: 9.7709163639
+// in 50 digits on the same matrices), and the scene "marginal: 2 zero-frequency
+// modes". Now a link from a ball's component to a hinge is decided by the
+// same measure. Generated: the ball sprung or not (its spin a zero mode),
+// a hinge pendulum between it and the tip or not, axes x or y, the tip's
+// spring 1e10 … 1e25 × the pendulum's g/l; reference: the long double pencil
+// with the tip's coordinate condensed exactly (condensed_omega2). Every mode
+// within its estimate, the soft ones within 1e-9 and their estimates within
+// 1e-6 (a tip whose loss ratio stays below keep_favourable_links' 1e4 keeps
+// its absolute angle, and its spring's rounding, 2e-9 relative on one
+// scene, is then in the estimate), the spin a zero mode only where the ball
+// has no spring, on Eigen's and LAPACK's paths. The spin's refined vector
+// (Eigen's path, a hinge between) had a quotient of 2.7e-309 with its
+// residual's norm underflowed to 0: "oscillatory" with a bound of 0, and on
+// LAPACK's path the scene refused as below the range of double.
+TEST(Graded, AStiffHingeUnderABallKeepsTheSwingModes) {
+  std::mt19937_64 rng(1128);
+  int free_spins = 0, middles = 0;
+  for (int trial = 0; trial < 16; ++trial) {
+    const bool sprung = trial % 2 == 0, middle = trial % 4 >= 2;
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    const double m = log_uniform(rng, 0.1, 10), l = log_uniform(rng, 0.1, 10);
+    Body ball = link(-1, JointType::ball, Vec3::Zero(), m, l);
+    if (sprung) {
+      ball.stiffness = m * 9.81 * l * log_uniform(rng, 0.01, 100);
+      ball.rest = VectorX::Zero(3);
+    }
+    d.bodies.push_back(ball);
+    double soft = 9.81 / l, last = l;
+    if (middle) {
+      const double mh = log_uniform(rng, 0.1, 10), lh = log_uniform(rng, 0.1, 10);
+      Body hinge = link(0, JointType::hinge, Vec3(0, 0, -l), mh, lh);
+      hinge.inertia.setZero();
+      if (rng() % 2 == 0) hinge.axis = Vec3::UnitX();
+      d.bodies.push_back(hinge);
+      soft = std::max(soft, 9.81 / lh);
+      last = lh;
+    }
+    const double ms = log_uniform(rng, 1e-9, 1e-3), ls = log_uniform(rng, 1e-5, 1e-2);
+    Body tip = link(static_cast<int>(d.bodies.size()) - 1, JointType::hinge, Vec3(0, 0, -last), ms, ls);
+    tip.name = "tip";
+    tip.inertia.setZero();
+    if (rng() % 2 == 0) tip.axis = Vec3::UnitX();
+    tip.stiffness = log_uniform(rng, 1e10, 1e25) * soft * ms * ls * ls;
+    tip.rest = VectorX::Zero(1);
+    d.bodies.push_back(tip);
+    const System s(d);
+    const int n = s.size(), stiff = n - 1;
+    MatLD M, K;
+    reference_pencil(s, VectorX::Zero(n), MatLD::Identity(n, n), M, K);
+    std::vector<int> soft_coordinates;
+    for (int i = 0; i < stiff; ++i) soft_coordinates.push_back(i);
+    std::vector<LD> reference = condensed_omega2(M, K, soft_coordinates, true);
+    reference.push_back(condensed_omega2(M, K, {stiff}, false)[0]);
+    free_spins += sprung ? 0 : 1;
+    middles += middle ? 1 : 0;
+    const LinearModel model = linearize(s, VectorX::Zero(n));
+    for (const DenseSolver solver : {DenseSolver::eigen, DenseSolver::lapack})
+      for (const bool all : {true, false}) {
+        ModalOptions options;
+        options.dense_solver = solver;
+        if (!all) options.modes = stiff;
+        const ModalResult r = solve_modes(model, options);
+        const std::string what = "trial " + std::to_string(trial) + (solver == DenseSolver::eigen ? " eigen" : " lapack") +
+                                 (all ? " all" : " soft only") + (sprung ? ", sprung ball" : ", free spin") +
+                                 (middle ? ", hinge between" : "") + ", tip k " + std::to_string(tip.stiffness);
+        ASSERT_EQ(r.modes.size(), static_cast<std::size_t>(all ? n : stiff)) << what;
+        for (std::size_t k = 0; k < r.modes.size(); ++k) {
+          const Mode& mode = r.modes[k];
+          const LD ref = reference[k];
+          const bool zero = !sprung && k == 0;
+          const double err = static_cast<double>(std::abs(static_cast<LD>(mode.omega2) - ref));
+          EXPECT_EQ(mode.kind, zero ? ModeKind::zero : ModeKind::oscillatory) << what << " mode " << k + 1;
+          if (zero) continue;  // its reference is 0 to the condensation's rounding
+          EXPECT_LE(err, mode.error_estimate) << what << " mode " << k + 1 << ": ω² " << mode.omega2
+                                              << ", reference " << static_cast<double>(ref);
+          if (static_cast<int>(k) < stiff) {
+            EXPECT_LE(err, 1e-9 * static_cast<double>(ref)) << what << " mode " << k + 1;
+            EXPECT_LE(mode.error_estimate, 1e-6 * static_cast<double>(ref)) << what << " mode " << k + 1 << ": error " << err;
+          }
+        }
+        EXPECT_EQ(r.stability, sprung ? Stability::stable : Stability::marginal) << what;
+        EXPECT_EQ(r.zero_modes, sprung ? 0 : 1) << what;
+      }
+  }
+  EXPECT_GT(free_spins, 0);
+  EXPECT_GT(middles, 0);
+}
+
 TEST(Graded, ALargeScenesRefinementKeepsAStiffJointsSoftPairWhole) {
   // The cart-pendulum with a stiff light tip (above) beside 250 … 450 sprung
   // beads, so that n is large and the refinement's budget small (about one

@@ -1452,9 +1452,12 @@ void keep_favourable_links(const System& s, const MatrixX& M, const MatrixX& K, 
   if (n != s.size() || M.cols() != n || K.rows() != n || K.cols() != n ||
       static_cast<Eigen::Index>(parents.size()) != n)
     throw std::invalid_argument("keep_favourable_links: M, K (n×n) and one parent entry per coordinate are required");
-  // Links measured from a hinge only: the parent a ball's component (a ball
-  // chain's spin from the ball above) lost digits of M in relative angles
-  // that the estimates did not state, even at these margins.
+  // Links with a hinge at one end or both: a ball's component measured from
+  // a ball's (a ball chain's spin from the ball above) lost digits of M in
+  // relative angles that the estimates did not state, even at these
+  // margins. A hinge under a ball's component is decided like one under a
+  // hinge: left absolute, a stiff light tip under a ball pendulum made one
+  // of the pendulum's swing modes "zero".
   std::vector<char> hinge(static_cast<std::size_t>(n), 0);
   for (std::size_t b = 0; b < s.bodies().size(); ++b)
     if (s.bodies()[b].joint == JointType::hinge) hinge[static_cast<std::size_t>(s.first_coordinate(static_cast<int>(b)))] = 1;
@@ -1473,7 +1476,7 @@ void keep_favourable_links(const System& s, const MatrixX& M, const MatrixX& K, 
   };
   for (Eigen::Index k = 0; k < n; ++k) {
     const int j = parents[static_cast<std::size_t>(k)];
-    if (j < 0 || !hinge[static_cast<std::size_t>(j)]) continue;
+    if (j < 0 || !(hinge[static_cast<std::size_t>(j)] || hinge[static_cast<std::size_t>(k)])) continue;
     const auto [mass_relative, mass_absolute] = losses(M, j, k);
     const auto [stiffness_relative, stiffness_absolute] = losses(K, j, k);
     const double relative = std::max(mass_relative, stiffness_relative);

@@ -597,11 +597,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
     VectorX residual_norm(m), absKM_dot(m), rows(m);  // ‖R_j‖ (for the relative residual below);
     VectorX rounding_norm(m);                            // |φ|ᵀ(|K| + |λ||M|)|φ|; ‖φ∘(|K||φ| + |λ||M||φ|)‖₂; ‖rounding_j‖₂
+    // Column norms by stableNorm: a refined zero mode's residual (1e-165)
+    // squared to 0 in norm(), a rigorous bound of 0 for a quotient of 2.7e-309.
     for (Eigen::Index j = 0; j < m; ++j) {
-      residual_norm(j) = R.col(j).norm();
-      rounding_norm(j) = rounding.col(j).norm();
+      residual_norm(j) = R.col(j).stableNorm();
+      rounding_norm(j) = rounding.col(j).stableNorm();
       absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
-      rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).norm();
+      rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).stableNorm();
     }
     solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
     solve_lower(mass.matrixLLT(), rounding);
@@ -619,7 +621,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     for (Eigen::Index i = 0; i < m; ++i) {
       const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
       const double norm = std::sqrt(phiMphi(i));
-      const double residual = R.col(i).norm() / norm, rounded = eps * rounding.col(i).norm() / norm;
+      const double residual = R.col(i).stableNorm() / norm, rounded = eps * rounding.col(i).stableNorm() / norm;
       // The bound takes the worst case of the rounding e (|e| ≤ nn ε rounding_j):
       // ‖L⁻¹e‖ ≤ ‖|L⁻¹|‖₂ ‖e‖₂, not ‖L⁻¹ rounding_j‖, which the signs of L⁻¹
       // make up to 1.2e3 × smaller (a 1000-link chain in absolute angles).
@@ -656,7 +658,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
       const double gap = separation(delta, j, j);
       const double linear = delta(j);
-      const double quadratic = gap > linear ? linear * linear / gap : linear;
+      // linear · (linear / gap): linear² alone underflows below 1.5e-154 (a
+      // refined zero mode's residual of 1e-165 squared to 0 claimed its
+      // quotient, 2.7e-309, exact and the mode an oscillation).
+      const double quadratic = gap > linear ? linear * (linear / gap) : linear;
       return std::min({linear, quadratic, clustered}) + quotient + eps * std::abs(lambda_all(j));
     };
     // Close pairs and small clusters (for the estimate). Where the intervals
@@ -755,20 +760,26 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
       const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
       const double entries =
-          absPhi.col(i).cwiseProduct(EabsPhi.col(i)).norm() / phi2 +
-          rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).norm(), diagonal_terms(i)) / phi2;
+          absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm() / phi2 +
+          rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).stableNorm(), diagonal_terms(i)) / phi2;
       const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
                                                         rows(i) / phi2, sums(i) / phi2, entries);
+      // A mode is zero where |λ| is within the decision's value, or below
+      // the normal range of double (the pencil is scaled so that its largest
+      // entries are near 1): there λ, its residual and their rounding have
+      // lost their relative precision, and a refined zero mode's quotient
+      // (2.7e-309 where the eigenvalue is exactly 0) is no evidence of a
+      // vibration. Its estimate then covers |λ|.
+      const bool zero = std::abs(l) <= decision || std::abs(l) < std::numeric_limits<double>::min();
       // Where that typical size (doubled) exceeds the decision's value, as it
       // may for a few coordinates, the smaller of the two.
-      const double error = std::abs(l) <= decision
-                               ? decision
-                               : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
+      const double error = zero ? std::max(decision, std::abs(l))
+                                : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
       // The solver's share of the estimate against what the data and the
       // quotient's rounding alone justify.
       const double solver_part = with_gap(typical, 0.0, i, clustered(i)) - eps * std::abs(l);
       const double justified =
-          quotient + difference_bound + eps * std::abs(l) + (std::abs(l) <= decision ? data_bound : 0.0);
+          quotient + difference_bound + eps * std::abs(l) + (zero ? data_bound : 0.0);
       unresolved(i) = justified > 0 ? solver_part / justified : (solver_part > 0 ? 1e300 : 0.0);
 
       const double scale = (normK + std::abs(l) * normM) * std::sqrt(x2);
@@ -778,7 +789,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
         worst = j;
       }
 
-      if (std::abs(l) <= decision) {
+      if (zero) {
         mode = make_mode(0.0, error, ModeKind::zero);
       } else if (l < 0) {  // divergent: δq ∝ e^{st} with s = +√(−λ) real
         mode = make_mode(std::sqrt(-l), error, ModeKind::divergent);

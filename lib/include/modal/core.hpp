@@ -575,7 +575,8 @@ std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const Vec
 // diagonal entry, in absolute angles it enters the parent's diagonal too, and
 // the parent's own stiffness is then its rounding (a 1.7e11 N·m/rad link on
 // a 1 m pendulum: the pendulum's 9.81 N·m/rad is 1e-10 of its entry). Per
-// link k → j from a hinge j (k a hinge or a ball's component), the relative
+// link k → j where j or k is a hinge (the other a hinge or a ball's
+// component), the relative
 // pencil (M, K, n×n,
 // relative angles) decides: the Schur complement of the pair onto j, S =
 // X_jj − X_jk²/X_kk for X = M and X = K, is the same in both bases, and the
