@@ -679,6 +679,27 @@ Eigen::Matrix<double, 6, 6> positive_spring_block(const Eigen::Matrix<double, 6,
   return P;
 }
 
+// The sizes of the terms of a spring's local Hessian, for the rounding bound
+// of ∇∇V (potential_hessian_magnitude): h = k I − k(L₀/L)(I − uuᵀ) with u
+// along d = x_a − x_b, so k uᵀhu = k and the transverse eigenvalue t = k(1 −
+// L₀/L); the block [m −m; −m m] with m = |k| I + |k − t| |I − uuᵀ|. The
+// computed h is their difference: at a small prestrain p (L₀ = (1 − p)L) its
+// transverse k p carries the rounding of k and of k L₀/L, ε/p of itself,
+// which the entries of h alone (≈ k p) did not count: a net at p = 1e-9 had
+// ω² off by 2.8e-8 relative with estimates of 2e-14.
+Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+  const Vec3 d = sites[0].x - sites[1].x;
+  const double length = d.norm();
+  const Mat3 h = He.topLeftCorner<3, 3>();
+  if (!(length > 0)) return He.cwiseAbs();
+  const Vec3 u = d / length;
+  const double k = u.dot(h * u), t = 0.5 * (h.trace() - k);
+  const Mat3 m = std::abs(k) * Mat3::Identity() + std::abs(k - t) * (Mat3::Identity() - u * u.transpose()).cwiseAbs();
+  Eigen::Matrix<double, 6, 6> M;
+  M << m, -m, -m, m;
+  return M;
+}
+
 // H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
 template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
@@ -711,20 +732,26 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
 // acts on θ_b − θ_parent).
 // In `parts` parts (element_parts): `add_of(part)` is the adder of that
 // part's elements; the tree terms and joint springs go to add_of(0).
-// With `convex`, a spring's local Hessian goes in as its positive
-// semidefinite part (positive_spring_block).
+// With SpringBlocks::convex, a spring's local Hessian goes in as its positive
+// semidefinite part (positive_spring_block); with ::term_sizes, as the sizes
+// of its terms (spring_term_sizes: for the magnitudes of ∇∇V's entries).
+enum class SpringBlocks { as_computed, convex, term_sizes };
 template <class AddOf>
 void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const VectorX& q, AddOf&& add_of,
                                          std::size_t parts, const std::vector<char>* held = nullptr,
-                                         bool convex = false) {
+                                         SpringBlocks blocks = SpringBlocks::as_computed) {
   const TreeState<double>& st = kinematics(s, w, q);
   accumulate(
       s, w, true,
       [&](std::size_t part) {
         return [&, part](const auto& sites, const auto& He) {
           if constexpr (std::tuple_size_v<std::decay_t<decltype(sites)>> == 2) {  // a spring
-            if (convex) {
+            if (blocks == SpringBlocks::convex) {
               add_local_hessian(s, st, sites, positive_spring_block(He), add_of(part), held);
+              return;
+            }
+            if (blocks == SpringBlocks::term_sizes) {
+              add_local_hessian(s, st, sites, spring_term_sizes(sites, He), add_of(part), held);
               return;
             }
           }
@@ -778,8 +805,9 @@ inline auto in_place_adder(const SparseMatrix& pattern, double* values, bool& fi
 // In one part: every term to `add`.
 template <class Add>
 void assemble_potential_hessian(const System& s, Workspace& w, const VectorX& q, Add&& add,
-                                const std::vector<char>* held = nullptr) {
-  assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, held);
+                                const std::vector<char>* held = nullptr,
+                                SpringBlocks blocks = SpringBlocks::as_computed) {
+  assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, held, blocks);
 }
 
 // A sparse matrix (n×n) of terms that `assemble(add)` hands to add(j, k, v),
@@ -917,7 +945,8 @@ const MatrixX& potential_hessian(const System& s, Workspace& w, const VectorX& q
 MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q) {
   if (s.is_map()) return potential_hessian(s, w, q).cwiseAbs();  // one expression per entry: no terms to separate
   MatrixX E = MatrixX::Zero(s.size(), s.size());
-  assemble_potential_hessian(s, w, q, [&E](int j, int k, double v) { E(j, k) += std::abs(v); });
+  assemble_potential_hessian(s, w, q, [&E](int j, int k, double v) { E(j, k) += std::abs(v); }, nullptr,
+                             SpringBlocks::term_sizes);
   return E;
 }
 
@@ -939,7 +968,8 @@ void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, Sp
     auto add = in_place_adder(H, H.valuePtr(), fits);
     auto add_second = in_place_adder(H, second.data(), second_fits);
     assemble_potential_hessian_in_parts(
-        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts, nullptr, convex);
+        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts, nullptr,
+        convex ? SpringBlocks::convex : SpringBlocks::as_computed);
     if (parts > 1) {
       double* values = H.valuePtr();
       for (std::size_t i = 0; i < nonzeros; ++i) values[i] += second[i];
@@ -949,7 +979,8 @@ void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, Sp
   assemble_by_columns(
       s.size(),
       [&](auto&& add) {
-        assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, nullptr, convex);
+        assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, nullptr,
+                                            convex ? SpringBlocks::convex : SpringBlocks::as_computed);
       },
       H);
 }
@@ -1538,7 +1569,8 @@ AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const Vec
   assemble_potential_hessian(s, w, q, dense_adder(m.K), &held);
   m.K = 0.5 * (m.K + m.K.transpose()).eval();
   m.K_magnitude.setZero(n, n);
-  assemble_potential_hessian(s, w, q, [&m](int j, int k, double v) { m.K_magnitude(j, k) += std::abs(v); }, &held);
+  assemble_potential_hessian(s, w, q, [&m](int j, int k, double v) { m.K_magnitude(j, k) += std::abs(v); }, &held,
+                             SpringBlocks::term_sizes);
   if (general) {  // ∇∇V has no second-order lengths to lose: T₂ᵀ(T₁ᵀ∇∇V T₁)T₂ keeps ε|T₂|ᵀ|K||T₂|
     congruence(m.K, m2, false);
     congruence(m.K_magnitude, m2, true);
