@@ -951,10 +951,19 @@ MatrixX potential_hessian_magnitude(const System& s, Workspace& w, const VectorX
 }
 
 namespace {
-// ∇∇V (`convex`: with springs' positive parts) into H: in place on H's
-// pattern where H has one that holds every term, else by columns (the first
+// An adder that hands on each term's |value| (the magnitudes' assembly).
+template <class Add>
+struct SizeAdder {
+  Add& add;
+  void operator()(int j, int k, double v) { add(j, k, std::abs(v)); }
+};
+
+// ∇∇V into H (with springs' blocks as `blocks` says; ::term_sizes: the
+// magnitudes, every term added as its |value|): in place on H's pattern
+// where H has one that holds every term, else by columns (the first
 // assembly, which finds the pattern).
-void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, SparseMatrix& H, bool convex) {
+void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, SparseMatrix& H, SpringBlocks blocks) {
+  const bool absolute = blocks == SpringBlocks::term_sizes;
   // The entries touched depend on the system only, not on q: after the first
   // assembly each entry is added in place (binary search in its column),
   // which avoids sorting one triplet per term (36 per spring) every time.
@@ -967,9 +976,14 @@ void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, Sp
     bool fits = true, second_fits = true;
     auto add = in_place_adder(H, H.valuePtr(), fits);
     auto add_second = in_place_adder(H, second.data(), second_fits);
-    assemble_potential_hessian_in_parts(
-        s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts, nullptr,
-        convex ? SpringBlocks::convex : SpringBlocks::as_computed);
+    SizeAdder<decltype(add)> add_size{add}, add_second_size{add_second};
+    if (absolute)
+      assemble_potential_hessian_in_parts(
+          s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add_size : add_second_size; }, parts, nullptr,
+          blocks);
+    else
+      assemble_potential_hessian_in_parts(
+          s, w, q, [&](std::size_t part) -> auto& { return part == 0 ? add : add_second; }, parts, nullptr, blocks);
     if (parts > 1) {
       double* values = H.valuePtr();
       for (std::size_t i = 0; i < nonzeros; ++i) values[i] += second[i];
@@ -979,8 +993,13 @@ void assemble_sparse_hessian(const System& s, Workspace& w, const VectorX& q, Sp
   assemble_by_columns(
       s.size(),
       [&](auto&& add) {
-        assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, nullptr,
-                                            convex ? SpringBlocks::convex : SpringBlocks::as_computed);
+        SizeAdder<std::remove_reference_t<decltype(add)>> add_size{add};
+        if (absolute)
+          assemble_potential_hessian_in_parts(s, w, q, [&add_size](std::size_t) -> auto& { return add_size; }, 1,
+                                              nullptr, blocks);
+        else
+          assemble_potential_hessian_in_parts(s, w, q, [&add](std::size_t) -> auto& { return add; }, 1, nullptr,
+                                              blocks);
       },
       H);
 }
@@ -992,7 +1011,7 @@ const SparseMatrix& sparse_potential_hessian(const System& s, Workspace& w, cons
     H = potential_hessian(s, w, q).sparseView();
     return H;
   }
-  assemble_sparse_hessian(s, w, q, H, false);
+  assemble_sparse_hessian(s, w, q, H, SpringBlocks::as_computed);
   return H;
 }
 
@@ -1006,8 +1025,22 @@ const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& 
   const SparseMatrix& H = w.sparse_hessian;
   const bool patterned = H.rows() == s.size() && H.isCompressed() && H.nonZeros() > 0;
   if (patterned && !(C.rows() == H.rows() && C.nonZeros() == H.nonZeros() && C.isCompressed())) C = H;
-  assemble_sparse_hessian(s, w, q, C, true);
+  assemble_sparse_hessian(s, w, q, C, SpringBlocks::convex);
   return C;
+}
+
+SparseMatrix sparse_potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map()) {  // one expression per entry: no terms to separate
+    SparseMatrix E = sparse_potential_hessian(s, w, q).cwiseAbs();
+    E.makeCompressed();
+    return E;
+  }
+  // On ∇∇V's pattern (every term's entry), taken from the workspace's.
+  const SparseMatrix& H = w.sparse_hessian;
+  SparseMatrix E;
+  if (H.rows() == s.size() && H.isCompressed() && H.nonZeros() > 0) E = H;
+  assemble_sparse_hessian(s, w, q, E, SpringBlocks::term_sizes);
+  return E;
 }
 
 SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q) {

@@ -310,6 +310,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
     throw NumericalError("linearize: the potential gradient ∇V is not finite at this configuration");
   model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   model.K = sparse_potential_hessian(s, ws, q);
+  model.K_magnitude = sparse_potential_hessian_magnitude(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
   model.inertia_scale = inertia_scale(s, ws, q);
   if (model.residual > sparse_equilibrium_correction_residual) {  // see the header

@@ -707,11 +707,12 @@ VectorX absolute_product(const SparseMatrix& A, const VectorX& a) {
 // w + 2 terms in an entry of r = Kφ − λMφ (w = Norms::width), w + n in the
 // quotient φᵀKφ, worst case in residual_bound, at the typical size √(terms)
 // in error_estimate, which also takes the assembly's rounding of K and M
-// (4ε per entry, first order: 4ε|φ|ᵀ(|K| + |λ||M|)|φ|). `shift`: the loose
-// equilibrium's change of K (signed, n×n, or empty), see ModeResidual.
+// (4ε per entry, first order: 4ε|φ|ᵀ(|K| + |λ||M|)|φ|, with K's entries
+// at `term_sizes` where that is n×n). `shift`: the loose equilibrium's change
+// of K (signed, n×n, or empty), see ModeResidual.
 Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
-                      const SparseMatrix& systematic, const SparseMatrix& shift, VectorX phi,
-                      ModeResidual& residual) {
+                      const SparseMatrix& systematic, const SparseMatrix& shift, const SparseMatrix& term_sizes,
+                      VectorX phi, ModeResidual& residual) {
   VectorX Mphi = M * phi;
   const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
   phi *= scale_phi;
@@ -749,8 +750,12 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   // sums the magnitudes instead: on a smooth mode of a net or a spring chain
   // |φ|ᵀ|K||φ| is 10²–10⁴ × λ (K is a discrete Laplacian), and that worst
   // case made the estimates 10³–10⁵ × the true error.
+  // K's entries at the sizes of their terms where given (SparseModalOptions::
+  // K_magnitude): a spring's transverse k(1 − L₀/L) at a small prestrain p
+  // is rounded at ε k, ε/p of itself.
   double K2 = 0, M2 = 0;
-  for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K, &K2}, {&M, &M2}})
+  const SparseMatrix& K_terms = term_sizes.rows() == K.rows() ? term_sizes : K;
+  for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K_terms, &K2}, {&M, &M2}})
     for (Index j = 0; j < A->outerSize(); ++j)
       for (SparseMatrix::InnerIterator it(*A, j); it; ++it) *sum += std::pow(it.value() * phi(it.row()) * phi(j), 2);
   const double typical_rounding = detail::typical_quotient_rounding(
@@ -775,11 +780,18 @@ std::string plural(Index count, const char* one, const char* many) {
 // K, M and `systematic` equilibrated (`scale`), as in the Lanczos path.
 ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, Index k,
                                  const SparseModalOptions& options, const SparseMatrix& systematic,
-                                 const VectorX& scale, const Units& units) {
+                                 const SparseMatrix& term_sizes, const VectorX& scale, const Units& units) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
   const detail::Cholesky mass = detail::factor_mass(Md, coordinate_names(options, n), scale);
-  ModalResult all = detail::solve_symmetric(Md, Kd, mass, {}, systematic.rows() == n ? MatrixX(systematic) : MatrixX());
+  // K_error as solve_modes takes it: the rounding (4ε per term) and the systematic part.
+  MatrixX K_error;
+  if (term_sizes.rows() == n) {
+    K_error = 4 * eps * MatrixX(term_sizes);
+    if (systematic.rows() == n) K_error += MatrixX(systematic);
+  }
+  ModalResult all =
+      detail::solve_symmetric(Md, Kd, mass, K_error, systematic.rows() == n ? MatrixX(systematic) : MatrixX());
 
   ModalResult result;
   result.stability = classify(all.modes);  // every mode is known
@@ -906,8 +918,8 @@ double equilibrated_mass_floor(const SparseMatrix& M, const CholmodFactor& mass,
 class SparsePencil {
  public:
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
-               const SparseMatrix& shift, const VectorX& coordinate_scale)
-      : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift),
+               const SparseMatrix& shift, const SparseMatrix& term_sizes, const VectorX& coordinate_scale)
+      : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift), term_sizes_(term_sizes),
         mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()))), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
         mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {
     if (!is_diagonal(M_)) {
@@ -927,7 +939,7 @@ class SparsePencil {
     return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
-    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, std::move(phi), residual);
+    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, std::move(phi), residual);
   }
 
  private:
@@ -938,6 +950,7 @@ class SparsePencil {
   SparseMatrix K_, M_;
   const SparseMatrix& systematic_;
   const SparseMatrix& shift_;
+  const SparseMatrix& term_sizes_;  // Σ|terms| of K's entries, or empty
   std::unique_ptr<CholmodFactor> mass_;
   Norms norms_;
   MassProduct mass_op_;  // on M's own pattern, before the common one
@@ -1121,6 +1134,11 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   VectorX scale = detail::coordinate_scale(options.inertia_scale, n);
   SparseMatrix systematic = options.K_systematic_error;
   SparseMatrix shift = options.K_equilibrium_shift;
+  SparseMatrix term_sizes = options.K_magnitude;
+  if (term_sizes.size() > 0 && (term_sizes.rows() != n || term_sizes.cols() != n))
+    throw std::invalid_argument("solve_sparse_modes: K_magnitude is " + std::to_string(term_sizes.rows()) + "×" +
+                                std::to_string(term_sizes.cols()) + ", K " + std::to_string(n) + "×" +
+                                std::to_string(n));
   {
     const auto scaled = [&](const SparseMatrix& A, const VectorX& s) {
       SparseMatrix B = s.asDiagonal() * A * s.asDiagonal();
@@ -1137,6 +1155,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       K = std::move(Ks);
       if (systematic.rows() == n && systematic.cols() == n) systematic = scaled(systematic, scale);
       if (shift.rows() == n && shift.cols() == n) shift = scaled(shift, scale);
+      if (term_sizes.rows() == n) term_sizes = scaled(term_sizes, scale);
     } else {
       scale = VectorX::Ones(n);
     }
@@ -1164,13 +1183,14 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       v = scaled;
       return true;
     };
-    SparseMatrix Ms = M, Ks = K, Ss = systematic, Hs = shift;
+    SparseMatrix Ms = M, Ks = K, Ss = systematic, Hs = shift, Ts = term_sizes;
     if (exactly(Ms, 2 * magnitude.a) && exactly(Ks, 2 * magnitude.b) && exactly(Ss, 2 * magnitude.b) &&
-        exactly(Hs, 2 * magnitude.b)) {
+        exactly(Hs, 2 * magnitude.b) && exactly(Ts, 2 * magnitude.b)) {
       M = std::move(Ms);
       K = std::move(Ks);
       systematic = std::move(Ss);
       shift = std::move(Hs);
+      term_sizes = std::move(Ts);
       if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
     } else {
       magnitude = {};
@@ -1183,10 +1203,10 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                                                                        ? SparseMatrix(systematic + shift.cwiseAbs())
                                                                                        : SparseMatrix(shift.cwiseAbs()))
                                                                     : systematic,
-                                                  scale, units)
+                                                  term_sizes, scale, units)
                            : [&] {
                                SparsePencil pencil(std::move(K), std::move(M), scaled_options, systematic, shift,
-                                                   scale);
+                                                   term_sizes, scale);
                                return lanczos_modes(pencil, k, scaled_options, units);
                              }();
   finish_scaled(result, magnitude, scale);

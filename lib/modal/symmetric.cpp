@@ -406,7 +406,7 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const VectorX& unreso
       // its modes came out 1.0998 ± 1.3e3, "zero", and 1.1691 ± 0.40 for
       // 0.5432 and 1.4283).
       const Eigen::PartialPivLU<MatrixX> lu(K - sigma * M);
-      MatrixX X_run = Phi.middleCols(start, size), MX = MPhi.middleCols(start, size);
+      MatrixX X_run, MX = MPhi.middleCols(start, size);  // X_run: set by each Ritz step
       bool done = false;
       for (int application = 0; application < 3; ++application) {
         MatrixX Y = lu.solve(MX);

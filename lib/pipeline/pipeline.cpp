@@ -450,6 +450,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.tolerance = options.tolerance;
     so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
     so.K_systematic_error = lin.K_systematic_error;
+    so.K_magnitude = lin.K_magnitude;               // K's rounding, where a spring's terms cancel
     so.K_equilibrium_shift = lin.K_equilibrium_shift;   // a loose equilibrium's share of the error
     so.inertia_scale = lin.inertia_scale;
     so.coordinate_names = lin.coordinates;

@@ -442,6 +442,12 @@ SparseMatrix sparse_mass_matrix(const System& s, Workspace& w, const VectorX& q)
 // pattern and units as ∇∇V. Maps: ∇∇V.
 const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& w, const VectorX& q);
 
+// Σ|terms| of each entry of ∇∇V, sparse (potential_hessian_magnitude's
+// entries on ∇∇V's pattern): the size its rounding scales with, which is
+// far above |∇∇V| where a spring's terms cancel (a small prestrain: the
+// transverse k(1 − L₀/L) from k and k L₀/L). Units of ∇∇V, entries ≥ 0.
+SparseMatrix sparse_potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q);
+
 // The stiffness the scene would have if every spring carried a tension per
 // unit length equal to its stiffness (T/L = k, so its 6×6 block is
 // k [I −I; −I I] in its end points instead of k uuᵀ + T/L (I − uuᵀ)), and

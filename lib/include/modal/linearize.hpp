@@ -126,6 +126,10 @@ struct SparseLinearModel {
   std::vector<std::string> coordinates;  // names, n
   SparseMatrix M;                        // mass, n×n
   SparseMatrix K;                        // stiffness, n×n
+  // Σ|terms| of each entry of K (n×n, ≥ 0, K's pattern: as LinearModel::
+  // K_error / 4ε without the systematic part): the size of K's rounding,
+  // for SparseModalOptions::K_magnitude.
+  SparseMatrix K_magnitude;
   double residual = 0;                   // relative equilibrium residual at q
   // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
   // the residual is negligible. For the eigenvalues' error estimates.

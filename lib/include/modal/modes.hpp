@@ -141,6 +141,12 @@ struct SparseModalOptions {
   // K_systematic_error), added to each mode's error estimate as |φ|ᵀE|φ|.
   // Empty: none.
   SparseMatrix K_systematic_error;
+  // Σ|terms| of each entry of K (n×n, ≥ 0, e.g. SparseLinearModel::
+  // K_magnitude): the assembly's rounding of K is taken as 4ε per term, so
+  // 4ε × this, in each mode's estimate (at its typical size, as independent
+  // errors). Where a spring's terms cancel (a small prestrain) it is far
+  // above |K|. Empty: |K| (no cancellation in K's entries).
+  SparseMatrix K_magnitude;
   // A loose equilibrium's change of K on the way to the equilibrium (n×n,
   // signed, e.g. SparseLinearModel::K_equilibrium_shift, ΔK = K(q + δq) −
   // K(q)): each mode's estimate adds 2(|φᵀΔKφ| + δ_Δ²/g), first-order
