@@ -1153,6 +1153,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // (δ = 1e-6|λ_k| + ζ) below the k-th returned eigenvalue, the inertia
       // of K − bM must count no more eigenvalues below b than were returned
       // below it; else the run is repeated with more wanted (at most 4 times).
+      std::optional<std::pair<CompletenessCheck, std::size_t>> completeness;  // the check and its note's index
       if (options.shift || m > 0) {
         solve_nearest(k);
       } else {
@@ -1165,9 +1166,11 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
               return lambdas;
             },
             [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });  // moves b down past a singular K − bM
-        if (check.outcome != CompletenessCheck::Outcome::not_needed)
+        if (check.outcome != CompletenessCheck::Outcome::not_needed) {
+          completeness = {check, result.notes.size()};
           result.notes.push_back(
               completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
+        }
       }
       if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
         std::vector<std::size_t> order(numbers.size());
@@ -1194,6 +1197,10 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                                            numbers[i][1], numbers[i][2]));
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+      if (completeness)
+        if (auto note = unchecked_completeness_note(completeness->first, result.modes, fmt::format("{:.3g}", zeta),
+                                                    fmt::format("{:.8g}", completeness->first.bound)))
+          replace_note(result.notes, completeness->second, std::move(*note));
       InertiaAccount account;
       account.below_s0 = static_cast<long>(m);
       account.s0 = s0;

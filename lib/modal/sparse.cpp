@@ -1061,6 +1061,27 @@ std::string completeness_note(const CompletenessCheck& check, const std::string&
   return {};
 }
 
+void replace_note(std::vector<std::string>& notes, std::size_t at, std::string note) {
+  if (note.empty())
+    notes.erase(notes.begin() + static_cast<std::ptrdiff_t>(at));
+  else
+    notes[at] = std::move(note);
+}
+
+std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
+                                                       const std::string& zeta_text, const std::string& bound_text) {
+  if (check.outcome != CompletenessCheck::Outcome::complete || check.bound > 0) return std::nullopt;
+  const auto resolved = std::count_if(modes.begin(), modes.end(), [&](const Mode& mode) {
+    return mode.kind != ModeKind::zero && mode.omega2 >= check.bound;
+  });
+  if (resolved == 0) return std::string();  // zero modes only: count_by_inertia's count speaks of them
+  return "completeness not checked: the returned eigenvalues all lie within ζ = " + zeta_text +
+         " of zero (1e-8 of the largest K_ii/M_ii), and the inertia of K − σM is not taken closer to zero than "
+         "that (at σ = " + bound_text + ": " + std::to_string(check.count) +
+         " below, as found), so a copy of a repeated eigenvalue among the " + std::to_string(resolved) +
+         " returned modes that are not zero modes may be missing";
+}
+
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
                       const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below) {
   const auto format = [&](double sigma, int digits) { return detail::format_number(account.unit * sigma, digits); };
@@ -1257,6 +1278,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
   // Every eigenvalue below this was returned (the completeness check passed
   // with none below σ₀); NaN when that is not known.
   double complete_below = nan;
+  std::optional<std::pair<CompletenessCheck, std::size_t>> completeness;  // the check and its note's index
 
   if (options.shift) {
     user_sigma = *options.shift;
@@ -1285,8 +1307,10 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
           return static_cast<long>(factor_at(b, "completeness check", expect_indefinite));
         });
     if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
-    if (check.outcome != CompletenessCheck::Outcome::not_needed)
+    if (check.outcome != CompletenessCheck::Outcome::not_needed) {
+      completeness = {check, result.notes.size()};
       result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
+    }
     Index kept = 0;
     take(*last, [&](double) { return kept++ < k; });
   } else {
@@ -1499,6 +1523,10 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                            detail::format_number(worst_relative_residual, 2) +
                            ", far above the Lanczos tolerance (ill-conditioned M or K − σM); trust its error estimate");
 
+  if (completeness)
+    if (auto note = unchecked_completeness_note(completeness->first, result.modes, units(zeta, 3),
+                                                units(completeness->first.bound, 8)))
+      replace_note(result.notes, completeness->second, std::move(*note));
   if (options.shift) {
     const auto returned_below = std::count_if(result.modes.begin(), result.modes.end(),
                                               [&](const Mode& mode) { return mode.omega2 < user_sigma; });

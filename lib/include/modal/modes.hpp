@@ -250,6 +250,17 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
 // solver's iteration ("the Lanczos iteration").
 std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
                               const std::string& iteration);
+// A complete check whose b is not above zero (b = λ_k − δ ≤ 0: every
+// returned eigenvalue lies within ζ of zero) counts nothing the run returned
+// above −ζ: it says nothing of whether a copy of a repeated eigenvalue among
+// the returned modes was skipped. When some returned mode is not a zero mode
+// (modes: in the check's units), the note that says so, naming ζ and b as
+// the caller writes them; nullopt otherwise (zero modes are counted by
+// count_by_inertia's own inertia): an empty string then, the note to drop.
+std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
+                                                       const std::string& zeta_text, const std::string& bound_text);
+// notes[at] = note, or the note at `at` erased when `note` is empty.
+void replace_note(std::vector<std::string>& notes, std::size_t at, std::string note);
 
 // Stability class (docs/design.md, "Mode kinds and stability classes") of a
 // complete set of modes, from their kinds: divergence if any mode is
