@@ -1150,7 +1150,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // Completeness by inertia, as solve_sparse_modes checks it: a Krylov
       // run from one start vector can skip a copy of a repeated eigenvalue.
       // For the lowest modes (no shift, none negative), with b = λ_k − δ
-      // (δ = 1e-6|λ_k| + ζ) below the k-th returned eigenvalue, the inertia
+      // (δ = 1e-6|λ_k| + η, η = completeness_margin·ζ) below the k-th returned eigenvalue, the inertia
       // of K − bM must count no more eigenvalues below b than were returned
       // below it; else the run is repeated with more wanted (at most 4 times).
       std::optional<std::pair<CompletenessCheck, std::size_t>> completeness;  // the check and its note's index
@@ -1198,7 +1198,8 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
       if (completeness)
-        if (auto note = unchecked_completeness_note(completeness->first, result.modes, fmt::format("{:.3g}", zeta),
+        if (auto note = unchecked_completeness_note(completeness->first, result.modes,
+                                                    fmt::format("{:.3g}", completeness_margin * zeta),
                                                     fmt::format("{:.8g}", completeness->first.bound)))
           replace_note(result.notes, completeness->second, std::move(*note));
       InertiaAccount account;

@@ -1025,8 +1025,8 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
                            " eigenvalues, fewer than the " + std::to_string(k) + " wanted");
     std::sort(lambdas.begin(), lambdas.end());
     const double lambda_k = lambdas[static_cast<std::size_t>(k - 1)];
-    check.bound = lambda_k - 1e-6 * std::abs(lambda_k) - zeta;
-    if (!(check.bound > s0)) {
+    check.bound = lambda_k - 1e-6 * std::abs(lambda_k) - completeness_margin * zeta;
+    if (!(lambda_k > 0) || !(check.bound > s0)) {
       check.outcome = CompletenessCheck::Outcome::not_needed;
       return check;
     }
@@ -1069,15 +1069,15 @@ void replace_note(std::vector<std::string>& notes, std::size_t at, std::string n
 }
 
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
-                                                       const std::string& zeta_text, const std::string& bound_text) {
+                                                       const std::string& margin_text, const std::string& bound_text) {
   if (check.outcome != CompletenessCheck::Outcome::complete || check.bound > 0) return std::nullopt;
   const auto resolved = std::count_if(modes.begin(), modes.end(), [&](const Mode& mode) {
     return mode.kind != ModeKind::zero && mode.omega2 >= check.bound;
   });
   if (resolved == 0) return std::string();  // zero modes only: count_by_inertia's count speaks of them
-  return "completeness not checked: the returned eigenvalues all lie within ζ = " + zeta_text +
-         " of zero (1e-8 of the largest K_ii/M_ii), and the inertia of K − σM is not taken closer to zero than "
-         "that (at σ = " + bound_text + ": " + std::to_string(check.count) +
+  return "completeness not checked: the returned eigenvalues all lie within η = " + margin_text +
+         " of zero (1e-12 of the largest K_ii/M_ii), closer than the inertia of K − σM can tell them from "
+         "rounding (at σ = " + bound_text + ": " + std::to_string(check.count) +
          " below, as found), so a copy of a repeated eigenvalue among the " + std::to_string(resolved) +
          " returned modes that are not zero modes may be missing";
 }
@@ -1288,7 +1288,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     take(run, [](double) { return true; });
   } else if (m == 0) {
     // Completeness by inertia: a single-vector Lanczos run can skip a copy of
-    // a repeated eigenvalue. With b = λ_k − δ (δ = 1e-6|λ_k| + ζ) below the
+    // a repeated eigenvalue. With b = λ_k − δ (δ = 1e-6|λ_k| + η) below the
     // k-th Ritz value, the number of eigenvalues below b must equal the number
     // of Ritz values found below b; then the k returned are the k lowest (the
     // true λ_k lies in [b, λ_k]; copies of the k-th eigenvalue that were not
@@ -1524,7 +1524,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                            ", far above the Lanczos tolerance (ill-conditioned M or K − σM); trust its error estimate");
 
   if (completeness)
-    if (auto note = unchecked_completeness_note(completeness->first, result.modes, units(zeta, 3),
+    if (auto note = unchecked_completeness_note(completeness->first, result.modes, units(completeness_margin * zeta, 3),
                                                 units(completeness->first.bound, 8)))
       replace_note(result.notes, completeness->second, std::move(*note));
   if (options.shift) {

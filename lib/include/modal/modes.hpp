@@ -222,13 +222,19 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
 // The completeness rule for the k lowest modes of a shift-invert solver
 // (solve_sparse_modes and the distributed backend share it): a Krylov run
 // from one start vector can skip a copy of a repeated eigenvalue. With
-// b = λ_k − 1e-6|λ_k| − ζ just below the k-th returned eigenvalue, the
-// inertia of K − bM must count no more eigenvalues below b than the run
-// returned below it; otherwise the run is repeated with more wanted (the
-// shortfall plus 2, at most nev = n − 2, at most 4 repeats).
+// b = λ_k − 1e-6|λ_k| − η just below the k-th returned eigenvalue (η =
+// completeness_margin·ζ, 1e-12 of the spectrum's scale s: the inertia of a
+// factorization is exact for a pencil within a few ε·s, and η keeps about
+// 4500 ε·s from it), the inertia of K − bM must count no more eigenvalues
+// below b than the run returned below it; otherwise the run is repeated with
+// more wanted (the shortfall plus 2, at most nev = n − 2, at most 4 repeats).
+// With ζ itself as the margin (before 2026-11-28) nothing within 1e-8 s of
+// zero was checked: a net at prestrain 1e-10, all its low ω² near 1e-11 s,
+// went unchecked.
+inline constexpr double completeness_margin = 1e-4;
 struct CompletenessCheck {
   enum class Outcome {
-    not_needed,  // λ_k is (near) zero: nothing to check between σ₀ and it
+    not_needed,  // λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
     complete,    // exactly `count` eigenvalues below `bound`, as found
     incomplete   // more below `bound` than found after the last repeat
   };
@@ -251,14 +257,15 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
 std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
                               const std::string& iteration);
 // A complete check whose b is not above zero (b = λ_k − δ ≤ 0: every
-// returned eigenvalue lies within ζ of zero) counts nothing the run returned
+// returned eigenvalue lies within η of zero) counts nothing the run returned
 // above −ζ: it says nothing of whether a copy of a repeated eigenvalue among
 // the returned modes was skipped. When some returned mode is not a zero mode
-// (modes: in the check's units), the note that says so, naming ζ and b as
-// the caller writes them; nullopt otherwise (zero modes are counted by
-// count_by_inertia's own inertia): an empty string then, the note to drop.
+// (modes: in the check's units), the note that says so, naming η and b as
+// the caller writes them; nullopt when b > 0 or the check did not pass; an
+// empty string, the note to drop, when every mode it left uncovered is a zero
+// mode (count_by_inertia's own inertia counts those).
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
-                                                       const std::string& zeta_text, const std::string& bound_text);
+                                                       const std::string& margin_text, const std::string& bound_text);
 // notes[at] = note, or the note at `at` erased when `note` is empty.
 void replace_note(std::vector<std::string>& notes, std::size_t at, std::string note);
 
