@@ -1052,7 +1052,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       }
       if (!(s > 0)) s = 1;
       MODAL_PETSC(VecDestroy(&ratio));
-      const double zeta = 1e-8 * s;
+      const double zeta = zero_margin * s;
       double s0 = -zeta;
       const PetscInt m = inertia_near(K, M, s0, s);
       const PetscInt k = std::min<PetscInt>(options.modes > 0 ? options.modes : 10, n);

@@ -293,6 +293,58 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
   cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;  // cholmod_solve2's reusable workspace
 };
 
+// The options without their n×n matrices (K_systematic_error, K_magnitude,
+// K_equilibrium_shift) and inertia_scale, which the solver has taken, scaled,
+// as its own: the rest of the solve reads only the scalars, the pivot order
+// and the names, and a copy of K's size (180 MB at 10⁶ coordinates) is not
+// made on the way.
+SparseModalOptions without_matrices(const SparseModalOptions& options) {
+  SparseModalOptions o;
+  o.modes = options.modes;
+  o.shift = options.shift;
+  o.tolerance = options.tolerance;
+  o.max_iterations = options.max_iterations;
+  o.fill_reducing_order = options.fill_reducing_order;
+  o.coordinate_names = options.coordinate_names;
+  return o;
+}
+
+// Whether every entry x of A has 2^p x in range with 2^-p (2^p x) = x (so
+// that scaling A by 2^p is exact and undone exactly), without a copy of A.
+bool exactly_scalable(const SparseMatrix& A, int p) {
+  if (p == 0) return true;
+  const double* v = A.valuePtr();
+  for (Index i = 0; i < A.nonZeros(); ++i) {
+    const double y = std::ldexp(v[i], p);
+    if (!std::isfinite(y) || std::ldexp(y, -p) != v[i]) return false;
+  }
+  return true;
+}
+
+// Whether S A S, S = diag(s) (s and s⁻¹ powers of two), is exact and undone
+// exactly by s⁻¹ = `inverse`: no entry overflows or underflows.
+bool exactly_scalable(const SparseMatrix& A, const VectorX& s, const VectorX& inverse) {
+  for (Index c = 0; c < A.outerSize(); ++c)
+    for (SparseMatrix::InnerIterator it(A, c); it; ++it) {
+      const double y = s[it.row()] * it.value() * s[c];
+      if (!std::isfinite(y) || inverse[it.row()] * y * inverse[c] != it.value()) return false;
+    }
+  return true;
+}
+
+// A ← 2^p A, in place.
+void scale_in_place(SparseMatrix& A, int p) {
+  if (p == 0) return;
+  Eigen::Map<VectorX> v(A.valuePtr(), A.nonZeros());
+  v = v.unaryExpr([p](double x) { return std::ldexp(x, p); });
+}
+
+// A ← S A S, S = diag(s), in place.
+void scale_in_place(SparseMatrix& A, const VectorX& s) {
+  for (Index c = 0; c < A.outerSize(); ++c)
+    for (SparseMatrix::InnerIterator it(A, c); it; ++it) it.valueRef() *= s[it.row()] * s[c];
+}
+
 // The coordinates' names of the options, or q1 … qn.
 std::vector<std::string> coordinate_names(const SparseModalOptions& options, Index n) {
   return detail::names_or_default(options.coordinate_names, n);
@@ -1076,7 +1128,8 @@ std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& 
   });
   if (resolved == 0) return std::string();  // zero modes only: count_by_inertia's count speaks of them
   return "completeness not checked: the returned eigenvalues all lie within η = " + margin_text +
-         " of zero (1e-12 of the largest K_ii/M_ii), closer than the inertia of K − σM can tell them from "
+         " of zero (" + detail::format_number(completeness_margin * zero_margin, 2) +
+         " of the largest K_ii/M_ii), closer than the inertia of K − σM can tell them from "
          "rounding (at σ = " + bound_text + ": " + std::to_string(check.count) +
          " below, as found), so a copy of a repeated eigenvalue among the " + std::to_string(resolved) +
          " returned modes that are not zero modes may be missing";
@@ -1100,7 +1153,7 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
   // that accuracy, returned or not, except the returned modes resolved as
   // oscillatory below t (where the lowest ω² are within a few decades of
   // the rounding level, zero and resolved modes interleave: a net at
-  // prestrain 1e-13 had been called "11 zero modes in all" with 3 of them
+  // prestrain 1e-13 had been called "11 zero modes in all" with 5 of them
   // returned as oscillatory).
   if (!account.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::zero) {
     double t = 0;
@@ -1173,22 +1226,13 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                 std::to_string(term_sizes.cols()) + ", K " + std::to_string(n) + "×" +
                                 std::to_string(n));
   {
-    const auto scaled = [&](const SparseMatrix& A, const VectorX& s) {
-      SparseMatrix B = s.asDiagonal() * A * s.asDiagonal();
-      B.makeCompressed();
-      return B;
-    };
     const VectorX inverse = scale.cwiseInverse();
-    SparseMatrix Ms = scaled(M, scale), Ks = scaled(K, scale);
-    const auto same = [](const SparseMatrix& A, const SparseMatrix& B) {
-      return A.nonZeros() == B.nonZeros() && SparseMatrix(A - B).norm() == 0;
-    };
-    if (same(scaled(Ms, inverse), M) && same(scaled(Ks, inverse), K)) {
-      M = std::move(Ms);
-      K = std::move(Ks);
-      if (systematic.rows() == n && systematic.cols() == n) systematic = scaled(systematic, scale);
-      if (shift.rows() == n && shift.cols() == n) shift = scaled(shift, scale);
-      if (term_sizes.rows() == n) term_sizes = scaled(term_sizes, scale);
+    if (exactly_scalable(M, scale, inverse) && exactly_scalable(K, scale, inverse)) {
+      scale_in_place(M, scale);
+      scale_in_place(K, scale);
+      if (systematic.rows() == n && systematic.cols() == n) scale_in_place(systematic, scale);
+      if (shift.rows() == n && shift.cols() == n) scale_in_place(shift, scale);
+      if (term_sizes.rows() == n) scale_in_place(term_sizes, scale);
     } else {
       scale = VectorX::Ones(n);
     }
@@ -1202,28 +1246,17 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   // max(ε^(2/3), |θ|), so with θ ≈ 1e-26 (a chain with K ≈ 1e30) it accepted
   // unconverged Ritz values, 2× off and classed zero.
   detail::Magnitudes magnitude;
-  SparseModalOptions scaled_options = options;
+  SparseModalOptions scaled_options = without_matrices(options);
   {
     auto largest = [](const SparseMatrix& A) {
       return A.nonZeros() > 0 ? Eigen::Map<const VectorX>(A.valuePtr(), A.nonZeros()).cwiseAbs().maxCoeff() : 0.0;
     };
     magnitude = detail::magnitudes(largest(M), largest(K));
-    auto exactly = [](SparseMatrix& A, int p) {
-      if (A.nonZeros() == 0 || p == 0) return true;
-      Eigen::Map<VectorX> v(A.valuePtr(), A.nonZeros());
-      const VectorX scaled = v.unaryExpr([p](double x) { return std::ldexp(x, p); });
-      if (!scaled.allFinite() || scaled.unaryExpr([p](double x) { return std::ldexp(x, -p); }) != v) return false;
-      v = scaled;
-      return true;
-    };
-    SparseMatrix Ms = M, Ks = K, Ss = systematic, Hs = shift, Ts = term_sizes;
-    if (exactly(Ms, 2 * magnitude.a) && exactly(Ks, 2 * magnitude.b) && exactly(Ss, 2 * magnitude.b) &&
-        exactly(Hs, 2 * magnitude.b) && exactly(Ts, 2 * magnitude.b)) {
-      M = std::move(Ms);
-      K = std::move(Ks);
-      systematic = std::move(Ss);
-      shift = std::move(Hs);
-      term_sizes = std::move(Ts);
+    const int a = 2 * magnitude.a, b = 2 * magnitude.b;
+    if (exactly_scalable(M, a) && exactly_scalable(K, b) && exactly_scalable(systematic, b) &&
+        exactly_scalable(shift, b) && exactly_scalable(term_sizes, b)) {
+      scale_in_place(M, a);
+      for (SparseMatrix* A : {&K, &systematic, &shift, &term_sizes}) scale_in_place(*A, b);
       if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
     } else {
       magnitude = {};
@@ -1252,7 +1285,7 @@ template <class Pencil>
 ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& options, const Units& units) {
   const Index n = pencil.size();
   const auto [scale, gershgorin] = pencil.scale_and_gershgorin();
-  const double zeta = 1e-8 * scale;
+  const double zeta = zero_margin * scale;
   const double sigma0 = -zeta;
 
   auto& mass_op = pencil.mass_op();
@@ -1739,7 +1772,7 @@ ModalResult solve_tree_modes(TreePencil p, const SparseModalOptions& options) {
   }
   detail::Magnitudes magnitude =
       detail::magnitudes(tree_diagonal(p, 0.0, 1.0).cwiseAbs().maxCoeff(), tree_diagonal(p, 1.0, 0.0).cwiseAbs().maxCoeff());
-  SparseModalOptions scaled_options = options;
+  SparseModalOptions scaled_options = without_matrices(options);
   {
     TreePencil scaled = p;
     bool exact = true;

@@ -443,18 +443,25 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   } else if (sparse) {
     a.sparse = linearize_sparse(sys, eq.q, lo);
     a.timings.emplace_back("assembly", seconds_since(last));
-    const SparseLinearModel& lin = *a.sparse;
+    SparseLinearModel& lin = *a.sparse;
     SparseModalOptions so;
     if (options.modes > 0) so.modes = options.modes;
     so.shift = options.shift;
     so.tolerance = options.tolerance;
     so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
-    so.K_systematic_error = lin.K_systematic_error;
-    so.K_magnitude = lin.K_magnitude;               // K's rounding, where a spring's terms cancel
-    so.K_equilibrium_shift = lin.K_equilibrium_shift;   // a loose equilibrium's share of the error
+    // The estimates' parts of K's error: its systematic error, its rounding
+    // where a spring's terms cancel, a loose equilibrium's share. Each of K's
+    // size, lent to the solver and given back, not copied (an exception
+    // discards the analysis).
+    so.K_systematic_error = std::move(lin.K_systematic_error);
+    so.K_magnitude = std::move(lin.K_magnitude);
+    so.K_equilibrium_shift = std::move(lin.K_equilibrium_shift);
     so.inertia_scale = lin.inertia_scale;
     so.coordinate_names = lin.coordinates;
     result = solve_sparse_modes(lin.K, lin.M, so);
+    lin.K_systematic_error = std::move(so.K_systematic_error);
+    lin.K_magnitude = std::move(so.K_magnitude);
+    lin.K_equilibrium_shift = std::move(so.K_equilibrium_shift);
     if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_equilibrium_shift.nonZeros() == 0)
       result.notes.push_back(fmt::format(
           "the equilibrium's relative residual {:.1e} is above the rounding level, and the error it causes "

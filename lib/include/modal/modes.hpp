@@ -232,6 +232,11 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
 // zero was checked: a net at prestrain 1e-10, all its low ω² near 1e-11 s,
 // went unchecked.
 inline constexpr double completeness_margin = 1e-4;
+// ζ = zero_margin·s, s the spectrum's scale (the largest K_ii/M_ii): the
+// shift-invert solvers' default shift σ₀ = −ζ lies just below zero, so that
+// zero modes are found and counted by the inertia at σ₀ (solve_sparse_modes
+// and the distributed backend).
+inline constexpr double zero_margin = 1e-8;
 struct CompletenessCheck {
   enum class Outcome {
     not_needed,  // λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
