@@ -6,10 +6,12 @@
 // positive definite J, else a symmetric eigen-decomposition). Newton converges
 // quadratically at a regular equilibrium, so a polish costs a few Jacobians.
 #include "equilibrium/problem.hpp"
+#include "core/model.hpp"
 #include "core/text.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -161,6 +163,105 @@ VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const Ve
   return -scale.cwiseProduct(es.eigenvectors() * c);
 }
 
+namespace {
+
+// Newton steps of ball and free joints taken in the joint frame's own
+// rotation increments δ, R = R_frame exp(δ̂) exp(φ̂), instead of along a
+// straight line in the rotation vector φ. A rotation about a fixed axis of
+// the joint's frame is then a straight line of the step: a heavy bob hanging
+// from a ball joint with a weak spring (yaw held by 1e-6 N·m/rad against
+// 10 N·m/rad of gravity in tilt) lies in a valley that is a circle of such
+// rotations, curved in φ; Newton's straight steps in φ left the valley at
+// every yaw correction, the line search cut them to nothing and the polish
+// stalled ("no equilibrium found" at a relative residual of 4e-8, review).
+// dφ = J_l(φ)⁻¹ dδ (model::rotation_left_jacobian); the step is retracted
+// along exp(tδ̂) exp(φ̂), whose rotation vector is taken nearest φ + t dφ (a
+// sprung ball's φ beyond π stays on its branch).
+class RotationChart {
+ public:
+  RotationChart(const System& s, const VectorX& q) {
+    const auto& c = s.coordinates();
+    for (int i = 0; i + 2 < s.size(); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      if (c[k].kind != CoordinateKind::rotation || (i > 0 && c[k - 1].kind == CoordinateKind::rotation && c[k - 1].body == c[k].body))
+        continue;
+      const Vec3 phi = q.segment<3>(i);
+      // J_l is singular at |φ| = 2π: its inverse is used well inside.
+      if (!(phi.norm() < 1.5 * std::numbers::pi)) continue;
+      first_.push_back(i);
+      inverse_.push_back(model::rotation_left_jacobian<double>(phi).inverse());
+    }
+  }
+  bool empty() const { return first_.empty(); }
+  // dφ/dδ applied to δ: T δ.
+  VectorX tangent(const VectorX& delta) const {
+    VectorX d = delta;
+    for (std::size_t b = 0; b < first_.size(); ++b) d.segment<3>(first_[b]) = inverse_[b] * delta.segment<3>(first_[b]);
+    return d;
+  }
+  // T A (columns), Tᵀ A (rows).
+  MatrixX right(MatrixX a) const {
+    for (std::size_t b = 0; b < first_.size(); ++b) a.middleCols<3>(first_[b]) = (a.middleCols<3>(first_[b]) * inverse_[b]).eval();
+    return a;
+  }
+  MatrixX left_transposed(MatrixX a) const {
+    for (std::size_t b = 0; b < first_.size(); ++b)
+      a.middleRows<3>(first_[b]) = (inverse_[b].transpose() * a.middleRows<3>(first_[b])).eval();
+    return a;
+  }
+  VectorX left_transposed(VectorX v) const {
+    for (std::size_t b = 0; b < first_.size(); ++b) v.segment<3>(first_[b]) = inverse_[b].transpose() * v.segment<3>(first_[b]);
+    return v;
+  }
+  // The configuration t δ away: q + t δ off the rotations, exp(tδ̂) exp(φ̂) on them.
+  VectorX retract(const VectorX& q, const VectorX& delta, double t) const {
+    VectorX out = q + t * delta;
+    for (std::size_t b = 0; b < first_.size(); ++b) {
+      const int i = first_[b];
+      const Vec3 phi = q.segment<3>(i);
+      const Eigen::Quaterniond r = quaternion(t * delta.segment<3>(i)) * quaternion(phi);
+      out.segment<3>(i) = rotation_vector_near(r, phi + t * (inverse_[b] * delta.segment<3>(i)));
+    }
+    return out;
+  }
+
+ private:
+  static Eigen::Quaterniond quaternion(const Vec3& phi) {
+    const double t = phi.norm();
+    return t > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(t, phi / t)) : Eigen::Quaterniond::Identity();
+  }
+  // The rotation vector of r (angle θ + 2πm along its axis u, any integer m)
+  // nearest `near`.
+  static Vec3 rotation_vector_near(const Eigen::Quaterniond& r, const Vec3& near) {
+    const double sv = r.vec().norm();
+    const double turn = 2 * std::numbers::pi;
+    if (!(sv > 0)) {  // a whole number of turns
+      const double n = near.norm();
+      return n > 0 ? Vec3(near * (turn * std::round(n / turn) / n)) : Vec3::Zero();
+    }
+    const Vec3 u = r.vec() / sv;
+    const double theta = 2 * std::atan2(sv, r.w());
+    return u * (theta + turn * std::round((u.dot(near) - theta) / turn));
+  }
+  std::vector<int> first_;
+  std::vector<Mat3> inverse_;
+};
+
+// A Newton step in the chart's increments: Tᵀ J T δ = −Tᵀ r where J is
+// symmetric (the Hessian in δ up to a term in r, which vanishes at the
+// equilibrium), J T δ = −r otherwise.
+VectorX chart_newton_step(const RotationChart& chart, const MatrixX& j, const VectorX& r, bool symmetric,
+                          const VectorX& stiffness) {
+  if (chart.empty()) return newton_step(j, r, symmetric, stiffness);
+  const MatrixX jt = chart.right(j);
+  if (!symmetric) return newton_step(jt, r, false, stiffness);
+  MatrixX h = chart.left_transposed(jt);
+  h = (0.5 * (h + h.transpose())).eval();
+  return newton_step(h, chart.left_transposed(r), true, stiffness);
+}
+
+}  // namespace
+
 Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options) {
   const System& s = p.system();
   Polished out;
@@ -198,10 +299,12 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
       if (refinements++ == 60 || rnorm == 0.0) return out;
       const MatrixX& j = p.jacobian(q);
       const VectorX weight = p.residual_weights(q);
-      const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
-      const VectorX qt = q + d;
+      const RotationChart chart(s, q);
+      const VectorX d = chart_newton_step(chart, j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
+      if (!finite(d)) return out;
+      const VectorX qt = chart.retract(q, d, 1.0);
       const VectorX& rt = p.residual(qt);
-      if (!finite(d) || !finite(rt) || weight.cwiseProduct(rt).norm() > 0.5 * weight.cwiseProduct(r).norm()) return out;
+      if (!finite(rt) || weight.cwiseProduct(rt).norm() > 0.5 * weight.cwiseProduct(r).norm()) return out;
       q = qt;
       continue;
     }
@@ -209,16 +312,18 @@ Polished polish(Problem& p, const VectorX& q0, const EquilibriumOptions& options
     const MatrixX& j = p.jacobian(q);
     if (!j.allFinite()) return out;
     const VectorX weight = p.residual_weights(q);
-    const VectorX d = newton_step(j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
-    // Backtracking (Armijo) on f = ½‖W r‖², whose gradient is JᵀW²r.
+    const RotationChart chart(s, q);
+    const VectorX d = chart_newton_step(chart, j, r, p.symmetric_jacobian(), p.stiffness_scales(q));
+    // Backtracking (Armijo) on f = ½‖W r‖², whose gradient is JᵀW²r, along
+    // the chart's curve (tangent T d at t = 0).
     const VectorX wr = weight.cwiseProduct(r);
     const double f0 = 0.5 * wr.squaredNorm();
-    const double slope = (weight.asDiagonal() * (j * d)).dot(wr);
+    const double slope = (weight.asDiagonal() * (j * chart.tangent(d))).dot(wr);
     if (!(slope < 0) || !finite(d)) return out;  // no descent left: stalled
     double t = 1;
     bool accepted = false;
     for (int k = 0; k < 40; ++k, t *= 0.5) {
-      const VectorX qt = q + t * d;
+      const VectorX qt = chart.retract(q, d, t);
       const VectorX& rt = p.residual(qt);
       if (!finite(rt)) continue;
       if (0.5 * weight.cwiseProduct(rt).squaredNorm() <= f0 + 1e-4 * t * slope) {
@@ -256,7 +361,8 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
     if (!finite(r)) break;
     if (p.relative_residual(q, r) <= std::max(options.tolerance, 1e-8)) break;  // Newton polish takes over
     const VectorX weight = p.residual_weights(q);
-    const MatrixX js = weight.asDiagonal() * p.jacobian(q) * scale.asDiagonal();  // ∂(W r)/∂(q/scale)
+    const RotationChart chart(s, q);  // rotations stepped in their frames' increments, as Newton's
+    const MatrixX js = weight.asDiagonal() * chart.right(p.jacobian(q)) * scale.asDiagonal();  // ∂(W r)/∂(δ/scale)
     if (!js.allFinite()) break;
     const VectorX rs = weight.cwiseProduct(r);
     const MatrixX a = js.transpose() * js;
@@ -272,7 +378,7 @@ VectorX levenberg_marquardt(Problem& p, const VectorX& start, const EquilibriumO
       VectorX dx = llt.info() == Eigen::Success ? VectorX(-llt.solve(g)) : VectorX::Zero(s.size());
       const double len = dx.norm();
       if (len > 0.5) dx *= 0.5 / len;
-      const VectorX qt = q + scale.cwiseProduct(dx);
+      const VectorX qt = chart.retract(q, scale.cwiseProduct(dx), 1.0);
       const VectorX& rt = p.residual(qt);
       if (finite(rt) && weight.cwiseProduct(rt).norm() < rs.norm()) {
         q = canonical_coordinates(s, qt);
