@@ -140,7 +140,26 @@ VectorX newton_step(const MatrixX& j, const VectorX& r, bool symmetric, const Ve
   // beside it "zero modes" (9.8 N·m/rad, below 1000 ε × 1e14) and Newton took
   // no step at all.
   VectorX scale = VectorX::Ones(n);
-  if (stiffness.size() == n) scale = stiffness.cwiseSqrt().cwiseInverse();
+  if (stiffness.size() == n) {
+    // Scales raised to what the couplings demand, k_a k_b ≥ J_ab², so that
+    // no scaled entry exceeds 1: a slide of 7.7e-4 N/m carrying 58 t
+    // is coupled to the ball above it by 5.8e5 N/rad, and at its own spring's
+    // scale the scaled matrix reached ±6.5e3, which lifted the cutoff above
+    // the ball's yaw (its weak spring, 6.6e-11 of the scaled tilts): the yaw
+    // was dropped from every step and the polish stalled at a relative
+    // residual of 2.6e-12. A coupling of rounding size raises nothing.
+    VectorX k = stiffness;
+    for (Eigen::Index a = 0; a < n; ++a)
+      for (Eigen::Index b = a + 1; b < n; ++b) {
+        const double c = std::max(std::abs(j(a, b)), std::abs(j(b, a)));  // J may be non-symmetric
+        if (!(c * c > k[a] * k[b])) continue;
+        // The softer one is raised (raising the stiffer would scale its own
+        // terms away); scales only grow, so earlier pairs stay within 1.
+        if (k[a] <= k[b]) k[a] = c * c / k[b];
+        else k[b] = c * c / k[a];
+      }
+    scale = k.cwiseSqrt().cwiseInverse();
+  }
   const MatrixX js = scale.asDiagonal() * j * scale.asDiagonal();
   const VectorX rs = scale.cwiseProduct(r);
   if (!symmetric) {
@@ -398,6 +417,10 @@ using text::force_unit;
 
 }  // namespace
 
+// Below this relative residual the message says the search stalled near a
+// balance, not that nothing can balance the forces.
+constexpr double stalled_near_balance = 1e-6;
+
 std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int starts) {
   const System& s = p.system();
   std::ostringstream m;
@@ -441,6 +464,20 @@ std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int star
         << " (`modal analyze --eq-tol`, EquilibriumOptions::tolerance) accepts this point";
     m << "; without a rotating frame, the same scene moved nearer the origin has the same modes and is computed "
          "more closely";
+    return m.str();
+  }
+  if (best.residual <= stalled_near_balance) {
+    // Not unbalanced: the forces balance to a millionth of their size or
+    // better, and the search stalled there (two weak ball-joint springs in
+    // series under a 58 kg body, held to 4e-9: "nothing in the scene can
+    // balance it" had been said of it).
+    m << " — the forces balance to " << best.residual
+      << " of their size here, so an equilibrium may lie close by that the search did not reach (directions held "
+         "only by springs far weaker than the loads they turn, such as a weak ball-joint spring under a heavy body, "
+         "make it hard to find); a tolerance of "
+      << std::pow(10.0, std::ceil(std::log10(best.residual)))
+      << " (`modal analyze --eq-tol`, EquilibriumOptions::tolerance) accepts this point, and the error estimates "
+         "then include what the looser balance costs";
     return m.str();
   }
   m << " — nothing in the scene can balance it (e.g. a body that can fall freely under gravity, or a load no "
