@@ -959,41 +959,7 @@ TEST(Equilibrium, AWeakBallSpringUnderAHeavyBobSettles) {
 // says how near the balance came and names a tolerance that accepts the
 // point, which it then does.
 TEST(Equilibrium, ASearchThatStallsNearABalanceSaysSo) {
-  const std::string text = R"(
-gravity = [0, 0, -9.81]
-[[body]]
-name = "j0"
-parent = "world"
-joint = "ball"
-origin = [0.0004339294389108114, 0.0007681907606925164, 0.00012928065862678946]
-orientation = [-0.40383477568910553, -0.3154069064279616, 0.6354791876494049, -0.5775830324603772]
-mass = 7.59074e-05
-com = [0.000581096, -2.375900000000004e-05, 0.00019735739999999997]
-inertia = [4.829372137366098e-12, 8.982944046842121e-12, 9.106333815791795e-12, -2.881748414257821e-12, 2.8467841174906356e-12, 1.210523456743821e-12]
-stiffness = 1.44287e-05
-[[body]]
-name = "j1"
-parent = "j0"
-joint = "ball"
-origin = [0.009248434538415184, 0.006350469589437229, -0.002527652593645012]
-orientation = [-0.7938348290636253, 0.366853163938557, 0.40715926163020505, 0.26356470921301534]
-mass = 3.89455e-06
-com = [-0.00450242, 0.005148430999999999, 0.01118208]
-inertia = [3.797299118528585e-10, 2.06841051346896e-10, 3.364110368002455e-10, -6.4199006659599714e-12, 2.127346053270739e-11, -1.7130245265611484e-11]
-stiffness = 2.14304e-05
-[[body]]
-name = "j2"
-parent = "j1"
-joint = "hinge"
-origin = [4.417371414990433, 24.055555374163227, 3.965924122397565]
-orientation = [-0.48735768658893086, -0.6290989006381542, -0.25888969266340284, 0.5474424038848288]
-axis = [-0.660355744461237, 0.2934448629426208, 0.6912455447738033]
-mass = 57.741
-com = [4.45925, -12.26617, 3.0135199999999998]
-inertia = [3298.419081604272, 5131.244646633406, 3795.866271762332, 51.25636575645933, -1015.9799215321541, -99.58806235685512]
-stiffness = 138151
-)";
-  const System s = build_system(parse_scene(text, "two_weak_balls.toml"));
+  const System s = build_system(load_scene(std::string(MODAL_SOURCE_DIR) + "/tests/scenes/two_weak_balls.toml"));
   std::string message;
   try {
     const Equilibrium e = find_equilibrium(s, s.initial_configuration());
@@ -1023,52 +989,7 @@ stiffness = 138151
 // residual of 2.6e-12 ("no equilibrium found"). newton_step raises the
 // scales to the couplings (k_a k_b ≥ J_ab²).
 TEST(Equilibrium, ASlideCoupledFarAboveItsSpringDoesNotHideAYaw) {
-  const std::string text = R"(
-gravity = [0, 0, -9.81]
-[[body]]
-name = "j0"
-parent = "world"
-joint = "ball"
-origin = [0.3038470615833029, 0.49111693645713383, -0.5897569452324163]
-orientation = [-0.22749384310379892, 0.4423930626044018, -0.1051456694935472, 0.8610919333591018]
-mass = 1.96916e-05
-com = [0.498392, 0.25138340000000003, -0.288986]
-inertia = [4.070356191455962e-06, 3.985798296001532e-06, 3.6430455125425102e-06, 1.0120055472387365e-07, 3.5774921179939823e-07, 1.740294762806149e-08]
-stiffness = 0.000432629
-[[body]]
-name = "j2"
-parent = "j0"
-joint = "slide"
-origin = [0.43101269999999997, 0.1382697, 0.084448]
-orientation = [0.022278173299363376, -0.9876607102328101, 0.11790524003704937, -0.10063974775738727]
-axis = [0.03186701140492902, 0.645625730232126, -0.7629888007345536]
-mass = 2.25649e-06
-com = [0.0169715, -0.00659315, -0.0122708]
-inertia = [1.2039921940736248e-09, 1.0571955266674216e-09, 1.7549122792589536e-09, 1.0069752212753053e-11, 2.56405481019312e-10, 2.6889444932668044e-11]
-stiffness = 0.000770516
-[[body]]
-name = "j3"
-parent = "j2"
-joint = "ball"
-origin = [3.2816485185775544, -1.0739082548123466, 6.177379788875797]
-orientation = [0.5731753342595033, -0.6241407929515047, 0.4757421887871687, 0.235770389528387]
-mass = 58861.8
-com = [3.32356, 4.94386, 1.0451000000000001]
-inertia = [1139102.6197683106, 217445.1469102712, 1158715.2333214183, -49769.29996365143, -2681.9872025040786, 21297.131163385602]
-stiffness = 38724200
-[[body]]
-name = "j4"
-parent = "j3"
-joint = "hinge"
-origin = [-42.18253229237218, 10.640789968807436, 63.1942708135319]
-orientation = [0.723705819171445, 0.23732808593036742, 0.11449913463044796, -0.6378206762836199]
-axis = [0.19394654541770306, -0.8487891398809172, 0.4918757297740471]
-mass = 0.692377
-com = [68.0471, -42.819500000000005, -53.4456]
-inertia = [919.6973713949156, 312.15161882624403, 927.262009778841, 3.527290618203658, 41.243321006542416, 84.88023749918378]
-stiffness = 1654.46
-)";
-  const System s = build_system(parse_scene(text, "coupled_slide.toml"));
+  const System s = build_system(load_scene(std::string(MODAL_SOURCE_DIR) + "/tests/scenes/coupled_slide.toml"));
   const Equilibrium e = find_equilibrium(s, s.initial_configuration());
   EXPECT_LE(e.residual, kTol);
   EXPECT_EQ(e.method.find("multi-start"), std::string::npos) << e.method;
