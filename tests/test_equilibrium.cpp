@@ -963,7 +963,9 @@ TEST(Equilibrium, AWeakBallSpringUnderAHeavyBobSettles) {
 // 1 cm apart) under a 58 kg body 25 m out on a stiff hinge: gravity holds
 // the tilts at about 1.4e4 N·m/rad, only the springs hold the rest, and the
 // search stalls at a relative residual of about 1e-9 (an MJCF tree graded
-// over 12 decades of mass, reduced to these three bodies). It had been
+// over 12 decades of mass, reduced to these bodies and a light one on two
+// soft slides beside them; without that one the descent of V reaches the
+// balance, after 458 damped steps). It had been
 // refused with "nothing in the scene can balance it", untrue: the forces
 // balance to a billionth. Either the equilibrium is found, or the message
 // says how near the balance came and names a tolerance that accepts the
