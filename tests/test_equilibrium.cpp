@@ -972,8 +972,8 @@ TEST(Equilibrium, AWeakBallSpringUnderAHeavyBobSettles) {
 // balance, after 458 damped steps). It had been
 // refused with "nothing in the scene can balance it", untrue: the forces
 // balance to a billionth. Either the equilibrium is found, or the message
-// says how near the balance came and names a tolerance that accepts the
-// point, which it then does.
+// says how near the balance came and names a tolerance at which the search
+// may accept a point that near, which, here, it then does.
 TEST(Equilibrium, ASearchThatStallsNearABalanceSaysSo) {
   const System s = build_system(load_scene(std::string(MODAL_SOURCE_DIR) + "/tests/scenes/two_weak_balls.toml"));
   std::string message;

@@ -474,10 +474,10 @@ std::string no_equilibrium_message(Problem& p, const Equilibrium& best, int star
     m << " — the forces balance to " << best.residual
       << " of their size here, so an equilibrium may lie close by that the search did not reach (directions held "
          "only by springs far weaker than the loads they turn, such as a weak ball-joint spring under a heavy body, "
-         "make it hard to find); a tolerance of "
+         "make it hard to find); the search may accept a point this near a balance at a tolerance of "
       << std::pow(10.0, std::ceil(std::log10(best.residual)))
-      << " (`modal analyze --eq-tol`, EquilibriumOptions::tolerance) accepts this point, and the error estimates "
-         "then include what the looser balance costs";
+      << " (`modal analyze --eq-tol`, EquilibriumOptions::tolerance; each coordinate's balance is checked too), "
+         "and the error estimates then include what the looser balance costs";
     return m.str();
   }
   // Said as what is known: the search found no balance. That nothing can
