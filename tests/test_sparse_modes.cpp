@@ -195,6 +195,43 @@ void random_pencil(int n, unsigned seed, SparseMatrix& K, SparseMatrix& M) {
   M = from_triplets(n, tm);
 }
 
+// The estimates' matrices as a library caller may pass them: filled by
+// insert() and not compressed (Eigen keeps gaps in the value array then).
+// solve_sparse_modes scales its copies' values as one array (valuePtr,
+// nonZeros), which is right because a copy is compressed; the modes and
+// estimates must be those of the same matrices compressed.
+TEST(SparseModes, UncompressedErrorMatricesGiveTheSameEstimates) {
+  for (const int n : {150, 400}) {  // the dense fallback and the Lanczos path
+    SparseMatrix K, M;
+    random_pencil(n, 77u + static_cast<unsigned>(n), K, M);
+    K *= 1e12;  // far from 1, so that the solver scales K and the estimates' matrices by a power of two
+    modal::SparseModalOptions loose = options(6), packed = options(6);
+    // Filled in place (a copy-assignment would compress them).
+    SparseMatrix& magnitude = loose.K_magnitude;
+    SparseMatrix& systematic = loose.K_systematic_error;
+    magnitude.resize(n, n);
+    systematic.resize(n, n);
+    magnitude.reserve(Eigen::VectorXi::Constant(n, 8));
+    systematic.reserve(Eigen::VectorXi::Constant(n, 8));
+    for (Eigen::Index c = 0; c < K.outerSize(); ++c)
+      for (SparseMatrix::InnerIterator it(K, c); it; ++it) {
+        magnitude.insert(it.row(), c) = 3 * std::abs(it.value());
+        systematic.insert(it.row(), c) = 1e-9 * std::abs(it.value());
+      }
+    ASSERT_FALSE(magnitude.isCompressed());
+    ASSERT_FALSE(systematic.isCompressed());
+    packed.K_magnitude = magnitude;  // compressed by the assignment
+    packed.K_systematic_error = systematic;
+    ASSERT_TRUE(packed.K_magnitude.isCompressed());
+    const ModalResult a = modal::solve_sparse_modes(K, M, loose), b = modal::solve_sparse_modes(K, M, packed);
+    ASSERT_EQ(a.modes.size(), b.modes.size());
+    for (std::size_t j = 0; j < a.modes.size(); ++j) {
+      EXPECT_EQ(a.modes[j].omega2, b.modes[j].omega2) << "n " << n << " mode " << j;
+      EXPECT_EQ(a.modes[j].error_estimate, b.modes[j].error_estimate) << "n " << n << " mode " << j;
+    }
+  }
+}
+
 // (b) Agreement with solve_modes (dense) on a random sparse pencil, n = 300.
 TEST(SparseModes, AgreesWithDenseSolver) {
   const int n = 300;
