@@ -97,11 +97,13 @@
 #include "mumps.hpp"
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/Eigenvalues>
 #include <Spectra/SymGEigsShiftSolver.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -609,29 +611,102 @@ struct Units {
   std::string operator()(double sigma, int digits) const { return detail::format_number(lambda * sigma, digits); }
 };
 
-// The `nev` eigenpairs nearest σ, ascending in λ.
+// The `nev` eigenpairs nearest σ, ascending in λ. A run that a probe
+// stopped (run_lanczos's `stop`) has no vectors, and `lambda` holds its
+// current Ritz values instead (see Probe).
 struct LanczosRun {
   double sigma = 0;
   VectorX lambda;
   MatrixX Phi;  // n × nev, M-orthonormal
   Index ncv = 0, restarts = 0, solves = 0;
   std::string factor;
+  bool stopped = false;
+  bool refined = false;  // by refine_run
 };
+
+// Spectra's shift-invert solver, with its current Ritz values readable
+// whether or not they have converged. After compute() they are eigenvalues of
+// the pencil, λ̃ = σ + 1/θ for the Ritz values θ of OP = (K − σM)⁻¹M. Where
+// K − σM is positive definite, OP is positive and self-adjoint in the
+// M-inner product, so the i-th largest θ is at most the i-th largest
+// eigenvalue of OP (Cauchy's interlacing, Parlett thm 10.1.1), and λ̃_i is
+// at least λ_i: each is an upper bound of the i-th lowest eigenvalue, however
+// far the iteration is from convergence.
+// (Spectra's SymGEigsShiftSolver does the same iteration but keeps its Ritz
+// values private; this is it, on Spectra's base class, with them readable.)
+template <class Op, class MassOp>
+class ShiftInvertSolver
+    : public Spectra::SymEigsBase<Spectra::SymGEigsShiftInvertOp<Op, MassOp>, MassOp> {
+  using ModeOp = Spectra::SymGEigsShiftInvertOp<Op, MassOp>;
+  using Base = Spectra::SymEigsBase<ModeOp, MassOp>;
+
+ public:
+  ShiftInvertSolver(Op& op, MassOp& mass, Index nev, Index ncv, double sigma)
+      : Base(shifted(ModeOp(op, mass), sigma), mass, nev, ncv), sigma_(sigma) {}
+  VectorX current_values() const { return this->m_ritz_val.head(this->m_nev); }
+
+ private:
+  static ModeOp shifted(ModeOp&& op, double sigma) {
+    op.set_shift(sigma);
+    return std::move(op);
+  }
+  // The iteration's values are θ = 1/(λ − σ); sorted as λ.
+  void sort_ritzpair(Spectra::SortRule rule) override {
+    this->m_ritz_val.head(this->m_nev) = (1.0 / this->m_ritz_val.head(this->m_nev).array() + sigma_).matrix();
+    Base::sort_ritzpair(rule);
+  }
+  double sigma_;
+};
+
+// A run's probe: after `restarts` restarts without convergence, `stop` sees
+// the current Ritz values (ascending λ̃) and says whether to give the run up
+// (it is then returned with stopped = true); otherwise the run goes on.
+struct Probe {
+  Index restarts = 0;
+  std::function<bool(const VectorX&)> stop;
+};
+
+// The probe of the default shift's first run (lanczos_modes): after this
+// many restarts, the run is given up when its Ritz values all lie below
+// near_zero_fraction·ζ and the highest above near_zero_floor·s, and the runs
+// move to −λ̃_nev.
+constexpr Index near_zero_probe = 20;
+constexpr double near_zero_fraction = 1e-2;
+constexpr double near_zero_floor = 100 * std::numeric_limits<double>::epsilon();
 
 template <class Factor, class MassOp>
 LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev, const SparseModalOptions& options,
-                       const Units& units) {
+                       const Units& units, const Probe* probe = nullptr) {
   const Index n = mass_op.rows();
   LanczosRun run;
   run.sigma = sigma;
   run.ncv = std::min<Index>(n, std::max<Index>(2 * nev + 1, 20));
   ShiftInvertOp<Factor> op(factor);
   try {
-    Spectra::SymGEigsShiftSolver<ShiftInvertOp<Factor>, MassOp, Spectra::GEigsMode::ShiftInvert>
-        eigs(op, mass_op, nev, run.ncv, sigma);
+    ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
     eigs.init();
-    const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
-                                         Spectra::SortRule::SmallestAlge);
+    auto compute = [&](Index restarts) {
+      return eigs.compute(Spectra::SortRule::LargestMagn, restarts, options.tolerance, Spectra::SortRule::SmallestAlge);
+    };
+    Index converged = 0;
+    if (probe && probe->restarts < options.max_iterations) {
+      converged = compute(probe->restarts);
+      if (eigs.info() != Spectra::CompInfo::Successful) {
+        if (probe->stop(eigs.current_values())) {
+          run.restarts = eigs.num_iterations();
+          run.solves = eigs.num_operations();
+          run.lambda = eigs.current_values();
+          run.stopped = true;
+          run.factor = factor.describe();
+          return run;
+        }
+        // On from the first Lanczos vector the restarts have made (Spectra's
+        // compute() starts its factorization from it).
+        converged = compute(options.max_iterations - eigs.num_iterations());
+      }
+    } else {
+      converged = compute(options.max_iterations);
+    }
     run.restarts = eigs.num_iterations();
     run.solves = eigs.num_operations();
     if (eigs.info() != Spectra::CompInfo::Successful)
@@ -653,10 +728,41 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
   return run;
 }
 
+// One step of block inverse iteration on a run's vectors, then Rayleigh–Ritz:
+// W = (K − σM)⁻¹MΦ, and the pencil projected on W, (Wᵀ(K − σM)W, WᵀMW) =
+// (WᵀMΦ, WᵀMW), needs no product with K. Each component of a vector along
+// an eigenvector of λ_i is scaled by 1/(λ_i − σ), so the rounding-level
+// content of stiff modes that a run near the bottom of a spectrum spanning
+// many decades leaves in its Ritz vectors (the second copy of a double
+// eigenvalue of a net at prestrain 1e-12 kept 2e-12 of in-plane motion, at
+// ω² 1e13 × its own: a residual three times its eigenvalue, and "zero") is
+// damped by λ_wanted/λ_stiff. With `factor` at run.sigma, positive definite;
+// the run is left as it was where the projected pencil cannot be solved.
+template <class Factor, class MassOp>
+void refine_run(LanczosRun& run, Factor& factor, MassOp& mass_op) {
+  if (!(factor.positive_definite() && factor.sigma() == run.sigma) || run.Phi.cols() == 0) return;
+  const Index n = run.Phi.rows(), c = run.Phi.cols();
+  MatrixX MPhi(n, c), W(n, c), MW(n, c);
+  for (Index j = 0; j < c; ++j) mass_op.perform_op(run.Phi.col(j).data(), MPhi.col(j).data());
+  factor.solve(MPhi.data(), W.data(), static_cast<int>(c));
+  for (Index j = 0; j < c; ++j) mass_op.perform_op(W.col(j).data(), MW.col(j).data());
+  MatrixX A = W.transpose() * MPhi, B = W.transpose() * MW;
+  A = 0.5 * (A + A.transpose()).eval();
+  B = 0.5 * (B + B.transpose()).eval();
+  Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(A, B);
+  if (ritz.info() != Eigen::Success || !ritz.eigenvalues().allFinite()) return;
+  MatrixX Phi = W * ritz.eigenvectors();
+  if (!Phi.allFinite()) return;
+  run.lambda = ritz.eigenvalues().array() + run.sigma;
+  run.Phi = std::move(Phi);
+  run.refined = true;
+}
+
 std::string describe_run(const LanczosRun& run, Index nev, const Units& units) {
   std::ostringstream out;
   out << run.factor << " of K − σM at σ = " << units(run.sigma, 6) << ", " << nev << " wanted, ncv "
       << run.ncv << ", " << run.restarts << " restarts, " << run.solves << " solves";
+  if (run.refined) out << ", then one step of block inverse iteration";
   return out.str();
 }
 
@@ -817,7 +923,18 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   // rounding enters through φᵀMφ = 1), then n in the sums φᵀ(Kφ), φᵀ(Mφ) of
   // the computed products, which carry no Laplacian cancellation.
   const double sums = phi_sum_of_products(phi, Kphi) + std::abs(lambda) * phi_sum_of_products(phi, Mphi);
-  Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, typical_rounding, systematic_part);
+  // The kind is decided as on the dense path (detail::solve_symmetric): the
+  // residual at its typical size, the data's rounding at its worst,
+  // 4ε|φ|ᵀ(T + |λ||M|)|φ| with T the sizes of K's terms. With the typical
+  // size alone, a flat net at its rest length (every out-of-plane λ zero in
+  // exact arithmetic, −6.5e-15 s as formed, with the springs' lengths rounded)
+  // had its ten lowest modes called divergent once the Lanczos vectors were
+  // accurate; the dense path calls them zero.
+  const double data_worst =
+      4 * eps * ((term_sizes.rows() == K.rows() ? a.dot(absolute_product(term_sizes, a)) : a.dot(aK)) +
+                 std::abs(lambda) * a.dot(aM));
+  Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, typical_rounding, systematic_part,
+                          residual.typical + systematic_part + data_worst);
   mode.residual_bound = residual.bound + (norms.width + 1) * eps * quotient_terms + (n + 1) * eps * sums +
                         eps * std::abs(lambda);
   return mode;
@@ -1046,11 +1163,11 @@ double detail::tree_mass_floor(const TreePencil& p, const TreeFactor& mass, cons
       });
 }
 
-Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic) {
+Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic, double zero_level) {
   Mode mode;
   const double estimate = error + rounding + eps * std::abs(lambda) + systematic;
-  if (std::abs(lambda) <= std::max(error + systematic, rounding)) {
-    mode = detail::make_mode(0.0, estimate, ModeKind::zero);
+  if (std::abs(lambda) <= std::max({error + systematic, rounding, zero_level})) {
+    mode = detail::make_mode(0.0, std::max(estimate, zero_level), ModeKind::zero);
   } else if (lambda < 0) {  // divergent: s = +√(−λ) real
     mode = detail::make_mode(std::sqrt(-lambda), estimate, ModeKind::divergent);
   } else {
@@ -1340,11 +1457,62 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // returned are equally valid k-th modes). If more lie below b, the run is
     // repeated with more wanted (check_completeness, shared with the
     // distributed backend).
+    //
+    // The runs' shift. At σ₀ = −ζ the wanted ν = 1/(λ − σ₀) of eigenvalues
+    // far closer to 0 than ζ differ by (λ_i − λ_j)/ζ relative: a net at
+    // prestrain 1e-12 (its 784 lowest λ within 4e-12 s) took 1001 solves, and
+    // the last vectors, poorly converged, turned modes of one double
+    // eigenvalue into one oscillatory and one "zero" mode, and a zero mode's
+    // estimate of 4e-5 counted 775 oscillatory modes as zero modes. So the
+    // first run is probed after near_zero_probe restarts (5–9 suffice on the
+    // nets and lattices of bench/): if it has not converged and its Ritz
+    // values λ̃_i, upper bounds of the lowest eigenvalues (ShiftInvertSolver),
+    // all lie below near_zero_fraction·ζ but not all below near_zero_floor·s
+    // (100 ε·s: there the eigenvalues are within the factorization's own
+    // rounding, a few ε·s, of zero, and a nearer shift gains nothing), it is
+    // given up and the runs are made at σ₁ = −λ̃_nev instead, moved down by
+    // factors of 8 until K − σ₁M is positive definite (some eigenvalue in
+    // [σ₀, 0) may lie below the first σ₁), or at σ₀ if none is found above
+    // it; each run at σ₁ is refined (refine_run). At σ₁ the wanted ν are
+    // spread by a fraction of 1 or more. Otherwise the run goes on (from the
+    // first Lanczos vector its restarts made). The Morse index and the zero
+    // modes still come from the inertia at σ₀.
+    double run_sigma = s0;
+    bool probed = false;
     std::optional<LanczosRun> last;
     const CompletenessCheck check = check_completeness(
         k, n, s0, zeta,
         [&](long nev) {
-          last = run_lanczos(factor, mass_op, s0, nev, options, units);
+          if (probed) {
+            last = run_lanczos(factor, mass_op, run_sigma, nev, options, units);
+            if (run_sigma != s0) refine_run(*last, factor, mass_op);
+          } else {
+            probed = true;
+            double moved = nan;
+            const Probe probe{near_zero_probe, [&](const VectorX& values) {
+                                const double top = values.maxCoeff();
+                                if (!(top < near_zero_fraction * zeta) || !(top > near_zero_floor * scale))
+                                  return false;
+                                moved = -std::max(top, near_zero_floor * scale);
+                                return true;
+                              }};
+            last = run_lanczos(factor, mass_op, s0, nev, options, units, &probe);
+            if (last->stopped) {
+              runs.push_back(describe_run(*last, nev, units) + ", stopped: its " + std::to_string(nev) +
+                             " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) +
+                             ", under " + detail::format_number(near_zero_fraction, 1) +
+                             " ζ, where the shift −ζ separates them poorly");
+              double sigma = moved;
+              while (sigma > s0 && !factor.positive_definite_at(sigma)) sigma *= 8;
+              if (sigma > s0) {
+                run_sigma = sigma;
+                last = run_lanczos(factor, mass_op, run_sigma, nev, options, units);
+                refine_run(*last, factor, mass_op);
+              } else {
+                last = run_lanczos(factor, mass_op, s0, nev, options, units);
+              }
+            }
+          }
           runs.push_back(describe_run(*last, nev, units));
           return std::vector<double>(last->lambda.data(), last->lambda.data() + last->lambda.size());
         },

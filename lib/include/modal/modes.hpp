@@ -194,9 +194,13 @@ ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& option
 // quotient, error = ‖K phi − lambda M phi‖ in the M⁻¹-norm, rounding = the
 // rounding level of evaluating phiᵀK phi, 4ε(‖K‖₁ + |lambda|‖M‖₁)‖phi‖₂²,
 // systematic = |phi|ᵀ E |phi| for a known error E of K (else 0). A zero mode
-// when |lambda| is within error + systematic or within rounding, divergent
-// when negative beyond both; the shape's largest component made positive.
-Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic = 0);
+// when |lambda| is within error + systematic, within rounding or within
+// zero_level (the caller's level for deciding the kind, e.g. with the data's
+// rounding at its worst case; a zero mode's estimate is then at least it),
+// divergent when negative beyond all; the shape's largest component made
+// positive.
+Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic = 0,
+                 double zero_level = 0);
 
 // What the inertia of K − σM says about the modes a shift-invert solver did
 // not return (solve_sparse_modes and the distributed backend share it).
