@@ -863,7 +863,6 @@ TEST(Equilibrium, ACircleOfEquilibriaIsReportedOnce) {
   }
 }
 
-
 // The equilibrium find_equilibrium reaches from the written configuration,
 // within the default tolerance; a refusal is a test failure (with its
 // message), and nothing is returned.
@@ -886,11 +885,12 @@ std::optional<Equilibrium> settle(const System& s) {
 // correction, and the polish stalled ("no equilibrium found" at a relative
 // residual of 4e-8 from 66 starts, an imported MJCF tree graded over 12
 // decades of mass). Random frames, geometry over 6 decades of length, masses
-// over 6, from the written configuration (as analyze starts). Where the
-// slide is nearly free its coupling to the ball (about m g) is far above
-// its own spring, and scaled by the elements' stiffness the Newton matrix
-// reached ±6.5e3, which put the yaw below the step's cutoff: newton_step
-// raises the scales to the couplings (k_a k_b ≥ J_ab²). The point
+// over 6, from the written configuration (as analyze starts); half of the
+// slides nearly free. (Where such a slide's coupling to the ball is far
+// above its own spring, newton_step raises the elements' scales to the
+// couplings, k_a k_b ≥ J_ab²; that is tested by
+// ASlideCoupledFarAboveItsSpringDoesNotHideAYaw: this family passes
+// without it.) The point
 // found is checked against the closed-form conditions in long double, not
 // against modal's gradient: with w = exp(φ̂)(o + s a + c) the bob's centre
 // in the joint's frame O and u = Oᵀẑ, the torque m g (w × u) + k_b φ and the
