@@ -700,6 +700,47 @@ Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, 
   return M;
 }
 
+// A bound of a spring's rounding as a positive semidefinite block, for
+// sparse_rounding_form: with d = x_a − x_b, L = |d|, u = d/L, the computed
+// h = k uuᵀ + t(I − uuᵀ) errs by δk uuᵀ + δt(I − uuᵀ) + (k − t)(δu uᵀ + uδuᵀ)
+// with |δk| ≤ ε|k| (k is a term), |δt| ≤ ε(|k| + (1 + ρ)|k − t|) (t = k −
+// kL₀/L: two terms, and L's rounding, ρε relative, with ρ = (‖x_a‖ +
+// ‖x_b‖)/L: the ends' positions are rounded to ε of their size) and |δu| ≤
+// ρε; for the end points' difference v, |vᵀδh v| ≤ ε vᵀ s v with s = |k|uuᵀ
+// + (|k| + (1 + ρ)|k − t|)(I − uuᵀ) + ρ|k − t| I (2|a||b| ≤ a² + b² for the
+// direction's term). The block is [s −s; −s s], in units of ε.
+Eigen::Matrix<double, 6, 6> spring_rounding_form(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+  const Vec3 d = sites[0].x - sites[1].x;
+  const double length = d.norm();
+  const Mat3 h = He.topLeftCorner<3, 3>();
+  Mat3 block;
+  if (!(length > 0)) {
+    block = h.cwiseAbs().rowwise().sum().asDiagonal();  // |v|ᵀ|h||v| ≤ Σ_i (Σ_j |h_ij|) v_i²
+  } else {
+    const Vec3 u = d / length;
+    const double k = u.dot(h * u), t = 0.5 * (h.trace() - k);
+    const double rho = (sites[0].x.norm() + sites[1].x.norm()) / length;
+    const Mat3 along = u * u.transpose();
+    block = std::abs(k) * along + (std::abs(k) + (1 + rho) * std::abs(k - t)) * (Mat3::Identity() - along) +
+            rho * std::abs(k - t) * Mat3::Identity();
+  }
+  Eigen::Matrix<double, 6, 6> B;
+  B << block, -block, -block, block;
+  return B;
+}
+
+// An adder that bounds each term |v φ_j φ_k| by |v|(φ_j² + φ_k²)/2: the
+// term's magnitude, halved onto the two diagonal entries (a positive
+// semidefinite diagonal bound of the terms' entrywise form).
+template <class Add>
+struct DiagonalHalves {
+  Add add;  // a reference where the caller's adder is one
+  void operator()(int j, int k, double v) {
+    add(j, j, 0.5 * std::abs(v));
+    add(k, k, 0.5 * std::abs(v));
+  }
+};
+
 // H += Jᵀ H_e J for an element's local Hessian H_e (3N×3N in its N sites).
 template <std::size_t N, class Block, class Add>
 void add_local_hessian(const System& s, const TreeState<double>& st, const std::array<Site, N>& sites, const Block& He,
@@ -726,6 +767,27 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
   return [&t](int j, int k, double v) { t.emplace_back(j, k, v); };
 }
 
+// The terms of ∇∇V besides the elements' local Hessians: the tree terms and
+// the joint springs.
+template <class Add>
+void other_hessian_terms(const System& s, const TreeState<double>& st, Workspace& w, const VectorX& q, Add&& add,
+                         const std::vector<char>* held) {
+  tree_hessian(s, st, w.cache(), q, add, held);
+  const auto& bodies = s.bodies();
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    if (bodies[b].stiffness == 0.0) continue;
+    const int k0 = s.first_coordinate(static_cast<int>(b));
+    model::joint_spring_hessian(bodies[b], q.data() + k0, s.joint_size(static_cast<int>(b)),
+                                [&](int i, int j, double v) { add(k0 + i, k0 + j, v); });
+    if (held && (*held)[b]) {  // a hinge under a parallel hinge (one coordinate)
+      const int p = s.first_coordinate(bodies[b].parent);
+      add(p, p, bodies[b].stiffness);
+      add(p, k0, -bodies[b].stiffness);
+      add(k0, p, -bodies[b].stiffness);
+    }
+  }
+}
+
 // ∇∇V of a tree, entry by entry into add(j, k, v): the elements' local
 // Hessians (Jᵀ H_e J), the tree terms, and the joint springs. With `held`:
 // Tᵀ∇∇V T in the absolute angles of parallel hinges (a held body's spring
@@ -735,7 +797,9 @@ auto triplet_adder(std::vector<Eigen::Triplet<double>>& t) {
 // With SpringBlocks::convex, a spring's local Hessian goes in as its positive
 // semidefinite part (positive_spring_block); with ::term_sizes, as the sizes
 // of its terms (spring_term_sizes: for the magnitudes of ∇∇V's entries).
-enum class SpringBlocks { as_computed, convex, term_sizes };
+// With ::rounding_form, springs as spring_rounding_form and every other
+// term as its magnitude halved onto the diagonal (DiagonalHalves).
+enum class SpringBlocks { as_computed, convex, term_sizes, rounding_form };
 template <class AddOf>
 void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const VectorX& q, AddOf&& add_of,
                                          std::size_t parts, const std::vector<char>* held = nullptr,
@@ -754,26 +818,26 @@ void assemble_potential_hessian_in_parts(const System& s, Workspace& w, const Ve
               add_local_hessian(s, st, sites, spring_term_sizes(sites, He), add_of(part), held);
               return;
             }
+            if (blocks == SpringBlocks::rounding_form) {
+              add_local_hessian(s, st, sites, spring_rounding_form(sites, He), add_of(part), held);
+              return;
+            }
+          }
+          if (blocks == SpringBlocks::rounding_form) {
+            DiagonalHalves<decltype(add_of(part))> halves{add_of(part)};
+            add_local_hessian(s, st, sites, He, halves, held);
+            return;
           }
           add_local_hessian(s, st, sites, He, add_of(part), held);
         };
       },
       held, parts);
-  auto&& add = add_of(0);
-  tree_hessian(s, st, w.cache(), q, add, held);
-  const auto& bodies = s.bodies();
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    if (bodies[b].stiffness == 0.0) continue;
-    const int k0 = s.first_coordinate(static_cast<int>(b));
-    model::joint_spring_hessian(bodies[b], q.data() + k0, s.joint_size(static_cast<int>(b)),
-                                [&](int i, int j, double v) { add(k0 + i, k0 + j, v); });
-    if (held && (*held)[b]) {  // a hinge under a parallel hinge (one coordinate)
-      const int p = s.first_coordinate(bodies[b].parent);
-      add(p, p, bodies[b].stiffness);
-      add(p, k0, -bodies[b].stiffness);
-      add(k0, p, -bodies[b].stiffness);
-    }
+  if (blocks == SpringBlocks::rounding_form) {
+    DiagonalHalves<decltype(add_of(0))> halves{add_of(0)};
+    other_hessian_terms(s, st, w, q, halves, held);
+    return;
   }
+  other_hessian_terms(s, st, w, q, add_of(0), held);
 }
 
 // An adder of terms (j, k, v) into `values`, laid out on the pattern of the
@@ -1041,6 +1105,17 @@ SparseMatrix sparse_potential_hessian_magnitude(const System& s, Workspace& w, c
   if (H.rows() == s.size() && H.isCompressed() && H.nonZeros() > 0) E = H;
   assemble_sparse_hessian(s, w, q, E, SpringBlocks::term_sizes);
   return E;
+}
+
+SparseMatrix sparse_rounding_form(const System& s, Workspace& w, const VectorX& q) {
+  if (s.is_map() || s.springs().empty()) return {};
+  // On ∇∇V's pattern (the springs' blocks and the diagonal), taken from the
+  // workspace's.
+  const SparseMatrix& H = w.sparse_hessian;
+  SparseMatrix F;
+  if (H.rows() == s.size() && H.isCompressed() && H.nonZeros() > 0) F = H;
+  assemble_sparse_hessian(s, w, q, F, SpringBlocks::rounding_form);
+  return F;
 }
 
 SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q) {

@@ -311,6 +311,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
   model.residual = require_equilibrium(s, ws, q, gradient, options.tolerance);
   model.K = sparse_potential_hessian(s, ws, q);
   model.K_magnitude = sparse_potential_hessian_magnitude(s, ws, q);
+  model.K_rounding_form = sparse_rounding_form(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
   model.inertia_scale = inertia_scale(s, ws, q);
   if (model.residual > sparse_equilibrium_correction_residual) {  // see the header

@@ -687,9 +687,8 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
     // after probe->restarts restarts. Where it converged, its results are
     // the whole run's; where it is not given up, the run is made afresh with
     // the whole budget, so that its results are those of a run without a
-    // probe (going on from the probe's first Lanczos vector gave different,
-    // on a flat net at its rest length more accurate, vectors, whose
-    // rounding-level negative λ the estimates do not cover: docs/design.md).
+    // probe (going on from the probe's first Lanczos vector gives other
+    // vectors, and on a slowly converging run no fewer solves).
     Index probe_restarts = 0, probe_solves = 0;
     if (probe && probe->restarts < options.max_iterations) {
       ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
@@ -879,7 +878,7 @@ VectorX absolute_product(const SparseMatrix& A, const VectorX& a) {
 // of K (signed, n×n, or empty), see ModeResidual.
 Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
                       const SparseMatrix& systematic, const SparseMatrix& shift, const SparseMatrix& term_sizes,
-                      VectorX phi, ModeResidual& residual) {
+                      const SparseMatrix& rounding_form, VectorX phi, ModeResidual& residual) {
   VectorX Mphi = M * phi;
   const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
   phi *= scale_phi;
@@ -925,23 +924,33 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K_terms, &K2}, {&M, &M2}})
     for (Index j = 0; j < A->outerSize(); ++j)
       for (SparseMatrix::InnerIterator it(*A, j); it; ++it) *sum += std::pow(it.value() * phi(it.row()) * phi(j), 2);
+  // φᵀFφ, F = K_rounding_form (a rigorous bound, in units of 4ε, of the
+  // rounding's effect, positions included; see below): where smaller, it
+  // stands for K's entries at their typical size too.
+  const double structured = rounding_form.rows() == K.rows() ? std::max(0.0, phi.dot(rounding_form * phi))
+                                                             : std::numeric_limits<double>::infinity();
   const double typical_rounding = detail::typical_quotient_rounding(
       norms.width, n, a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm(),
-      phi_sum_of_products(phi, Kphi), 4 * eps * (std::sqrt(K2) + std::abs(lambda) * std::sqrt(M2)));
+      phi_sum_of_products(phi, Kphi), 4 * eps * (std::min(std::sqrt(K2), structured) + std::abs(lambda) * std::sqrt(M2)));
   // The quotient's worst case: w terms in each entry of Kφ (and Mφ, whose
   // rounding enters through φᵀMφ = 1), then n in the sums φᵀ(Kφ), φᵀ(Mφ) of
   // the computed products, which carry no Laplacian cancellation.
   const double sums = phi_sum_of_products(phi, Kphi) + std::abs(lambda) * phi_sum_of_products(phi, Mphi);
   // The kind is decided as on the dense path (detail::solve_symmetric): the
   // residual at its typical size, the data's rounding at its worst,
-  // 4ε|φ|ᵀ(T + |λ||M|)|φ| with T the sizes of K's terms. With the typical
-  // size alone, a flat net at its rest length (every out-of-plane λ zero in
-  // exact arithmetic, −6.5e-15 s as formed, with the springs' lengths rounded)
-  // had its ten lowest modes called divergent once the Lanczos vectors were
-  // accurate; the dense path calls them zero.
-  const double data_worst =
-      4 * eps * ((term_sizes.rows() == K.rows() ? a.dot(absolute_product(term_sizes, a)) : a.dot(aK)) +
-                 std::abs(lambda) * a.dot(aM));
+  // 4ε φᵀFφ with F = K_rounding_form where given, else 4ε|φ|ᵀT|φ| with T
+  // the sizes of K's terms, plus 4ε|λ||φ|ᵀ|M||φ|. With the typical size
+  // alone, a flat net at its rest length (every out-of-plane λ zero in exact
+  // arithmetic, −6.5e-15 s as formed, with the springs' lengths rounded) had
+  // its ten lowest modes called divergent once the Lanczos vectors were
+  // accurate; the dense path calls them zero. With T, the resolved modes of
+  // a net at prestrain 1e-12 were called zero (8 of 10 at 100 × 100: T's
+  // Laplacian without its signs is 10³ × the smooth modes' λ/p).
+  const double data_rounding =
+      std::isfinite(structured)
+          ? structured
+          : (term_sizes.rows() == K.rows() ? a.dot(absolute_product(term_sizes, a)) : a.dot(aK));
+  const double data_worst = 4 * eps * (data_rounding + std::abs(lambda) * a.dot(aM));
   Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, typical_rounding, systematic_part,
                           residual.typical + systematic_part + data_worst);
   mode.residual_bound = residual.bound + (norms.width + 1) * eps * quotient_terms + (n + 1) * eps * sums +
@@ -1096,8 +1105,10 @@ double equilibrated_mass_floor(const SparseMatrix& M, const CholmodFactor& mass,
 class SparsePencil {
  public:
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
-               const SparseMatrix& shift, const SparseMatrix& term_sizes, const VectorX& coordinate_scale)
+               const SparseMatrix& shift, const SparseMatrix& term_sizes, const SparseMatrix& rounding_form,
+               const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift), term_sizes_(term_sizes),
+        rounding_form_(rounding_form),
         mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()))), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
         mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {
     if (!is_diagonal(M_)) {
@@ -1117,7 +1128,8 @@ class SparsePencil {
     return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
-    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, std::move(phi), residual);
+    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, rounding_form_, std::move(phi),
+                            residual);
   }
 
  private:
@@ -1129,6 +1141,7 @@ class SparsePencil {
   const SparseMatrix& systematic_;
   const SparseMatrix& shift_;
   const SparseMatrix& term_sizes_;  // Σ|terms| of K's entries, or empty
+  const SparseMatrix& rounding_form_;  // SparseModalOptions::K_rounding_form, or empty
   std::unique_ptr<CholmodFactor> mass_;
   Norms norms_;
   MassProduct mass_op_;  // on M's own pattern, before the common one
@@ -1346,11 +1359,13 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
   VectorX scale = detail::coordinate_scale(options.inertia_scale, n);
   SparseMatrix systematic = options.K_systematic_error;
   SparseMatrix shift = options.K_equilibrium_shift;
-  SparseMatrix term_sizes = options.K_magnitude;
-  if (term_sizes.size() > 0 && (term_sizes.rows() != n || term_sizes.cols() != n))
-    throw std::invalid_argument("solve_sparse_modes: K_magnitude is " + std::to_string(term_sizes.rows()) + "×" +
-                                std::to_string(term_sizes.cols()) + ", K " + std::to_string(n) + "×" +
-                                std::to_string(n));
+  SparseMatrix term_sizes = options.K_magnitude, rounding_form = options.K_rounding_form;
+  for (const auto& [A, name] : {std::pair<const SparseMatrix*, const char*>{&term_sizes, "K_magnitude"},
+                                {&rounding_form, "K_rounding_form"}})
+    if (A->size() > 0 && (A->rows() != n || A->cols() != n))
+      throw std::invalid_argument(std::string("solve_sparse_modes: ") + name + " is " + std::to_string(A->rows()) +
+                                  "×" + std::to_string(A->cols()) + ", K " + std::to_string(n) + "×" +
+                                  std::to_string(n));
   {
     const VectorX inverse = scale.cwiseInverse();
     if (exactly_scalable(M, scale, inverse) && exactly_scalable(K, scale, inverse)) {
@@ -1359,6 +1374,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       if (systematic.rows() == n && systematic.cols() == n) scale_in_place(systematic, scale);
       if (shift.rows() == n && shift.cols() == n) scale_in_place(shift, scale);
       if (term_sizes.rows() == n) scale_in_place(term_sizes, scale);
+      if (rounding_form.rows() == n) scale_in_place(rounding_form, scale);
     } else {
       scale = VectorX::Ones(n);
     }
@@ -1380,9 +1396,9 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
     magnitude = detail::magnitudes(largest(M), largest(K));
     const int a = 2 * magnitude.a, b = 2 * magnitude.b;
     if (exactly_scalable(M, a) && exactly_scalable(K, b) && exactly_scalable(systematic, b) &&
-        exactly_scalable(shift, b) && exactly_scalable(term_sizes, b)) {
+        exactly_scalable(shift, b) && exactly_scalable(term_sizes, b) && exactly_scalable(rounding_form, b)) {
       scale_in_place(M, a);
-      for (SparseMatrix* A : {&K, &systematic, &shift, &term_sizes}) scale_in_place(*A, b);
+      for (SparseMatrix* A : {&K, &systematic, &shift, &term_sizes, &rounding_form}) scale_in_place(*A, b);
       if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
     } else {
       magnitude = {};
@@ -1398,7 +1414,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                                   term_sizes, scale, units)
                            : [&] {
                                SparsePencil pencil(std::move(K), std::move(M), scaled_options, systematic, shift,
-                                                   term_sizes, scale);
+                                                   term_sizes, rounding_form, scale);
                                return lanczos_modes(pencil, k, scaled_options, units);
                              }();
   finish_scaled(result, magnitude, scale);

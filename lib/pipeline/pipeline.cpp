@@ -455,12 +455,14 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     // discards the analysis).
     so.K_systematic_error = std::move(lin.K_systematic_error);
     so.K_magnitude = std::move(lin.K_magnitude);
+    so.K_rounding_form = std::move(lin.K_rounding_form);
     so.K_equilibrium_shift = std::move(lin.K_equilibrium_shift);
     so.inertia_scale = lin.inertia_scale;
     so.coordinate_names = lin.coordinates;
     result = solve_sparse_modes(lin.K, lin.M, so);
     lin.K_systematic_error = std::move(so.K_systematic_error);
     lin.K_magnitude = std::move(so.K_magnitude);
+    lin.K_rounding_form = std::move(so.K_rounding_form);
     lin.K_equilibrium_shift = std::move(so.K_equilibrium_shift);
     if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_equilibrium_shift.nonZeros() == 0)
       result.notes.push_back(fmt::format(

@@ -448,6 +448,19 @@ const SparseMatrix& sparse_convex_potential_hessian(const System& s, Workspace& 
 // transverse k(1 − L₀/L) from k and k L₀/L). Units of ∇∇V, entries ≥ 0.
 SparseMatrix sparse_potential_hessian_magnitude(const System& s, Workspace& w, const VectorX& q);
 
+// A positive semidefinite F (n×n, ∇∇V's pattern and units) with
+// |φᵀ δ(∇∇V) φ| ≤ 4ε φᵀFφ to first order for the rounding δ of ∇∇V's
+// assembly and of the configuration's positions: each spring's error as a
+// block [s −s; −s s] in its end points (its stiffness, its transverse
+// stiffness T/L with the length's rounding ε(‖x_a‖ + ‖x_b‖), its direction),
+// and every other term's magnitude halved onto the diagonal. Unlike the
+// entrywise |φ|ᵀ(4ε E)|φ| (E = sparse_potential_hessian_magnitude) it keeps
+// the springs' Laplacian structure: on a smooth mode of a net the bound
+// scales with the mode's own λ, not with k/m. Empty for a map or a scene
+// without springs. For the kind of the sparse path's modes
+// (SparseModalOptions::K_rounding_form).
+SparseMatrix sparse_rounding_form(const System& s, Workspace& w, const VectorX& q);
+
 // The stiffness the scene would have if every spring carried a tension per
 // unit length equal to its stiffness (T/L = k, so its 6×6 block is
 // k [I −I; −I I] in its end points instead of k uuᵀ + T/L (I − uuᵀ)), and

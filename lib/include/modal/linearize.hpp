@@ -130,6 +130,9 @@ struct SparseLinearModel {
   // K_error / 4ε without the systematic part): the size of K's rounding,
   // for SparseModalOptions::K_magnitude.
   SparseMatrix K_magnitude;
+  // sparse_rounding_form at q (n×n, positive semidefinite; empty without
+  // springs): for SparseModalOptions::K_rounding_form.
+  SparseMatrix K_rounding_form;
   double residual = 0;                   // relative equilibrium residual at q
   // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
   // the residual is negligible. For the eigenvalues' error estimates.

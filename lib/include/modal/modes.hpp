@@ -147,6 +147,14 @@ struct SparseModalOptions {
   // errors). Where a spring's terms cancel (a small prestrain) it is far
   // above |K|. Empty: |K| (no cancellation in K's entries).
   SparseMatrix K_magnitude;
+  // A positive semidefinite F (n×n, e.g. SparseLinearModel::K_rounding_form,
+  // sparse_rounding_form) with |φᵀδKφ| ≤ 4ε φᵀFφ for the rounding δK of K's
+  // assembly and of the positions: where given, each mode's kind is decided
+  // with it (4ε φᵀFφ + 4ε|λ||φ|ᵀ|M||φ|) instead of the entrywise worst case
+  // 4ε|φ|ᵀE|φ| of K_magnitude, which takes no account of the position's
+  // rounding and on a smooth mode of a net is 10²–10⁴ × its possible effect.
+  // Empty: the entrywise worst case.
+  SparseMatrix K_rounding_form;
   // A loose equilibrium's change of K on the way to the equilibrium (n×n,
   // signed, e.g. SparseLinearModel::K_equilibrium_shift, ΔK = K(q + δq) −
   // K(q)): each mode's estimate adds 2(|φᵀΔKφ| + δ_Δ²/g), first-order
