@@ -929,3 +929,47 @@ TEST(Extremes, TheRoundingFormBoundsThePositionsRounding) {
   }
   EXPECT_GT(smooth_checked, 0);
 }
+
+// A flat net at its rest length without gravity is neutral out of its plane:
+// every out-of-plane eigenvalue is zero in exact arithmetic. Placed far from
+// the origin, the rounding of its positions leaves springs stretched or
+// compressed by ε of the positions' size, and K as formed has λ of either
+// sign; the kinds, decided with an entrywise bound of the data's rounding that
+// had no share of the positions, called an 8 × 8 net 100 m away "divergence,
+// Morse index 18" (the default, dense, path) and a 30 × 30 one "Morse index
+// 3" (sparse). Generated nets (4–12 free particles a side, spacing, k, m over
+// decades, 10–1e4 spacings from the origin), both paths: no mode divergent,
+// Morse index 0.
+TEST(Extremes, ARestLengthNetFarFromTheOriginIsNotDivergent) {
+  std::mt19937 rng(2811202606u);
+  auto log_uniform = [&rng](double lo, double hi) {
+    return std::exp(std::uniform_real_distribution<double>(std::log(lo), std::log(hi))(rng));
+  };
+  for (int trial = 0; trial < 10; ++trial) {
+    const int free_nodes = 4 + trial % 9;
+    const double k = log_uniform(1e-2, 1e6), m = log_uniform(1e-3, 1e3), spacing = log_uniform(1e-2, 10),
+                 offset = log_uniform(10, 1e4) * spacing;
+    char text[600];
+    std::snprintf(text, sizeof text,
+                  "gravity = [0, 0, 0]\n[[lattice]]\nname = \"net\"\nsize = [%d, %d, 1]\nspacing = %.17g\nmass = "
+                  "%.17g\nstiffness = %.17g\nprestrain = 0\nfixed = \"boundary\"\norigin = [%.17g, %.17g, 0]\n",
+                  free_nodes + 2, free_nodes + 2, spacing, m, k, offset, 0.3 * offset);
+    const std::string what = "trial " + std::to_string(trial) + ": " + text;
+    const System sys = build_system(parse_scene(text, "net.toml"));
+    const VectorX q = VectorX::Zero(sys.size());
+    const ModalResult dense = solve_modes(linearize(sys, q));
+    SparseLinearModel lin = linearize_sparse(sys, q);
+    SparseModalOptions options;
+    options.modes = 6;
+    options.K_magnitude = lin.K_magnitude;
+    options.K_rounding_form = lin.K_rounding_form;
+    options.inertia_scale = lin.inertia_scale;
+    const ModalResult sparse = solve_sparse_modes(lin.K, lin.M, options);
+    for (const auto& [r, path] : {std::pair<const ModalResult*, const char*>{&dense, "dense"}, {&sparse, "sparse"}}) {
+      EXPECT_EQ(r->morse_index, 0) << what << path;
+      for (const Mode& mode : r->modes)
+        EXPECT_NE(mode.kind, ModeKind::divergent)
+            << what << path << ": ω² " << mode.omega2 << " ± " << mode.error_estimate;
+    }
+  }
+}

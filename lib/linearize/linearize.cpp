@@ -177,6 +177,11 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   if (model.circulatory) terms += generalized_force_jacobian(s, ws, q).cwiseAbs();
   if (s.has_constraints()) terms += multiplier_term.cwiseAbs();
   model.K_error = 4 * std::numeric_limits<double>::epsilon() * terms;
+  // The springs' rounding, the positions' included, as a positive
+  // semidefinite form (sparse_rounding_form) for deciding the modes' kinds;
+  // where K is ∇∇V itself (no follower loads, constraints or differences).
+  if (!model.circulatory && !s.has_constraints() && options.derivatives == DerivativeMethod::exact && !s.is_map())
+    model.K_rounding_form = sparse_rounding_form(s, ws, q);
   if (difference_error.size() > 0) {
     model.K_error += difference_error;
     model.K_systematic_error = difference_error;

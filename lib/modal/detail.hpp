@@ -95,9 +95,12 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // `wanted` (≥ 0): only the lowest `wanted` modes are needed; every mode is
 // still returned and classified, but the others carry a normwise estimate
 // (no shape) unless their kind is in doubt (see symmetric.cpp).
+// `K_rounding_form` (n×n or empty; LinearModel::K_rounding_form, scaled as
+// K): where given, the kinds take the data's rounding as 4ε φᵀFφ instead of
+// the entrywise |φ|ᵀ(K_error − K_systematic_error)|φ|.
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
-                            Eigen::Index wanted = -1);
+                            Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix());
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 

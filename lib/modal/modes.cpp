@@ -226,6 +226,11 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
           C_rounding = absolute && model.has_damping && square(abs.D_rounding) ? abs.D_rounding : MatrixX();
   for (MatrixX* A : {&Ms, &Ks, &K_error, &K_systematic, &G_error, &Cs, &C_rounding})
     if (A->size() != 0) detail::scale_symmetric_in_place(*A, scale);
+  // The rounding form (sparse, as K: S F S, then the magnitude's power of
+  // four), for the symmetric solver's kinds; not in absolute angles.
+  SparseMatrix rounding_form;
+  if (!absolute && model.K_rounding_form.rows() == n && model.K_rounding_form.cols() == n)
+    rounding_form = scale.asDiagonal() * model.K_rounding_form * scale.asDiagonal();
   if (!symmetric_within_rounding(Ms))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
   make_symmetric(Ms);
@@ -250,10 +255,12 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
                                                {&K_systematic, b}, {&G_error, ab}, {&C_rounding, ab}};
     bool exact = true;
     for (const auto& [A, p] : scaled) exact = exact && detail::scales_exactly(*A, p);
-    if (exact)
+    if (exact) {
       for (const auto& [A, p] : scaled) detail::scale_exactly(*A, p);
-    else
+      rounding_form *= std::ldexp(1.0, b);
+    } else {
       magnitude = {};
+    }
   }
   if (symmetric) {
     make_symmetric(Ks);
@@ -262,7 +269,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   }
   const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
-                                               options.modes)
+                                               options.modes, rounding_form)
                      : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding);
   detail::restore_magnitudes(result, magnitude, symmetric);
   // Classify with every mode, then keep the lowest ones asked for (the

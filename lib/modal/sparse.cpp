@@ -660,7 +660,8 @@ class ShiftInvertSolver
 
 // A run's probe: after `restarts` restarts without convergence, `stop` sees
 // the current Ritz values (ascending λ̃) and says whether to give the run up
-// (it is then returned with stopped = true); otherwise the run goes on.
+// (it is then returned with stopped = true); otherwise the run is made
+// afresh with the whole budget (run_lanczos).
 struct Probe {
   Index restarts = 0;
   std::function<bool(const VectorX&)> stop;
@@ -967,7 +968,8 @@ std::string plural(Index count, const char* one, const char* many) {
 // K, M and `systematic` equilibrated (`scale`), as in the Lanczos path.
 ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, Index k,
                                  const SparseModalOptions& options, const SparseMatrix& systematic,
-                                 const SparseMatrix& term_sizes, const VectorX& scale, const Units& units) {
+                                 const SparseMatrix& term_sizes, const SparseMatrix& rounding_form, const VectorX& scale,
+                                 const Units& units) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
   const detail::Cholesky mass = detail::factor_mass(Md, coordinate_names(options, n), scale);
@@ -978,7 +980,8 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
     if (systematic.rows() == n) K_error += MatrixX(systematic);
   }
   ModalResult all =
-      detail::solve_symmetric(Md, Kd, mass, K_error, systematic.rows() == n ? MatrixX(systematic) : MatrixX());
+      detail::solve_symmetric(Md, Kd, mass, K_error, systematic.rows() == n ? MatrixX(systematic) : MatrixX(),
+                              DenseSolver::automatic, -1, rounding_form);
 
   ModalResult result;
   result.stability = classify(all.modes);  // every mode is known
@@ -1411,7 +1414,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                                                                        ? SparseMatrix(systematic + shift.cwiseAbs())
                                                                                        : SparseMatrix(shift.cwiseAbs()))
                                                                     : systematic,
-                                                  term_sizes, scale, units)
+                                                  term_sizes, rounding_form, scale, units)
                            : [&] {
                                SparsePencil pencil(std::move(K), std::move(M), scaled_options, systematic, shift,
                                                    term_sizes, rounding_form, scale);

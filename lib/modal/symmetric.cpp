@@ -46,7 +46,12 @@
 //
 // A zero mode is one with |λ| ≤ the sum of 1 and 2 (its residual part at the
 // typical size, the data at their worst): it cannot be told from 0, and that
-// sum is its estimate. The estimate of any other mode takes the data's
+// sum is its estimate. Where the rounding form F is given
+// (LinearModel::K_rounding_form: the springs' rounding, the positions'
+// included, as a positive semidefinite form), the data's worst case is
+// 4ε φᵀFφ + 4ε|λ||φ|ᵀ|M||φ| instead of |φ|ᵀE|φ| + …, which has no share of
+// the positions' rounding (a rest-length net 100 m from the origin had been
+// called divergent) and on a smooth mode of a net is far larger. The estimate of any other mode takes the data's
 // rounding and the rounding of its Rayleigh quotient at their typical size
 // instead, as the sparse path does (detail::typical_quotient_rounding: the
 // rounding errors of different entries independent, doubled), with the
@@ -481,7 +486,8 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const VectorX& unreso
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
-                            const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted) {
+                            const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
+                            const SparseMatrix& K_rounding_form) {
   const Eigen::Index n = M.rows();
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda_all;
@@ -739,6 +745,15 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
                                           absPhi);
     const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
     const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
+    // φᵀFφ per mode where the rounding form is given (a positive
+    // semidefinite bound of the data's rounding, the positions' included,
+    // that keeps the springs' Laplacian structure: sparse_rounding_form).
+    const bool form = K_rounding_form.rows() == n && K_rounding_form.cols() == n;
+    VectorX structured = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    if (form) {
+      const MatrixX FPhi = K_rounding_form * Phi;
+      for (Eigen::Index i = 0; i < m; ++i) structured(i) = 4 * eps * std::max(0.0, Phi.col(i).dot(FPhi.col(i)));
+    }
 
     ModalResult result;
     result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
@@ -774,12 +789,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       // rows), and (Σ_ij (M_ij φ_i φ_j)²)^½ ≤ Σ_i M_ii φ_i² as well (M is
       // positive definite: M_ij² ≤ M_ii M_jj). The systematic part stays at
       // its worst, |φ|ᵀD|φ|.
-      const double data_bound = absPhi.col(i).dot(EabsPhi.col(i)) + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) +
-                                difference_bound;
+      // The data's rounding at its worst: 4ε φᵀFφ where the rounding form is
+      // given (on a flat net at its rest length 44 × 44, the entrywise form
+      // called rounding-level λ of −9e-15 s "divergent": it has no share of
+      // the positions' rounding), else |φ|ᵀE|φ|.
+      const double data_rounding = form ? structured(i) : absPhi.col(i).dot(EabsPhi.col(i));
+      const double data_bound = data_rounding + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) + difference_bound;
       const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
       const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
       const double entries =
-          absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm() / phi2 +
+          std::min(absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm(), structured(i)) / phi2 +
           rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).stableNorm(), diagonal_terms(i)) / phi2;
       const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
                                                         rows(i) / phi2, sums(i) / phi2, entries);

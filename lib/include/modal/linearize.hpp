@@ -63,6 +63,11 @@ struct LinearModel {
   // (equilibrium_stiffness_change). Unlike rounding it is smooth from entry to
   // entry, so the eigenvalues' estimates add it without cancellation.
   MatrixX K_systematic_error;
+  // sparse_rounding_form at q (dof×dof, positive semidefinite) where K is
+  // ∇∇V itself and the scene has springs; empty otherwise. The symmetric
+  // solver decides the modes' kinds with its 4ε φᵀFφ instead of K_error's
+  // entrywise worst case, which leaves out the positions' rounding.
+  SparseMatrix K_rounding_form;
   // The measured error of G (dof×dof) when it comes from differences
   // (gyroscopic_matrix with an error), systematic like the above; empty when
   // G is exact or absent. The first-order solver adds its effect, with that
