@@ -112,9 +112,13 @@ bool lapack_wins(Eigen::Index n);
 // measured entrywise errors of K and C (differences: LinearModel::
 // K_systematic_error, G_error), whose effect the estimates include;
 // `C_rounding` (n×n or empty: 4ε|C|) bounds the rounding of C's entries.
+// `K_rounding_form` (n×n or empty) as for solve_symmetric: where given, the
+// kinds take K's rounding as 4ε times F's bilinear bound instead of the
+// entrywise one.
 ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C, const Cholesky& mass,
                               const MatrixX& K_error = {}, const MatrixX& K_systematic_error = {},
-                              const MatrixX& C_error = {}, const MatrixX& C_rounding = {});
+                              const MatrixX& C_error = {}, const MatrixX& C_rounding = {},
+                              const SparseMatrix& K_rounding_form = SparseMatrix());
 
 // Exact rescaling by powers of two of the magnitudes of a solved pencil:
 // the solvers ran on (αM, √(αβ)C, βK) with α = 4^a, β = 4^b, so that no

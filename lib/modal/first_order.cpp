@@ -71,10 +71,16 @@
 // relative error 6.2e4 → 3.0e-5, estimates over 1e3 × the true error
 // 108 → 2 of 454.
 //
-// Kinds: an eigenvalue is zero when |s| ≤ its estimate; real (within error)
-// when ω ≤ its estimate, then divergent if σ > 0, damped if σ < 0; complex
-// otherwise, flutter if σ > its estimate, damped if σ < −estimate, oscillatory
-// in between. morse_index and zero_modes count eigenvalues of the 2n system
+// Kinds are decided with the data's share at its worst (|l|ᵀ(…)|x|, not its
+// typical size), as in symmetric.cpp, and, where the rounding form F is given
+// (LinearModel::K_rounding_form), K's part of it as 4ε times F's bilinear
+// bound: the entrywise E_K leaves out the positions' rounding, and damped
+// rest-length nets 10²–10⁴ spacings from the origin had had rounding-level
+// real values called "divergence" (7 of 20 generated nets, tests/
+// test_extremes.cpp). With that level d: an eigenvalue is zero when
+// |s| ≤ d (and d is its estimate); real (within error) when ω ≤ d, then
+// divergent if σ > 0, damped if σ < 0; complex otherwise, flutter if σ > d,
+// damped if σ < −d, oscillatory in between. morse_index and zero_modes count eigenvalues of the 2n system
 // (a pair that is real within error counts twice; an undamped rigid-body
 // motion gives two zero eigenvalues).
 #include "detail.hpp"
@@ -154,7 +160,7 @@ bool refine_pair(const Quadratic& q, bool real, Complex& s, Eigen::VectorXcd& x,
 
 ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX& C, const Cholesky& mass,
                               const MatrixX& K_error, const MatrixX& K_systematic_error, const MatrixX& C_error,
-                              const MatrixX& C_rounding) {
+                              const MatrixX& C_rounding, const SparseMatrix& K_rounding_form) {
   const Eigen::Index n = M.rows();
   const MatrixX MinvK = mass.solve(K);
   const MatrixX MinvC = mass.solve(C);
@@ -207,9 +213,14 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
   // |l|ᵀ(E_K + |s|E_C + |s|²E_M)|x| / |lᵀQ'(s)x|: how far the entries'
   // errors can move s, to first order; `systematic` the same for the
   // measured errors. Infinite (a defective eigenvalue) → the Hölder form.
+  // `decision`: the data's share at its worst, for the kinds (the header's
+  // "Kinds"); K's part through the rounding form F where given.
   struct Terms {
-    double data = 0, systematic = 0;
+    double data = 0, systematic = 0, decision = 0;
   };
+  const bool form = K_rounding_form.rows() == n && K_rounding_form.cols() == n;
+  // √(vᵀFv), F positive semidefinite up to rounding.
+  auto form_root = [&](const VectorX& v) { return std::sqrt(std::max(0.0, v.dot(K_rounding_form * v))); };
   auto terms = [&](Complex s, const Eigen::VectorXcd& x, const Eigen::VectorXcd& l, double den) {
     const VectorX absx = x.cwiseAbs(), absl = l.cwiseAbs();
     const double a = std::abs(s);
@@ -217,9 +228,23 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     // At the typical size of independent entry errors, doubled (as
     // symmetric.cpp's typical_quotient_rounding): (Σ_ij (l_i E_ij x_j)²)^½ ≤
     // ‖|l|∘(E|x|)‖₂, Cauchy–Schwarz by rows; never above the worst case.
-    const VectorX moved_by_data = EK * absx + a * (EC * absx) + (a * a) * (EM * absx);
-    t.data = std::min(absl.dot(moved_by_data), 2 * absl.cwiseProduct(moved_by_data).norm()) / den;
+    const VectorX moved_by_rest = a * (EC * absx) + (a * a) * (EM * absx);
+    const VectorX moved_by_data = EK * absx + moved_by_rest;
+    const double worst = absl.dot(moved_by_data);
+    t.data = std::min(worst, 2 * absl.cwiseProduct(moved_by_data).norm()) / den;
+    t.decision = worst / den;
+    if (form) {
+      // −4εF ≤ δK ≤ 4εF makes |uᵀδKv| ≤ 4ε√(uᵀFu · vᵀFv) for real u, v;
+      // with l = l_r + i l_i and x = x_r + i x_i, |lᵀδKx| ≤ 4ε(√(l_rᵀFl_r) +
+      // √(l_iᵀFl_i))(√(x_rᵀFx_r) + √(x_iᵀFx_i)). It holds the positions'
+      // rounding, which the entrywise E_K does not.
+      const double K_part = 4 * eps * (form_root(l.real()) + form_root(l.imag())) *
+                            (form_root(x.real()) + form_root(x.imag()));
+      t.decision = (K_part + absl.dot(moved_by_rest)) / den;
+      t.data = std::min(t.data, t.decision);
+    }
     if (!std::isfinite(t.data)) t.data = holder_data();
+    if (!std::isfinite(t.decision)) t.decision = holder_data();
     if (has_K_systematic || has_C_error) {
       VectorX moved = VectorX::Zero(n);
       if (has_K_systematic) moved += K_systematic_error * absx;
@@ -474,8 +499,11 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
   result.solver = "dense first-order 2n×2n (Eigen: Cholesky solves with M, real Schur EigenSolver, "
                   "left eigenvectors from the inverse eigenvector matrix)";
   for (Pair& p : pairs) {
-    const double error = p.solver + p.t.data + p.t.systematic;
-    const ModeKind kind = kind_of(p.s, error);
+    // Kinds with the data's share at its worst; a zero mode's estimate is
+    // that level, every other mode's the typical one.
+    const double decision = p.solver + p.t.decision + p.t.systematic;
+    const ModeKind kind = kind_of(p.s, decision);
+    const double error = kind == ModeKind::zero ? decision : p.solver + p.t.data + p.t.systematic;
     Mode mode = make_mode(p.s, error, kind);
     mode.systematic_error = p.t.systematic;
     const int multiplicity = p.s.imag() > 0 ? 2 : 1;  // eigenvalues of A this entry stands for

@@ -227,7 +227,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   for (MatrixX* A : {&Ms, &Ks, &K_error, &K_systematic, &G_error, &Cs, &C_rounding})
     if (A->size() != 0) detail::scale_symmetric_in_place(*A, scale);
   // The rounding form (sparse, as K: S F S, then the magnitude's power of
-  // four), for the symmetric solver's kinds; not in absolute angles.
+  // four), for the kinds of both solvers; not in absolute angles.
   SparseMatrix rounding_form;
   if (!absolute && model.K_rounding_form.rows() == n && model.K_rounding_form.cols() == n)
     rounding_form = scale.asDiagonal() * model.K_rounding_form * scale.asDiagonal();
@@ -270,7 +270,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
                                                options.modes, rounding_form)
-                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding);
+                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding,
+                                                                 rounding_form);
   detail::restore_magnitudes(result, magnitude, symmetric);
   // Classify with every mode, then keep the lowest ones asked for (the
   // symmetric solver analyzes the others only as far as their kind needs:
