@@ -179,9 +179,17 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   model.K_error = 4 * std::numeric_limits<double>::epsilon() * terms;
   // The springs' rounding, the positions' included, as a positive
   // semidefinite form (sparse_rounding_form) for deciding the modes' kinds;
-  // where K is ∇∇V itself (no follower loads, constraints or differences).
-  if (!model.circulatory && !s.has_constraints() && options.derivatives == DerivativeMethod::exact && !s.is_map())
+  // where K is ∇∇V itself, or ∇∇V less the multiplier term (no follower
+  // loads or differences). The multiplier term's rounding, at most 4ε|T|
+  // entrywise, is added as diag(Σ_j |T_ij|) (|ψ|ᵀ|T||ψ| ≤ ψᵀ diag(Σ_j
+  // |T_ij|) ψ, T symmetric); the form is projected with the rest below.
+  if (!model.circulatory && options.derivatives == DerivativeMethod::exact && !s.is_map()) {
     model.K_rounding_form = sparse_rounding_form(s, ws, q);
+    if (s.has_constraints() && model.K_rounding_form.size() > 0) {
+      const VectorX rows = multiplier_term.cwiseAbs().rowwise().sum();
+      model.K_rounding_form += SparseMatrix(rows.asDiagonal());
+    }
+  }
   if (difference_error.size() > 0) {
     model.K_error += difference_error;
     model.K_systematic_error = difference_error;
@@ -280,6 +288,10 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     if (!model.circulatory) model.K = symmetric_part(model.K);
     const MatrixX absN = N.cwiseAbs();
     model.K_error = absN.transpose() * model.K_error * absN;
+    // F's projection NᵀFN (positive semidefinite; dense, as the reduced K):
+    // φ_rᵀ δK_r φ_r = ψᵀδKψ with ψ = Nφ_r, which F bounds.
+    if (model.K_rounding_form.size() > 0)
+      model.K_rounding_form = MatrixX(N.transpose() * (model.K_rounding_form * N)).sparseView();
     if (model.K_systematic_error.size() > 0)
       model.K_systematic_error = absN.transpose() * model.K_systematic_error * absN;
     model.D = symmetric_part(N.transpose() * model.D * N);

@@ -76,7 +76,7 @@
 // (LinearModel::K_rounding_form), K's part of it as 4ε times F's bilinear
 // bound: the entrywise E_K leaves out the positions' rounding, and damped
 // rest-length nets 10²–10⁴ spacings from the origin had had rounding-level
-// real values called "divergence" (7 of 20 generated nets, tests/
+// real values called "divergence" (3 of 5 generated ones, tests/
 // test_extremes.cpp). With that level d: an eigenvalue is zero when
 // |s| ≤ d (and d is its estimate); real (within error) when ω ≤ d, then
 // divergent if σ > 0, damped if σ < 0; complex otherwise, flutter if σ > d,

@@ -64,7 +64,9 @@ struct LinearModel {
   // entry, so the eigenvalues' estimates add it without cancellation.
   MatrixX K_systematic_error;
   // sparse_rounding_form at q (dof×dof, positive semidefinite) where K is
-  // ∇∇V itself and the scene has springs; empty otherwise. The symmetric
+  // ∇∇V itself (less the multiplier term, whose rounding it includes, and
+  // projected as NᵀFN with constraints) and the scene has springs; empty
+  // otherwise (follower loads, differences, maps). The symmetric
   // solver decides the modes' kinds with its 4ε φᵀFφ instead of K_error's
   // entrywise worst case, which leaves out the positions' rounding.
   SparseMatrix K_rounding_form;
