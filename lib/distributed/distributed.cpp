@@ -696,7 +696,7 @@ struct PointSolver {
   std::optional<Workspace> ws;
   Assembly assembly;
   Vec x = nullptr, f = nullptr;
-  Mat J = nullptr, K = nullptr, M = nullptr;
+  Mat J = nullptr, K = nullptr, M = nullptr, F = nullptr;  // F: K's rounding form (sparse_rounding_form)
   SNES snes = nullptr;
   EPS eps_solver = nullptr;
   PointSolver() = default;
@@ -706,7 +706,7 @@ struct PointSolver {
     if (assembly.gather) VecScatterDestroy(&assembly.gather);
     for (Vec* v : {&assembly.local, &x, &f})
       if (*v) VecDestroy(v);
-    for (Mat* A : {&J, &K, &M})
+    for (Mat* A : {&J, &K, &M, &F})
       if (*A) MatDestroy(A);
     if (snes) SNESDestroy(&snes);
     if (eps_solver) EPSDestroy(&eps_solver);
@@ -744,7 +744,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
   std::optional<Workspace>& ws = solver.ws;
   Assembly& assembly = solver.assembly;
   Vec &x = solver.x, &f = solver.f;
-  Mat &J = solver.J, &K = solver.K, &M = solver.M;
+  Mat &J = solver.J, &K = solver.K, &M = solver.M, &F = solver.F;
   SNES& snes = solver.snes;
   EPS& eps_solver = solver.eps_solver;
   {  // the phases, in order; each agreed on by the ranks
@@ -1019,16 +1019,25 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       SparseMatrix local_mass;
       phase([&] { local_mass = sparse_mass_matrix(*part.system, *ws, q); });
       assembly.add_matrix(M, local_mass);
-      MODAL_PETSC(MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY));
-      MODAL_PETSC(MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY));
-      for (Mat A : {K, M}) MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
+      // K's rounding form, the positions' rounding included (positive
+      // semidefinite, each rank's springs): the kinds are decided with it, as
+      // on the serial sparse path (an empty local form adds nothing).
+      F = create_matrix(part, n);
+      SparseMatrix local_form;
+      phase([&] { local_form = sparse_rounding_form(*part.system, *ws, q); });
+      assembly.add_matrix(F, local_form);
+      for (Mat A : {M, F}) {
+        MODAL_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+        MODAL_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+      }
+      for (Mat A : {K, M, F}) MODAL_PETSC(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
     });
     timings.mark("assembly");
 
     // ---- the lowest modes
     ModalResult result;
     std::vector<VectorX> shapes;  // rank 0
-    std::vector<std::array<double, 3>> numbers;  // λ, error, rounding per mode
+    std::vector<std::array<double, 4>> numbers;  // λ, error, rounding, zero level per mode
     phase([&] {
       const auto started = Clock::now();
       Vec dk = nullptr, dm = nullptr;
@@ -1141,7 +1150,17 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           PetscReal x2 = 0;
           MODAL_PETSC(VecNorm(phi, NORM_2, &x2));
           x2 *= x2;
-          numbers.push_back({lambda, std::sqrt(std::max(0.0, e2)), 4 * eps * (K1 + std::abs(lambda) * M1) * x2});
+          // The kind's level, as the serial sparse path's: the residual plus
+          // the data's rounding at its worst, 4ε(φᵀFφ + |λ|φᵀMφ) (M diagonal,
+          // φᵀMφ = 1). Without it, the normwise level alone had generated
+          // rest-length nets 10–1e4 spacings from the origin called
+          // divergent (9 of 10: the positions' rounding is not in ‖K‖₁).
+          MODAL_PETSC(MatMult(F, phi, Kphi));
+          PetscScalar form = 0;
+          MODAL_PETSC(VecDot(phi, Kphi, &form));
+          const double error = std::sqrt(std::max(0.0, e2));
+          numbers.push_back({lambda, error, 4 * eps * (K1 + std::abs(lambda) * M1) * x2,
+                             error + 4 * eps * (std::max(0.0, form) + std::abs(lambda))});
           shapes.push_back(gathered == Gathered::root ? gather_to_root(phi) : VectorX::Zero(1));
         }
         for (Vec* v : {&phi, &Kphi, &Mphi, &r}) MODAL_PETSC(VecDestroy(v));
@@ -1178,7 +1197,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         std::stable_sort(order.begin(), order.end(),
                          [&](std::size_t i, std::size_t j) { return numbers[i][0] < numbers[j][0]; });
         order.resize(static_cast<std::size_t>(k));
-        std::vector<std::array<double, 3>> kept_numbers;
+        std::vector<std::array<double, 4>> kept_numbers;
         std::vector<VectorX> kept_shapes;
         for (const std::size_t i : order) {
           kept_numbers.push_back(numbers[i]);
@@ -1194,7 +1213,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // class over the whole spectrum (collective factorizations).
       for (std::size_t i = 0; i < numbers.size(); ++i)
         result.modes.push_back(sparse_mode(rank == 0 ? std::move(shapes[i]) : VectorX::Zero(1), numbers[i][0],
-                                           numbers[i][1], numbers[i][2]));
+                                           numbers[i][1], numbers[i][2], 0.0, numbers[i][3]));
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
       if (completeness)
