@@ -687,17 +687,36 @@ Eigen::Matrix<double, 6, 6> positive_spring_block(const Eigen::Matrix<double, 6,
 // transverse k p carries the rounding of k and of k L₀/L, ε/p of itself,
 // which the entries of h alone (≈ k p) did not count: a net at p = 1e-9 had
 // ω² off by 2.8e-8 relative with estimates of 2e-14.
-Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+// A spring's axes from its local Hessian He: u along d = x_a − x_b, the
+// axial stiffness k = uᵀhu and the transverse t = (tr h − k)/2 of its
+// block h; false where the ends coincide (no direction).
+struct SpringAxes {
+  Vec3 u;
+  double length = 0, k = 0, t = 0;
+};
+bool spring_axes(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He, SpringAxes& axes) {
   const Vec3 d = sites[0].x - sites[1].x;
-  const double length = d.norm();
+  axes.length = d.norm();
+  if (!(axes.length > 0)) return false;
   const Mat3 h = He.topLeftCorner<3, 3>();
-  if (!(length > 0)) return He.cwiseAbs();
-  const Vec3 u = d / length;
-  const double k = u.dot(h * u), t = 0.5 * (h.trace() - k);
-  const Mat3 m = std::abs(k) * Mat3::Identity() + std::abs(k - t) * (Mat3::Identity() - u * u.transpose()).cwiseAbs();
-  Eigen::Matrix<double, 6, 6> M;
-  M << m, -m, -m, m;
-  return M;
+  axes.u = d / axes.length;
+  axes.k = axes.u.dot(h * axes.u);
+  axes.t = 0.5 * (h.trace() - axes.k);
+  return true;
+}
+
+// [b −b; −b b] for a 3 × 3 block b.
+Eigen::Matrix<double, 6, 6> two_point_block(const Mat3& b) {
+  Eigen::Matrix<double, 6, 6> B;
+  B << b, -b, -b, b;
+  return B;
+}
+
+Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+  SpringAxes a;
+  if (!spring_axes(sites, He, a)) return He.cwiseAbs();
+  return two_point_block(std::abs(a.k) * Mat3::Identity() +
+                         std::abs(a.k - a.t) * (Mat3::Identity() - a.u * a.u.transpose()).cwiseAbs());
 }
 
 // A bound of a spring's rounding as a positive semidefinite block, for
@@ -710,23 +729,14 @@ Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, 
 // + (|k| + (1 + ρ)|k − t|)(I − uuᵀ) + ρ|k − t| I (2|a||b| ≤ a² + b² for the
 // direction's term). The block is [s −s; −s s], in units of ε.
 Eigen::Matrix<double, 6, 6> spring_rounding_form(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
-  const Vec3 d = sites[0].x - sites[1].x;
-  const double length = d.norm();
-  const Mat3 h = He.topLeftCorner<3, 3>();
-  Mat3 block;
-  if (!(length > 0)) {
-    block = h.cwiseAbs().rowwise().sum().asDiagonal();  // |v|ᵀ|h||v| ≤ Σ_i (Σ_j |h_ij|) v_i²
-  } else {
-    const Vec3 u = d / length;
-    const double k = u.dot(h * u), t = 0.5 * (h.trace() - k);
-    const double rho = (sites[0].x.norm() + sites[1].x.norm()) / length;
-    const Mat3 along = u * u.transpose();
-    block = std::abs(k) * along + (std::abs(k) + (1 + rho) * std::abs(k - t)) * (Mat3::Identity() - along) +
-            rho * std::abs(k - t) * Mat3::Identity();
-  }
-  Eigen::Matrix<double, 6, 6> B;
-  B << block, -block, -block, block;
-  return B;
+  SpringAxes a;
+  if (!spring_axes(sites, He, a))  // |v|ᵀ|h||v| ≤ Σ_i (Σ_j |h_ij|) v_i²
+    return two_point_block(He.topLeftCorner<3, 3>().cwiseAbs().rowwise().sum().asDiagonal());
+  const double rho = (sites[0].x.norm() + sites[1].x.norm()) / a.length;
+  const Mat3 along = a.u * a.u.transpose();
+  return two_point_block(std::abs(a.k) * along +
+                         (std::abs(a.k) + (1 + rho) * std::abs(a.k - a.t)) * (Mat3::Identity() - along) +
+                         rho * std::abs(a.k - a.t) * Mat3::Identity());
 }
 
 // An adder that bounds each term |v φ_j φ_k| by |v|(φ_j² + φ_k²)/2: the

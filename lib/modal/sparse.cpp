@@ -690,44 +690,46 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
     // the whole budget, so that its results are those of a run without a
     // probe (going on from the probe's first Lanczos vector gives other
     // vectors, and on a slowly converging run no fewer solves).
+    // A finished iteration's results, after `earlier` restarts and solves.
+    auto take = [&run](const auto& eigs, Index earlier_restarts, Index earlier_solves) {
+      run.restarts = earlier_restarts + eigs.num_iterations();
+      run.solves = earlier_solves + eigs.num_operations();
+      run.lambda = eigs.eigenvalues();
+      run.Phi = eigs.eigenvectors();
+    };
     Index probe_restarts = 0, probe_solves = 0;
+    bool done = false;
     if (probe && probe->restarts < options.max_iterations) {
       ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
       eigs.init();
       eigs.compute(Spectra::SortRule::LargestMagn, probe->restarts, options.tolerance, Spectra::SortRule::SmallestAlge);
       if (eigs.info() == Spectra::CompInfo::Successful) {
-        run.restarts = eigs.num_iterations();
-        run.solves = eigs.num_operations();
-        run.lambda = eigs.eigenvalues();
-        run.Phi = eigs.eigenvectors();
-        run.factor = factor.describe();
-        return run;
-      }
-      run.restarts = probe_restarts = eigs.num_iterations();
-      run.solves = probe_solves = eigs.num_operations();
-      if (probe->stop(eigs.current_values())) {
-        run.lambda = eigs.current_values();
-        run.stopped = true;
-        run.factor = factor.describe();
-        return run;
+        take(eigs, 0, 0);
+        done = true;
+      } else {
+        run.restarts = probe_restarts = eigs.num_iterations();
+        run.solves = probe_solves = eigs.num_operations();
+        if (probe->stop(eigs.current_values())) {
+          run.lambda = eigs.current_values();
+          run.stopped = done = true;
+        }
       }
     }
-    ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
-    eigs.init();
-    const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
-                                         Spectra::SortRule::SmallestAlge);
-    run.restarts = probe_restarts + eigs.num_iterations();
-    run.solves = probe_solves + eigs.num_operations();
-    if (eigs.info() != Spectra::CompInfo::Successful)
-      throw NumericalError("solve_sparse_modes: the shift-invert Lanczos iteration at σ = " +
-                           units(sigma, 6) + " did not converge: " + std::to_string(converged) +
-                           " of " + std::to_string(nev) + " eigenvalues converged after " +
-                           std::to_string(run.restarts) + " restarts (max_iterations " +
-                           std::to_string(options.max_iterations) + ", tolerance " +
-                           detail::format_number(options.tolerance, 3) +
-                           "); raise max_iterations or the tolerance, or ask for fewer modes");
-    run.lambda = eigs.eigenvalues();
-    run.Phi = eigs.eigenvectors();
+    if (!done) {
+      ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
+      eigs.init();
+      const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
+                                           Spectra::SortRule::SmallestAlge);
+      if (eigs.info() != Spectra::CompInfo::Successful)
+        throw NumericalError("solve_sparse_modes: the shift-invert Lanczos iteration at σ = " + units(sigma, 6) +
+                             " did not converge: " + std::to_string(converged) + " of " + std::to_string(nev) +
+                             " eigenvalues converged after " +
+                             std::to_string(probe_restarts + eigs.num_iterations()) + " restarts (max_iterations " +
+                             std::to_string(options.max_iterations) + ", tolerance " +
+                             detail::format_number(options.tolerance, 3) +
+                             "); raise max_iterations or the tolerance, or ask for fewer modes");
+      take(eigs, probe_restarts, probe_solves);
+    }
   } catch (const NumericalError&) {
     throw;
   } catch (const std::exception& e) {
