@@ -32,7 +32,7 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-PRESTRAINS = [0.02, 1e-6, 1e-10, 1e-12, 0.0]
+PRESTRAINS = [0.02, 1e-6, 1e-10, 1e-12, 1e-13, 0.0]
 
 
 def scene(side, p):
