@@ -75,14 +75,14 @@
 // typical size), as in symmetric.cpp, and, where the rounding form F is given
 // (LinearModel::K_rounding_form), K's part of it as 4ε times F's bilinear
 // bound: the entrywise E_K leaves out the positions' rounding, and damped
-// rest-length nets 10²–10⁴ spacings from the origin had had rounding-level
-// real values called "divergence" (3 of 5 generated ones, tests/
+// rest-length nets 10²–10⁴ spacings from the origin had rounding-level real
+// values called "divergence" (3 of 5 generated ones, tests/
 // test_extremes.cpp). With that level d: an eigenvalue is zero when
 // |s| ≤ d (and d is its estimate); real (within error) when ω ≤ d, then
 // divergent if σ > 0, damped if σ < 0; complex otherwise, flutter if σ > d,
-// damped if σ < −d, oscillatory in between. morse_index and zero_modes count eigenvalues of the 2n system
-// (a pair that is real within error counts twice; an undamped rigid-body
-// motion gives two zero eigenvalues).
+// damped if σ < −d, oscillatory in between. morse_index and zero_modes
+// count eigenvalues of the 2n system (a pair that is real within error
+// counts twice; an undamped rigid-body motion gives two zero eigenvalues).
 #include "detail.hpp"
 
 #include <Eigen/Eigenvalues>

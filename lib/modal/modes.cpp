@@ -271,7 +271,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
                                                options.modes, rounding_form)
                      : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding,
-                                                                 rounding_form);
+                                                 rounding_form);
   detail::restore_magnitudes(result, magnitude, symmetric);
   // Classify with every mode, then keep the lowest ones asked for (the
   // symmetric solver analyzes the others only as far as their kind needs:

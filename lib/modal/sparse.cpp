@@ -705,21 +705,16 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
       ShiftInvertSolver<ShiftInvertOp<Factor>, MassOp> eigs(op, mass_op, nev, run.ncv, sigma);
       eigs.init();
       eigs.compute(Spectra::SortRule::LargestMagn, probe->restarts, options.tolerance, Spectra::SortRule::SmallestAlge);
-      if (eigs.info() == Spectra::CompInfo::Successful && !probe->stop(eigs.eigenvalues())) {
+      run.restarts = probe_restarts = eigs.num_iterations();
+      run.solves = probe_solves = eigs.num_operations();
+      const bool converged = eigs.info() == Spectra::CompInfo::Successful;
+      const VectorX values = converged ? VectorX(eigs.eigenvalues()) : eigs.current_values();
+      if (probe->stop(values)) {
+        run.lambda = values;
+        run.stopped = done = true;
+      } else if (converged) {
         take(eigs, 0, 0);
         done = true;
-      } else if (eigs.info() == Spectra::CompInfo::Successful) {
-        run.restarts = probe_restarts = eigs.num_iterations();
-        run.solves = probe_solves = eigs.num_operations();
-        run.lambda = eigs.eigenvalues();
-        run.stopped = done = true;
-      } else {
-        run.restarts = probe_restarts = eigs.num_iterations();
-        run.solves = probe_solves = eigs.num_operations();
-        if (probe->stop(eigs.current_values())) {
-          run.lambda = eigs.current_values();
-          run.stopped = done = true;
-        }
       }
     }
     if (!done) {
