@@ -139,6 +139,16 @@ bool mostly_zero(const MatrixX& A) {
   return true;
 }
 
+// Whether the lower triangle of L is diagonal (the factor of a diagonal M:
+// particles, point masses): its solves are then scalings, O(n) per vector.
+// Stops at the first entry below the diagonal that is not zero.
+bool diagonal_lower(const MatrixX& L) {
+  for (Eigen::Index j = 0; j < L.cols(); ++j)
+    for (Eigen::Index i = j + 1; i < L.rows(); ++i)
+      if (L(i, j) != 0) return false;
+  return true;
+}
+
 // Products of fewer than 128³ multiply–adds are left to Eigen: BLAS pays only
 // for larger ones, and a small scene then never loads it (the program
 // `modal` loads OpenBLAS on its first call).
@@ -146,50 +156,96 @@ bool small_product(int m, int n, int k) {
   return static_cast<double>(m) * static_cast<double>(n) * static_cast<double>(k) < 128.0 * 128.0 * 128.0;
 }
 
-// C ← beta C + A B (column-major, sizes from A and B; beta 0 or 1).
-void multiply(const MatrixX& A, const MatrixX& B, double beta, MatrixX& C) {
-  const int m = static_cast<int>(A.rows()), n = static_cast<int>(B.cols()), k = static_cast<int>(A.cols());
-  if (beta == 0) C.resize(m, n);
-  if (m == 0 || n == 0) return;
-  if (k == 0) {
-    if (beta == 0) C.setZero();
-    return;
-  }
-  if (mostly_zero(A)) {
-    const Eigen::SparseMatrix<double> S = A.sparseView();
-    if (beta == 0) C.noalias() = S * B;
-    else C.noalias() += S * B;
-    return;
-  }
-  if (small_product(m, n, k)) {  // Eigen's own kernel: no BLAS to load or start (docs/design.md, "Start-up")
-    if (beta == 0) C.noalias() = A * B;
-    else C.noalias() += A * B;
-    return;
-  }
-  const double one = 1;
-  dgemm_("N", "N", &m, &n, &k, &one, A.data(), &m, B.data(), &k, &beta, C.data(), &m, 1, 1);
-}
+// A matrix the analysis multiplies by, in the form decided once for all its
+// products (both analyses, and |A| beside A): sparse where mostly_zero, else
+// dense. Deciding per product had scanned and converted a 1000-link chain's
+// diagonal K, |K| and E (n² entries each, twice over with the refinement)
+// for longer than the sparse products took. It refers to the matrix it is
+// given, or owns one made for it; neither copied nor moved.
+class Operand {
+ public:
+  explicit Operand(const MatrixX& A) : dense_(&A) { decide(); }
+  explicit Operand(MatrixX&& A) : owned_(std::move(A)), dense_(&owned_) { decide(); }
+  Operand(const Operand&) = delete;
+  Operand& operator=(const Operand&) = delete;
 
-// A B.
-MatrixX product(const MatrixX& A, const MatrixX& B) {
-  MatrixX C;
-  multiply(A, B, 0, C);
-  return C;
-}
+  // C ← beta C + op B, op = A or |A| (column-major; beta 0 or 1).
+  void multiply(const MatrixX& B, bool absolute, double beta, MatrixX& C) const {
+    const int m = static_cast<int>(rows_), n = static_cast<int>(B.cols()), k = static_cast<int>(cols_);
+    if (beta == 0) C.resize(m, n);
+    if (m == 0 || n == 0) return;
+    if (k == 0) {
+      if (beta == 0) C.setZero();
+      return;
+    }
+    if (sparse_) {
+      const Eigen::SparseMatrix<double>& S = absolute ? absolute_ : sparse_matrix_;
+      if (beta == 0) C.noalias() = S * B;
+      else C.noalias() += S * B;
+      return;
+    }
+    MatrixX made;  // |A|, freed on return (fresh pages cost more to touch than to keep few)
+    if (absolute) made = dense_->cwiseAbs();
+    const MatrixX& A = absolute ? made : *dense_;
+    if (small_product(m, n, k)) {  // Eigen's own kernel: no BLAS to load or start (docs/design.md, "Start-up")
+      if (beta == 0) C.noalias() = A * B;
+      else C.noalias() += A * B;
+      return;
+    }
+    const double one = 1;
+    dgemm_("N", "N", &m, &n, &k, &one, A.data(), &m, B.data(), &k, &beta, C.data(), &m, 1, 1);
+  }
+  MatrixX product(const MatrixX& B, bool absolute = false) const {
+    MatrixX C;
+    multiply(B, absolute, 0, C);
+    return C;
+  }
 
-// C ← C + A B.
-void add_product(const MatrixX& A, const MatrixX& B, MatrixX& C) { multiply(A, B, 1, C); }
+ private:
+  void decide() {
+    rows_ = dense_->rows();
+    cols_ = dense_->cols();
+    sparse_ = mostly_zero(*dense_);
+    if (!sparse_) return;
+    sparse_matrix_ = dense_->sparseView();
+    absolute_ = sparse_matrix_.cwiseAbs();
+    owned_.resize(0, 0);  // the sparse forms hold everything now
+  }
+  MatrixX owned_;
+  const MatrixX* dense_;
+  Eigen::Index rows_ = 0, cols_ = 0;
+  bool sparse_ = false;
+  Eigen::SparseMatrix<double> sparse_matrix_, absolute_;
+};
 
-// B ← L⁻¹ B for the lower triangle L of `L` (n×n; the upper triangle is not read).
+// B ← L⁻¹ B for the lower triangle L of `L` (n×n; the upper triangle is not
+// read): rows scaled where L is diagonal.
 void solve_lower(const MatrixX& L, MatrixX& B) {
   const int n = static_cast<int>(L.rows()), m = static_cast<int>(B.cols());
   if (n == 0 || m == 0) return;
+  if (diagonal_lower(L)) {
+    B.array().colwise() /= L.diagonal().array();
+    return;
+  }
   if (small_product(n, m, n)) {
     L.triangularView<Eigen::Lower>().solveInPlace(B);
     return;
   }
   const double one = 1;
   dtrsm_("L", "L", "N", "N", &n, &m, &one, L.data(), &n, B.data(), &n, 1, 1, 1, 1);
+}
+
+// B ← L⁻ᵀ B for the lower triangle L of `L` (BLAS dtrsm; rows scaled where L
+// is diagonal).
+void solve_upper(const MatrixX& L, MatrixX& B) {
+  const int n = static_cast<int>(L.rows()), m = static_cast<int>(B.cols());
+  if (n == 0 || m == 0) return;
+  if (diagonal_lower(L)) {
+    B.array().colwise() /= L.diagonal().array();
+    return;
+  }
+  const double one = 1;
+  dtrsm_("L", "L", "T", "N", &n, &m, &one, L.data(), &n, B.data(), &n, 1, 1, 1, 1);
 }
 
 // Eigen: C = L⁻¹ K L⁻ᵀ = L⁻¹ (L⁻¹ K)ᵀ for symmetric K, symmetrized exactly,
@@ -207,8 +263,15 @@ void eigen_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, Matrix
 }
 
 // C = L⁻¹KL⁻ᵀ in place of K (n×n; its lower triangle is written), with the
-// factor L of M in the lower triangle of L (LAPACK dsygst).
+// factor L of M in the lower triangle of L (LAPACK dsygst; scalings where L
+// is diagonal).
 void reduce_to_standard(MatrixX& K, const MatrixX& L) {
+  if (diagonal_lower(L)) {  // C_ij = K_ij / (l_i l_j): O(n²), not dsygst's n³
+    const VectorX& l = L.diagonal();
+    for (Eigen::Index j = 0; j < K.cols(); ++j)
+      for (Eigen::Index i = j; i < K.rows(); ++i) K(i, j) = K(i, j) / l(i) / l(j);
+    return;
+  }
   const int n = static_cast<int>(K.rows()), itype = 1;
   int info = 0;
   dsygst_(&itype, "L", &n, K.data(), &n, L.data(), &n, &info, 1);
@@ -254,8 +317,7 @@ void lapack_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, Matri
   const std::unique_ptr<int[]> iwork(new int[static_cast<std::size_t>(liwork)]);
   dsyevd_("V", "L", &n, Phi.data(), &n, lambda.data(), work.get(), &lwork, iwork.get(), &liwork, &info, 1, 1);
   if (info != 0) throw NumericalError("LAPACK dsyevd did not converge (info " + std::to_string(info) + ")");
-  const double one = 1;
-  dtrsm_("L", "L", "T", "N", &n, &n, &one, L.data(), &n, Phi.data(), &n, 1, 1, 1, 1);  // Φ = L⁻ᵀY
+  solve_upper(L, Phi);  // Φ = L⁻ᵀY
 }
 
 // K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
@@ -315,8 +377,7 @@ class TridiagonalPencil {
     work.assign(static_cast<std::size_t>(lwork), 0.0);
     dormtr_("L", "L", "N", &n_, &p, A_.data(), &n_, tau_.data(), Z.data(), &n_, work.data(), &lwork, &info, 1, 1, 1);
     if (info != 0) return {};
-    const double one = 1;
-    dtrsm_("L", "L", "T", "N", &n_, &p, &one, L_.data(), &n_, Z.data(), &n_, 1, 1, 1, 1);  // Φ = L⁻ᵀ Y
+    solve_upper(L_, Z);  // Φ = L⁻ᵀ Y
     return Z;
   }
 
@@ -546,12 +607,24 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // what its data and quotient alone justify (refinement, below).
   VectorX unresolved;
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
-  // formed once (lower_inverse: n³/3 flops): the residual bound's worst case
-  // of rounding.
+  // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
+  // the residual bound's worst case of rounding.
   const double inverse_norm = [&] {
+    if (diagonal_lower(mass.matrixLLT())) return mass.matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
     const MatrixX inverse = lower_inverse(mass.matrixLLT()).cwiseAbs();
     return std::sqrt(inverse.colwise().sum().maxCoeff() * inverse.rowwise().sum().maxCoeff());
   }();
+  // The analysis's matrices, each in the form of its products (Operand),
+  // decided once for both analyses. E: the rounding part of the entries'
+  // error (K_error, less the measured error of differences where that is
+  // given; else 4ε|K|); D: the measured error of differences.
+  const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
+  const bool given = K_error.rows() == n && K_error.cols() == n;
+  const Operand K_op(K), M_op(M);
+  std::optional<Operand> E_op, D_op;  // E: none where it is 4ε|K| (products with |K|, scaled)
+  if (given && !differences) E_op.emplace(K_error);
+  if (given && differences) E_op.emplace(MatrixX((K_error - K_systematic_error).cwiseMax(0.0)));
+  if (differences) D_op.emplace(K_systematic_error);
   auto analyze = [&]() -> ModalResult {
     const auto m = static_cast<Eigen::Index>(analyzed.size());
     VectorX lambda = lambda_all(analyzed);
@@ -564,7 +637,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // relative on a 320-link cantilever in relative angles). Re-sorted.
     // The n×n work matrices below are few and freed as soon as they are used:
     // fresh pages cost more to touch than the products cost to compute.
-    MatrixX R = product(K, Phi);  // KΦ, then the residuals KΦ − MΦΛ
+    MatrixX R = K_op.product(Phi);  // KΦ, then the residuals KΦ − MΦΛ
     VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
     VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
     // The pencil projected on neighbouring vectors, for the close pairs and
@@ -575,7 +648,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     constexpr Eigen::Index group = 8;
     MatrixX bandK = MatrixX::Zero(group, m), bandM = MatrixX::Zero(group, m);
     {
-      MatrixX MPhi = product(M, Phi);
+      MatrixX MPhi = M_op.product(Phi);
       VectorX rq(m);
       for (Eigen::Index j = 0; j < m; ++j) {
         phiMphi(j) = Phi.col(j).dot(MPhi.col(j));
@@ -613,13 +686,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // Stability, §3.5): both carried through L⁻¹ by triangular solves.
     const MatrixX absPhi = Phi.cwiseAbs();
     MatrixX absMPhi, rounding;  // |M||Φ| (also for the data term below); |K||Φ| + |M||Φ||Λ|
-    {
-      MatrixX absolute = M.cwiseAbs();
-      absMPhi = product(absolute, absPhi);
-      rounding = absMPhi * lambda.cwiseAbs().asDiagonal();
-      absolute = K.cwiseAbs();  // the same storage
-      add_product(absolute, absPhi, rounding);
-    }
+    M_op.multiply(absPhi, true, 0, absMPhi);
+    rounding = absMPhi * lambda.cwiseAbs().asDiagonal();
+    K_op.multiply(absPhi, true, 1, rounding);
     VectorX residual_norm(m), absKM_dot(m), rows(m);  // ‖R_j‖ (for the relative residual below);
     VectorX rounding_norm(m);                            // |φ|ᵀ(|K| + |λ||M|)|φ|; ‖φ∘(|K||φ| + |λ||M||φ|)‖₂; ‖rounding_j‖₂
     // Column norms by stableNorm: a refined zero mode's residual (1e-165)
@@ -734,17 +803,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       }
       first = last + 1;
     }
-    // D: the measured error of differences (systematic: added as |φ|ᵀD|φ|, no
-    // cancellation assumed); E: the rounding part of K_error (given, or 4ε|K|).
-    const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
-    const bool given = K_error.rows() == n && K_error.cols() == n;
-    const MatrixX EabsPhi = given && !differences
-                                ? product(K_error, absPhi)
-                                : product(given ? MatrixX((K_error - K_systematic_error).cwiseMax(0.0))
-                                                : MatrixX(4 * eps * K.cwiseAbs()),
-                                          absPhi);
+    // E|Φ| and D|Φ| (D systematic: added as |φ|ᵀD|φ|, no cancellation assumed).
+    const MatrixX EabsPhi = E_op ? E_op->product(absPhi) : MatrixX(4 * eps * K_op.product(absPhi, true));
     const double normM = M.norm(), normK = K.norm();  // Frobenius ≥ 2-norm
-    const MatrixX DabsPhi = differences ? product(K_systematic_error, absPhi) : MatrixX();
+    const MatrixX DabsPhi = differences ? D_op->product(absPhi) : MatrixX();
     // φᵀFφ per mode where the rounding form is given (a positive
     // semidefinite bound of the data's rounding, the positions' included,
     // that keeps the springs' Laplacian structure: sparse_rounding_form).
