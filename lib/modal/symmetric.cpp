@@ -157,8 +157,8 @@ bool small_product(int m, int n, int k) {
 }
 
 // A matrix the analysis multiplies by, in the form decided once for all its
-// products (both analyses, and |A| beside A): sparse where mostly_zero, else
-// dense. Deciding per product had scanned and converted a 1000-link chain's
+// products (both analyses): sparse where mostly_zero, with |A| made beside A
+// once, else dense, |A| made for each product that asks for it and freed. Deciding per product had scanned and converted a 1000-link chain's
 // diagonal K, |K| and E (n² entries each, twice over with the refinement)
 // for longer than the sparse products took. It refers to the matrix it is
 // given, or owns one made for it; neither copied nor moved.
@@ -298,7 +298,8 @@ MatrixX lower_inverse(const MatrixX& L) {
 
 // Every pair of K φ = λ M φ (ΦᵀMΦ = I) by LAPACK, as dsygvd computes them
 // but with the caller's factor L of M (dsygvd would factor M again): C =
-// L⁻¹KL⁻ᵀ (dsygst), CY = YΛ by divide and conquer (dsyevd), Φ = L⁻ᵀY.
+// L⁻¹KL⁻ᵀ (dsygst, or scalings where L is diagonal), CY = YΛ by divide and
+// conquer (dsyevd), Φ = L⁻ᵀY.
 void lapack_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, MatrixX& Phi) {
   const int n = static_cast<int>(K.rows());
   const MatrixX& L = mass.matrixLLT();  // its lower triangle is L
@@ -322,7 +323,8 @@ void lapack_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, Matri
 
 // K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
 // C = L⁻¹KL⁻ᵀ, with the factor L of M that the caller already has (LAPACK
-// dsygst, dsytrd: the first half of dsygvd's work). Every eigenvalue comes
+// dsygst, or scalings where L is diagonal, then dsytrd: the first half of
+// dsygvd's work). Every eigenvalue comes
 // from T alone (O(n²)); a vector of T is one of the pencil after Q and L⁻ᵀ.
 class TridiagonalPencil {
  public:
@@ -418,8 +420,8 @@ class TridiagonalPencil {
 // such steps on the one factorization (subspace iteration), since a run
 // whose quotients span many decades needs the stiff components shrunk by
 // more than one step gives. A run reaches across resolved modes to the next
-// one where its modes' intervals λ ± estimate (`lambda`, `estimate`: the
-// analysis's, per analyzed mode) span the gap (below).
+// one where the gap in λ is within the largest estimate of their unresolved
+// modes (`lambda`, `estimate`: the analysis's, per analyzed mode; below).
 // The analysis is then repeated on the vectors; its
 // bounds hold for whatever vectors it is given. Returns whether any vector
 // changed.
@@ -447,12 +449,13 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const VectorX& unreso
     while (last + 1 < candidates.size() && candidates[last + 1] == candidates[last] + 1) ++last;
     Run run{candidates[first], static_cast<Eigen::Index>(last - first + 1), 0.0};
     for (std::size_t c = first; c <= last; ++c) run.worst = std::max(run.worst, unresolved(candidates[c]));
-    // Two runs whose modes' intervals reach across the modes between them
-    // are one: those modes' vectors are as mixed as theirs (a resolved mode
-    // among unresolved ones is no separation), and a block step over one run
-    // alone cannot recover what the other holds. Separate block steps over
-    // 16 runs of a graded particle chain had left two of its vectors on one
-    // eigenvalue and none on another.
+    // Two runs whose gap in λ is within the largest estimate of their
+    // unresolved modes are one: the modes between them lie within that
+    // uncertainty, and their vectors are as mixed as the runs' (a resolved
+    // mode among unresolved ones is no separation); a block step over one
+    // run alone cannot recover what the other holds. Separate block steps
+    // over 16 runs of a graded particle chain had left two of its vectors on
+    // one eigenvalue and none on another.
     if (!runs.empty()) {
       Run& previous = runs.back();
       const Eigen::Index end = previous.start + previous.size - 1, stop = run.start + run.size - 1;
@@ -631,8 +634,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
   // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
   // the residual bound's worst case of rounding.
+  const bool diagonal_factor = diagonal_lower(mass.matrixLLT());
   const double inverse_norm = [&] {
-    if (diagonal_lower(mass.matrixLLT())) return mass.matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
+    if (diagonal_factor) return mass.matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
     const MatrixX inverse = lower_inverse(mass.matrixLLT()).cwiseAbs();
     return std::sqrt(inverse.colwise().sum().maxCoeff() * inverse.rowwise().sum().maxCoeff());
   }();
@@ -840,10 +844,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     }
 
     ModalResult result;
-    result.solver = reduced ? "dense symmetric-definite (LAPACK: Cholesky of M, tridiagonal reduction, every eigenvalue "
-                              "by dsterf, the lowest modes' vectors by MRRR dstemr)"
-                   : lapack ? "dense symmetric-definite (LAPACK: Cholesky of M, dsygst, divide and conquer dsyevd)"
-                            : "dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)";
+    const char* reduction = diagonal_factor ? "M diagonal, L⁻¹KL⁻ᵀ by scaling" : "Cholesky of M, dsygst";
+    result.solver = reduced ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
+                                  ", tridiagonal reduction, every eigenvalue by dsterf, the lowest modes' vectors by "
+                                  "MRRR dstemr)"
+                   : lapack ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
+                                  ", divide and conquer dsyevd)"
+                            : std::string("dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)");
     double worst_relative_residual = 0;
     Eigen::Index worst = 0;
     for (Eigen::Index j = 0, i = 0; j < n; ++j) {
