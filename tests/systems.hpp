@@ -2,10 +2,24 @@
 #pragma once
 
 #include "modal/core.hpp"
+#include "modal/linearize.hpp"
+#include "modal/modes.hpp"
 
 #include <string>
 
 namespace modal::test {
+
+// The sparse path's modes of `lin` as the pipeline solves them (its
+// K_magnitude, K_rounding_form unless `rounding_form` is false, and
+// inertia_scale; copied, not lent), the lowest `modes`.
+inline ModalResult sparse_modes_of(const SparseLinearModel& lin, int modes, bool rounding_form = true) {
+  SparseModalOptions options;
+  options.modes = modes;
+  options.K_magnitude = lin.K_magnitude;
+  if (rounding_form) options.K_rounding_form = lin.K_rounding_form;
+  options.inertia_scale = lin.inertia_scale;
+  return solve_sparse_modes(lin.K, lin.M, options);
+}
 
 // A body on a one-axis joint (axis normalized) at `origin` in its parent's
 // frame, with a point mass at its frame origin.

@@ -15,6 +15,7 @@
 #include "modal/modes.hpp"
 #include "modal/scene.hpp"
 #include "program.hpp"
+#include "systems.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <gtest/gtest.h>
@@ -729,12 +730,7 @@ TEST(Extremes, SmallPrestrainsAreCoveredByTheEstimates) {
 // rounding form too unless `rounding_form` is false).
 ModalResult sparse_net_modes(const PrestrainedNet& net, int modes, SparseLinearModel& lin, bool rounding_form = true) {
   lin = linearize_sparse(net.sys, VectorX::Zero(net.sys.size()));
-  SparseModalOptions options;
-  options.modes = modes;
-  options.K_magnitude = lin.K_magnitude;
-  if (rounding_form) options.K_rounding_form = lin.K_rounding_form;
-  options.inertia_scale = lin.inertia_scale;
-  return solve_sparse_modes(lin.K, lin.M, options);
+  return test::sparse_modes_of(lin, modes, rounding_form);
 }
 
 TEST(Extremes, SmallPrestrainsAreCoveredByTheSparseEstimates) {
@@ -992,13 +988,7 @@ TEST(Extremes, ARestLengthNetFarFromTheOriginIsNotDivergent) {
     const System sys = build_system(parse_scene(text, "net.toml"));
     const VectorX q = VectorX::Zero(sys.size());
     const ModalResult dense = solve_modes(linearize(sys, q));
-    SparseLinearModel lin = linearize_sparse(sys, q);
-    SparseModalOptions options;
-    options.modes = 6;
-    options.K_magnitude = lin.K_magnitude;
-    options.K_rounding_form = lin.K_rounding_form;
-    options.inertia_scale = lin.inertia_scale;
-    const ModalResult sparse = solve_sparse_modes(lin.K, lin.M, options);
+    const ModalResult sparse = test::sparse_modes_of(linearize_sparse(sys, q), 6);
     for (const auto& [r, path] : {std::pair<const ModalResult*, const char*>{&dense, "dense"}, {&sparse, "sparse"}}) {
       EXPECT_EQ(r->morse_index, 0) << what << path;
       for (const Mode& mode : r->modes)

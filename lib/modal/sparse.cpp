@@ -80,10 +80,12 @@
 // assembly's rounding of K and M, and the Rayleigh quotient's error at its
 // second-order size where the factor at the check's bound is at hand; plus a
 // loose equilibrium's share (lanczos_modes; docs/design.md "Sparse modes").
-// A mode is a zero mode when |λ| is within that estimate or
-// within the rounding level of evaluating φᵀKφ, 4ε(‖K‖₁ + |λ|‖M‖₁)‖φ‖₂²
-// (‖·‖₁ bounds the 2-norm of a symmetric matrix), and divergent when λ < 0
-// beyond both.
+// A mode is a zero mode when |λ| is within that estimate or within the
+// residual at its typical size plus the data's rounding at its worst (4ε φᵀFφ
+// with the rounding form F where given, else componentwise through K's
+// terms; + 4ε|λ||φ|ᵀ|M||φ|), and divergent when λ < 0 beyond both. (Not a
+// normwise level 4ε(‖K‖₁ + |λ|‖M‖₁)‖φ‖²: on a graded chain it called modes
+// resolved to 1e-5 of themselves zero.)
 //
 // Cost. One symbolic analysis and one numeric factorization of K − σM
 // (O(nnz(L)) memory); per restart of the Lanczos iteration about ncv − k
@@ -644,6 +646,22 @@ class ShiftInvertSolver
   ShiftInvertSolver(Op& op, MassOp& mass, Index nev, Index ncv, double sigma)
       : Base(shifted(ModeOp(op, mass), sigma), mass, nev, ncv), sigma_(sigma) {}
   VectorX current_values() const { return this->m_ritz_val.head(this->m_nev); }
+  // The Ritz vectors of current_values() (in no particular order): those of
+  // the nev largest |θ| of the current Lanczos factorization's tridiagonal H
+  // (Spectra keeps its own copy of them private).
+  MatrixX current_vectors() const {
+    const MatrixX H = this->m_fac.matrix_H();
+    Eigen::SelfAdjointEigenSolver<MatrixX> ritz(H);
+    if (ritz.info() != Eigen::Success) return MatrixX();
+    std::vector<Index> order(static_cast<std::size_t>(H.rows()));
+    std::iota(order.begin(), order.end(), Index{0});
+    std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+      return std::abs(ritz.eigenvalues()(a)) > std::abs(ritz.eigenvalues()(b));
+    });
+    MatrixX Y(H.rows(), this->m_nev);
+    for (Index j = 0; j < this->m_nev; ++j) Y.col(j) = ritz.eigenvectors().col(order[static_cast<std::size_t>(j)]);
+    return this->m_fac.matrix_V() * Y;
+  }
 
  private:
   static ModeOp shifted(ModeOp&& op, double sigma) {
@@ -659,22 +677,29 @@ class ShiftInvertSolver
 };
 
 // A run's probe: after at most `restarts` restarts, `stop` sees the current
-// Ritz values (ascending λ̃; converged or not) and says whether to give the
-// run up (it is then returned with stopped = true); otherwise a converged
-// run is kept and an unconverged one made afresh with the whole budget
-// (run_lanczos).
+// Ritz values (ascending λ̃; converged or not) and their vectors (n × nev,
+// M-orthonormal) and says whether to give the run up (it is then returned
+// with stopped = true); otherwise a converged run is kept and an unconverged
+// one made afresh with the whole budget (run_lanczos).
 struct Probe {
   Index restarts = 0;
-  std::function<bool(const VectorX&)> stop;
+  std::function<bool(const VectorX&, const MatrixX&)> stop;
 };
 
 // The probe of the default shift's first run (lanczos_modes): after this
 // many restarts, the run is given up when its Ritz values all lie below
-// near_zero_fraction·ζ and the highest above near_zero_floor·s, and the runs
-// move to −λ̃_nev.
+// near_zero_fraction·ζ and the highest above their data's level (at most
+// near_zero_floor·s), and the runs move to −λ̃_nev.
 constexpr Index near_zero_probe = 20;
 constexpr double near_zero_fraction = 1e-2;
 constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
+// At most this many moves (each at least 1/near_zero_fraction nearer 0).
+constexpr int near_zero_moves = 16;
+// The probe of a run at a moved shift: long enough that such runs on the
+// nets of results/near_slack.md (21–23 restarts) converge within it, and so
+// are kept as they are (a probe of near_zero_probe there is made afresh:
+// 1.6 × the solves).
+constexpr Index moved_probe = 2 * near_zero_probe;
 
 template <class Factor, class MassOp>
 LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev, const SparseModalOptions& options,
@@ -709,7 +734,8 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
       run.solves = probe_solves = eigs.num_operations();
       const bool converged = eigs.info() == Spectra::CompInfo::Successful;
       const VectorX values = converged ? VectorX(eigs.eigenvalues()) : eigs.current_values();
-      if (probe->stop(values)) {
+      const MatrixX vectors = converged ? MatrixX(eigs.eigenvectors()) : eigs.current_vectors();
+      if (probe->stop(values, vectors)) {
         run.lambda = values;
         run.stopped = done = true;
       } else if (converged) {
@@ -892,14 +918,13 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const double lambda = phi.dot(Kphi);  // the Rayleigh quotient (φᵀMφ = 1)
   const VectorX r = Kphi - lambda * Mphi;
   const double x2 = phi.squaredNorm();
-  const double normwise = 4 * eps * (norms.K1 + std::abs(lambda) * norms.M1) * x2;
   const double scale = (norms.K1 + std::abs(lambda) * norms.M1) * std::sqrt(x2);
   residual.relative = scale > 0 ? r.norm() / scale : 0.0;
 
   const VectorX a = phi.cwiseAbs();
   const VectorX aK = absolute_product(K, a), aM = absolute_product(M, a);
   const VectorX terms = aK + std::abs(lambda) * aM;  // |K||φ| + |λ||M||φ|
-  const double error = set_residual(residual, mass, r, Mphi, terms, norms.width, norms);
+  set_residual(residual, mass, r, Mphi, terms, norms.width, norms);
   const double quotient_terms = a.dot(terms);  // |φ|ᵀ(|K| + |λ||M|)|φ|
   const double n = static_cast<double>(K.rows());
   const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
@@ -911,8 +936,6 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
         std::sqrt(std::max(0.0, residual.shift_direction.dot(mass.solve(residual.shift_direction))));
     residual.shift_first = std::abs(s);
   }
-  // A zero mode keeps the normwise rounding level it was decided with.
-  if (std::abs(lambda) <= normwise) return sparse_mode(std::move(phi), lambda, error, normwise, systematic_part);
   // The estimate takes the rounding of φᵀKφ and the assembly's rounding of
   // K and M (4ε per entry) at their typical size, as independent errors:
   // √w ε‖φ∘(|K||φ|)‖₂ for the w terms of each entry of Kφ, √n ε Σ|φ_i(Kφ)_i|
@@ -1137,6 +1160,13 @@ class SparsePencil {
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, rounding_form_, std::move(phi),
                             residual);
+  }
+  // The largest 4ε φᵀFφ over M-orthonormal columns φ of Phi (F =
+  // K_rounding_form: how far the data's rounding may move their λ); +∞
+  // without F.
+  double data_level(const MatrixX& Phi) const {
+    if (rounding_form_.rows() != size() || Phi.rows() != size()) return std::numeric_limits<double>::infinity();
+    return 4 * eps * (Phi.transpose() * (rounding_form_ * Phi)).diagonal().maxCoeff();
   }
 
  private:
@@ -1502,18 +1532,26 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // double one: a net at p = 2.7e-14 had its 8th mode called oscillatory,
     // 3.6 × its estimate from the closed form), if its Ritz
     // values λ̃_i, upper bounds of the lowest eigenvalues (ShiftInvertSolver),
-    // all lie below near_zero_fraction·ζ but not all below near_zero_floor·s
-    // (10 ε·s: there the eigenvalues are within the factorization's own
-    // rounding, a few ε·s, of zero, and a nearer shift gains nothing; with
-    // 100 ε·s a 100 × 100 net at p = 1e-13 was not moved and took 1948
-    // solves instead of 420, results/near_slack.md), it is
-    // given up and the runs are made at σ₁ = −λ̃_nev instead, moved down by
-    // factors of 8 until K − σ₁M is positive definite (some eigenvalue in
-    // [σ₀, 0) may lie below the first σ₁), or at σ₀ if none is found above
-    // it; each run at σ₁ is refined (refine_run). At σ₁ the wanted ν are
-    // spread by a fraction of 1 or more. Otherwise the run is made afresh at
-    // σ₀ with the whole budget (run_lanczos). The Morse index and the zero
-    // modes still come from the inertia at σ₀.
+    // all lie below near_zero_fraction·ζ but not all below their data's
+    // level, it is given up and the runs are made at σ₁ = −λ̃_nev instead,
+    // moved down by factors of 8 until K − σ₁M is positive definite (some
+    // eigenvalue in [σ₀, 0) may lie below the first σ₁), or at σ₀ if none is
+    // found above it; each run at σ₁ is refined (refine_run). At σ₁ the
+    // wanted ν are spread by a fraction of 1 or more, unless the probe's
+    // values were themselves far above the eigenvalues: the run at σ₁ is
+    // probed the same way against |σ₁| (moved_probe restarts), and so on
+    // down (at most near_zero_moves). The data's level: the smaller of
+    // near_zero_floor·s (10 ε·s: there a net's eigenvalues are within the
+    // factorization's own rounding, a few ε·s, of zero, and a nearer shift
+    // gains nothing; with 100 ε·s a 100 × 100 net at p = 1e-13 was not moved
+    // and took 1948 solves instead of 420, results/near_slack.md) and the
+    // largest 4ε φᵀFφ of the Ritz vectors (SparsePencil::data_level): a
+    // chain of particles with masses over 12 decades has its lowest λ some
+    // 1e-22 s, resolved to full relative accuracy, and with 10 ε·s alone its
+    // run at σ₀ "did not converge" after 1000 restarts (5 moves now).
+    // Otherwise the run is made afresh at σ₀ with the whole budget
+    // (run_lanczos). The Morse index and the zero modes still come from the
+    // inertia at σ₀.
     double run_sigma = s0;
     bool probed = false;
     std::optional<LanczosRun> last;
@@ -1525,30 +1563,36 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
             if (run_sigma != s0) refine_run(*last, factor, mass_op);
           } else {
             probed = true;
-            double moved = nan;
-            const Probe probe{near_zero_probe, [&](const VectorX& values) {
-                                const double top = values.maxCoeff();
-                                if (!(top < near_zero_fraction * zeta) || !(top > near_zero_floor * scale))
-                                  return false;
-                                moved = -std::max(top, near_zero_floor * scale);
-                                return true;
-                              }};
-            last = run_lanczos(factor, mass_op, s0, nev, options, units, &probe);
-            if (last->stopped) {
+            // Probed runs from σ₀ down: each given up moves the shift to its
+            // −λ̃_nev, at least near_zero_fraction nearer 0.
+            double sigma_j = s0;
+            for (int move = 0;; ++move) {
+              double moved = nan, floor = nan;
+              auto stop = [&](const VectorX& values, const MatrixX& vectors) {
+                const double top = values.maxCoeff();
+                if (!(top < near_zero_fraction * std::abs(sigma_j))) return false;
+                floor = std::min(near_zero_floor * scale, pencil.data_level(vectors));
+                if (!(top > floor)) return false;
+                moved = -top;
+                return true;
+              };
+              const Probe probe{move == 0 ? near_zero_probe : moved_probe, stop};
+              last = run_lanczos(factor, mass_op, sigma_j, nev, options, units,
+                                 move < near_zero_moves ? &probe : nullptr);
+              if (!last->stopped) break;
               runs.push_back(describe_run(*last, nev, units) + ", stopped: its " + std::to_string(nev) +
-                             " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) +
-                             ", under " + detail::format_number(near_zero_fraction, 1) +
-                             " ζ, where the shift −ζ separates them poorly");
+                             " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) + ", under " +
+                             detail::format_number(near_zero_fraction, 1) + " |σ| and above their data's level " +
+                             units(floor, 3) + ", where σ separates them poorly");
               double sigma = moved;
-              while (sigma > s0 && !factor.positive_definite_at(sigma)) sigma *= 8;
-              if (sigma > s0) {
-                run_sigma = sigma;
-                last = run_lanczos(factor, mass_op, run_sigma, nev, options, units);
-                refine_run(*last, factor, mass_op);
-              } else {
-                last = run_lanczos(factor, mass_op, s0, nev, options, units);
+              while (sigma > sigma_j && !factor.positive_definite_at(sigma)) sigma *= 8;
+              if (!(sigma > sigma_j)) {
+                last = run_lanczos(factor, mass_op, sigma_j, nev, options, units);
+                break;
               }
+              sigma_j = run_sigma = sigma;
             }
+            if (run_sigma != s0) refine_run(*last, factor, mass_op);
           }
           runs.push_back(describe_run(*last, nev, units));
           return std::vector<double>(last->lambda.data(), last->lambda.data() + last->lambda.size());
@@ -1899,6 +1943,8 @@ class TreeLanczosPencil {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
     return {spectrum_scale(dK, dM, norms_.K1), tree_gershgorin(p_, 1.0, 0.0, dK, dM.cwiseSqrt().cwiseInverse())};
   }
+  // No rounding form on trees (SparsePencil::data_level).
+  double data_level(const MatrixX&) const { return std::numeric_limits<double>::infinity(); }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     VectorX Mphi = tree_product(p_, 0.0, 1.0, phi);
     const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
