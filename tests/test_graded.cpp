@@ -1207,10 +1207,10 @@ namespace {
 // for σ < 0, in __float128 (113-bit significand): Sturm counts of the LDLᵀ
 // recurrence of K − σM (Sylvester's law), bisected to 1e-30 of each
 // eigenvalue. Independent of modal's path (no LAPACK, no double). The
-// lowest `count` (all where larger than n).
+// lowest `wanted` (all where larger than n).
 std::vector<LD> tridiagonal_pencil_eigenvalues(const std::vector<__float128>& k_diag,
                                                const std::vector<__float128>& k_off, const std::vector<__float128>& m,
-                                               std::size_t count = std::numeric_limits<std::size_t>::max()) {
+                                               std::size_t wanted = std::numeric_limits<std::size_t>::max()) {
   const std::size_t n = m.size();
   auto below = [&](__float128 sigma) {  // eigenvalues < σ
     int count = 0;
@@ -1233,7 +1233,7 @@ std::vector<LD> tridiagonal_pencil_eigenvalues(const std::vector<__float128>& k_
     top = std::max(top, row / m[i]);
   }
   std::vector<LD> values;
-  for (std::size_t j = 0; j < std::min(n, count); ++j) {  // the (j+1)-th eigenvalue: below(hi) > j ≥ below(lo)
+  for (std::size_t j = 0; j < std::min(n, wanted); ++j) {  // the (j+1)-th eigenvalue: below(hi) > j ≥ below(lo)
     __float128 lo = 0, hi = 2 * top;
     for (int step = 0; step < 400 && hi - lo > static_cast<__float128>(1e-30) * hi; ++step) {
       const __float128 mid = (lo + hi) / 2;  // from 2·top to 1e-20 of it and then 1e-30 relative: under 200 steps
@@ -1344,7 +1344,9 @@ void graded_particle_chains(const Check& check, unsigned seed = 2026, int trials
       // The equilibrium moves the particles by rounding-level amounts, which
       // move the transverse stiffness k(1 − L₀/L) of a spring at a strain of
       // 1e-9 by 1e-5 of itself: the reference is the pencil at the
-      // equilibrium's positions (written + q, in double as modal forms them).
+      // equilibrium's positions (written + q, in double as modal forms them;
+      // modal's q: a wrong equilibrium is not this test's to catch, but a
+      // moved one changes the reference only where the pencil moved too).
       const modal::Analysis a = modal::analyze(modal::model_from_text(toml.str(), "chain.toml"), {});
       const std::vector<std::string>& names = a.report.coordinates;
       std::vector<__float128> x = written;
@@ -1521,7 +1523,6 @@ int banded_count_below(const std::vector<std::vector<__float128>>& K, const std:
 // every one of 5 such nets of 20 × 20 ("did not converge", 232f1fe).
 TEST(Graded, FlatNetsOnTheSparsePathHoldTheirEigenvaluesWithinTheirEstimates) {
   std::mt19937_64 rng(29112026);
-  int checked = 0;
   for (int trial = 0; trial < 4; ++trial) {
     const int N = std::uniform_int_distribution<int>(10, 16)(rng), n = N * N;
     const double spacing = 0.1;
@@ -1606,10 +1607,8 @@ TEST(Graded, FlatNetsOnTheSparsePathHoldTheirEigenvaluesWithinTheirEstimates) {
                                                       << mode.error_estimate;
       EXPECT_GE(count_below(hi), static_cast<int>(i) + 1) << what << " mode " << i + 1 << ": ω² " << mode.omega2
                                                           << " ± " << mode.error_estimate;
-      ++checked;
     }
   }
-  EXPECT_EQ(checked, 40);
 }
 
 }  // namespace

@@ -693,7 +693,8 @@ struct Probe {
 constexpr Index near_zero_probe = 20;
 constexpr double near_zero_fraction = 1e-2;
 constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
-// At most this many moves (each at least 1/near_zero_fraction nearer 0).
+// At most this many moves (each nearer 0: by 1/near_zero_fraction where
+// K − σM is positive definite there).
 constexpr int near_zero_moves = 16;
 // The probe of a run at a moved shift: long enough that such runs on the
 // nets of results/near_slack.md (21–23 restarts) converge within it, and so
@@ -1166,7 +1167,7 @@ class SparsePencil {
   // without F.
   double data_level(const MatrixX& Phi) const {
     if (rounding_form_.rows() != size() || Phi.rows() != size()) return std::numeric_limits<double>::infinity();
-    return 4 * eps * (Phi.transpose() * (rounding_form_ * Phi)).diagonal().maxCoeff();
+    return 4 * eps * std::max(0.0, (Phi.transpose() * (rounding_form_ * Phi)).diagonal().maxCoeff());
   }
 
  private:
@@ -1564,14 +1565,17 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
           } else {
             probed = true;
             // Probed runs from σ₀ down: each given up moves the shift to its
-            // −λ̃_nev, at least near_zero_fraction nearer 0.
+            // −λ̃_nev (nearer 0 by 1/near_zero_fraction, or less where K − σM
+            // is not positive definite there), which must lie above the
+            // rounding of λ̃ = σ + 1/θ itself (16 ε|σ|): a zero mode's Ritz
+            // value is rounding, and its data level (φᵀFφ) may be 0.
             double sigma_j = s0;
             for (int move = 0;; ++move) {
               double moved = nan, floor = nan;
               auto stop = [&](const VectorX& values, const MatrixX& vectors) {
                 const double top = values.maxCoeff();
                 if (!(top < near_zero_fraction * std::abs(sigma_j))) return false;
-                floor = std::min(near_zero_floor * scale, pencil.data_level(vectors));
+                floor = std::max(std::min(near_zero_floor * scale, pencil.data_level(vectors)), 16 * eps * std::abs(sigma_j));
                 if (!(top > floor)) return false;
                 moved = -top;
                 return true;
@@ -1585,8 +1589,8 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                              detail::format_number(near_zero_fraction, 1) + " |σ| and above their data's level " +
                              units(floor, 3) + ", where σ separates them poorly");
               double sigma = moved;
-              while (sigma > sigma_j && !factor.positive_definite_at(sigma)) sigma *= 8;
-              if (!(sigma > sigma_j)) {
+              while (sigma < 0 && sigma > sigma_j && !factor.positive_definite_at(sigma)) sigma *= 8;
+              if (!(sigma < 0 && sigma > sigma_j)) {
                 last = run_lanczos(factor, mass_op, sigma_j, nev, options, units);
                 break;
               }

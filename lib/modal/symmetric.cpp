@@ -633,8 +633,16 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const Eigen::SparseMa
       // eigenvectors (of a graded chain, 1–13 % apart, where the first one
       // refined had converged partly to the other's): both are replaced by
       // the Ritz vectors of their span, in the order of their modes.
-      // Towards a resolved one: discarded, so no eigenvalue is claimed twice.
-      if (std::find(refined.begin(), refined.end(), toward) == refined.end()) continue;
+      // Towards a resolved one, or nearly parallel to the refined one (an
+      // M-cosine over 0.9999: the second Ritz vector, (x − cφ)/sin θ, would
+      // magnify the stiff rounding the steps removed by over 70; with 0.99
+      // a chain's double eigenvalue, both vectors in its plane at cosines
+      // 0.99–0.9999, kept a "zero" mode): discarded, so no eigenvalue is
+      // claimed twice. (The pair is not made M-orthogonal to
+      // the other refined vectors again: doing so took from x the direction
+      // its pair lacked in one chain, which came out "zero"; the analysis
+      // that follows bounds whatever vectors it is given.)
+      if (closest > 0.9999 || std::find(refined.begin(), refined.end(), toward) == refined.end()) continue;
       MatrixX X(n, 2), MX(n, 2);
       X << Phi.col(toward), x / norm;
       MX << MPhi.col(toward), Mx / norm;
