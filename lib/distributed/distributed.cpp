@@ -34,6 +34,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <functional>
 #include <optional>
@@ -662,6 +663,72 @@ double peak_memory() {
   return 0;
 }
 
+// The probe of a Krylov–Schur run (as solve_sparse_modes probes its Lanczos
+// runs; modal/modes.hpp, near_zero_probe): at restart `restarts` (or when
+// the run converges before it), the run is given up (EPS_CONVERGED_USER,
+// `stopped`) when its `nev` wanted Ritz values λ̃ = σ + 1/θ all lie below
+// near_zero_fraction·|σ| and the highest, `top`, above `floor`. The values
+// are those of the restart before (SLEPc calls the monitor after the
+// stopping test); they are upper bounds of the lowest eigenvalues and fall
+// as the run goes on, so earlier ones only delay a stop. The monitor and
+// the test run on every rank with the same (replicated) projected problem,
+// so every rank decides alike.
+struct ProbeWatch {
+  PetscInt nev = 0;
+  PetscInt restarts = 0;
+  double sigma = 0;
+  double floor = 0;
+  std::vector<double> values;  // the latest Ritz values λ̃ of the wanted
+  bool stopped = false;
+  double top = 0;
+};
+
+PetscErrorCode watch_ritz_values(EPS eps, PetscInt, PetscInt, PetscScalar* eigr, PetscScalar* eigi, PetscReal*,
+                                 PetscInt nest, void* context) {
+  auto& watch = *static_cast<ProbeWatch*>(context);
+  ST st = nullptr;
+  if (const PetscErrorCode code = EPSGetST(eps, &st)) return code;
+  watch.values.clear();
+  for (PetscInt i = 0; i < std::min(nest, watch.nev); ++i) {
+    PetscScalar re = eigr[i], im = eigi[i];
+    if (const PetscErrorCode code = STBackTransform(st, 1, &re, &im)) return code;
+    watch.values.push_back(static_cast<double>(re));
+  }
+  return 0;
+}
+
+PetscErrorCode probe_stops(EPS eps, PetscInt its, PetscInt max_it, PetscInt nconv, PetscInt nev,
+                           EPSConvergedReason* reason, void* context) {
+  if (const PetscErrorCode code = EPSStoppingBasic(eps, its, max_it, nconv, nev, reason, nullptr)) return code;
+  auto& watch = *static_cast<ProbeWatch*>(context);
+  const bool at_probe = its == watch.restarts || (*reason == EPS_CONVERGED_TOL && its < watch.restarts);
+  if (!at_probe || static_cast<PetscInt>(watch.values.size()) < watch.nev) return 0;
+  const double top = *std::max_element(watch.values.begin(), watch.values.end());
+  if (top < near_zero_fraction * std::abs(watch.sigma) && top > watch.floor) {
+    *reason = EPS_CONVERGED_USER;
+    watch.stopped = true;
+    watch.top = top;
+  }
+  return 0;
+}
+
+// Vectors of K's layout, destroyed with their owner.
+struct OwnedVecs {
+  std::vector<std::unique_ptr<Vec>> vecs;
+  Vec& add(Mat like) {
+    vecs.push_back(std::make_unique<Vec>(nullptr));
+    MODAL_PETSC(MatCreateVecs(like, vecs.back().get(), nullptr));
+    return *vecs.back();
+  }
+  OwnedVecs() = default;
+  OwnedVecs(const OwnedVecs&) = delete;
+  OwnedVecs& operator=(const OwnedVecs&) = delete;
+  ~OwnedVecs() {
+    for (auto& v : vecs)
+      if (*v) VecDestroy(v.get());
+  }
+};
+
 struct Timings {
   std::vector<std::pair<std::string, double>> seconds;
   Clock::time_point last = Clock::now();
@@ -697,6 +764,8 @@ struct PointSolver {
   Assembly assembly;
   Vec x = nullptr, f = nullptr;
   Mat J = nullptr, K = nullptr, M = nullptr, F = nullptr;  // F: K's rounding form (sparse_rounding_form)
+  Mat K_abs = nullptr, K_square = nullptr;                  // |K_ij| and K_ij² (the modes' sums)
+  std::vector<Vec> found;                                   // the modes' vectors, M-normalized
   SNES snes = nullptr;
   EPS eps_solver = nullptr;
   PointSolver() = default;
@@ -706,7 +775,8 @@ struct PointSolver {
     if (assembly.gather) VecScatterDestroy(&assembly.gather);
     for (Vec* v : {&assembly.local, &x, &f})
       if (*v) VecDestroy(v);
-    for (Mat* A : {&J, &K, &M, &F})
+    for (Vec& v : found) VecDestroy(&v);
+    for (Mat* A : {&J, &K, &M, &F, &K_abs, &K_square})
       if (*A) MatDestroy(A);
     if (snes) SNESDestroy(&snes);
     if (eps_solver) EPSDestroy(&eps_solver);
@@ -744,7 +814,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
   std::optional<Workspace>& ws = solver.ws;
   Assembly& assembly = solver.assembly;
   Vec &x = solver.x, &f = solver.f;
-  Mat &J = solver.J, &K = solver.K, &M = solver.M, &F = solver.F;
+  Mat &J = solver.J, &K = solver.K, &M = solver.M, &F = solver.F, &K_abs = solver.K_abs, &K_square = solver.K_square;
   SNES& snes = solver.snes;
   EPS& eps_solver = solver.eps_solver;
   {  // the phases, in order; each agreed on by the ranks
@@ -1037,7 +1107,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
     // ---- the lowest modes
     ModalResult result;
     std::vector<VectorX> shapes;  // rank 0
-    std::vector<std::array<double, 4>> numbers;  // λ, error, rounding, zero level per mode
+    std::vector<std::pair<double, QuotientSums>> numbers;  // λ and its sums (quotient_mode) per mode
     phase([&] {
       const auto started = Clock::now();
       Vec dk = nullptr, dm = nullptr;
@@ -1095,13 +1165,142 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         target = s0 - high;
         where = "a shift below the spectrum";
       }
+      // |K_ij| and K_ij² (quotient_mode's sums) and the most nonzeros in a
+      // row of K (M is diagonal): the terms of an entry of Kφ.
+      double width = 1;
+      {
+        MODAL_PETSC(MatDuplicate(K, MAT_DO_NOT_COPY_VALUES, &K_abs));
+        MODAL_PETSC(MatDuplicate(K, MAT_DO_NOT_COPY_VALUES, &K_square));
+        PetscInt first = 0, end = 0;
+        MODAL_PETSC(MatGetOwnershipRange(K, &first, &end));
+        std::vector<PetscScalar> magnitudes, squares;
+        for (PetscInt row = first; row < end; ++row) {
+          PetscInt count = 0;
+          const PetscInt* columns = nullptr;
+          const PetscScalar* values = nullptr;
+          MODAL_PETSC(MatGetRow(K, row, &count, &columns, &values));
+          magnitudes.assign(values, values + count);
+          squares.assign(values, values + count);
+          for (PetscInt j = 0; j < count; ++j) {
+            magnitudes[static_cast<std::size_t>(j)] = std::abs(values[j]);
+            squares[static_cast<std::size_t>(j)] = values[j] * values[j];
+          }
+          width = std::max(width, static_cast<double>(count));
+          const std::vector<PetscInt> kept(columns, columns + count);
+          MODAL_PETSC(MatRestoreRow(K, row, &count, &columns, &values));
+          MODAL_PETSC(MatSetValues(K_abs, 1, &row, count, kept.data(), magnitudes.data(), INSERT_VALUES));
+          MODAL_PETSC(MatSetValues(K_square, 1, &row, count, kept.data(), squares.data(), INSERT_VALUES));
+        }
+        for (Mat A : {K_abs, K_square}) {
+          MODAL_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+          MODAL_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+        }
+        MPI_Allreduce(MPI_IN_PLACE, &width, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      }
       const auto factored = Clock::now();
+      int moves = 0;  // of the shift, by the probe below
+      // The workspace of the modes' sums, and take_mode: φ M-normalized in
+      // place, λ its Rayleigh quotient and quotient_mode's sums kept in
+      // `numbers`, its shape (as `gathered` says) in `shapes` and a copy of
+      // φ in `found`.
+      OwnedVecs work;
+      Vec& phi = work.add(K);
+      Vec &Kphi = work.add(K), &Mphi = work.add(K), &r = work.add(K), &a = work.add(K), &w = work.add(K),
+          &terms = work.add(K);
+      std::vector<Vec>& found = solver.found;
+      const auto sum_of = [&](Vec v) {  // Σ v_i
+        PetscScalar sum = 0;
+        MODAL_PETSC(VecSum(v, &sum));
+        return static_cast<double>(sum);
+      };
+      const auto dot = [&](Vec u, Vec v) {
+        PetscScalar d = 0;
+        MODAL_PETSC(VecDot(u, v, &d));
+        return static_cast<double>(d);
+      };
+      const auto abs_dot = [&](Vec u, Vec v) {  // Σ|u_i v_i| (w as workspace)
+        MODAL_PETSC(VecPointwiseMult(w, u, v));
+        MODAL_PETSC(VecAbs(w));
+        return sum_of(w);
+      };
+      const auto product_norm = [&](Vec u, Vec v) {  // ‖u ∘ v‖₂
+        MODAL_PETSC(VecPointwiseMult(w, u, v));
+        PetscReal norm = 0;
+        MODAL_PETSC(VecNorm(w, NORM_2, &norm));
+        return static_cast<double>(norm);
+      };
+      const auto inverse_mass_norm = [&](Vec v) {  // ‖v‖_{M⁻¹}, M diagonal
+        MODAL_PETSC(VecPointwiseMult(w, v, v));
+        MODAL_PETSC(VecPointwiseDivide(w, w, dm));
+        return std::sqrt(std::max(0.0, sum_of(w)));
+      };
+      const auto take_mode = [&](Vec phi) {
+        // φ M-normalized, λ its Rayleigh quotient, r = Kφ − λMφ; the sums
+        // of quotient_mode as solve_sparse_modes forms them (M diagonal:
+        // |M| = M, and F, |K| and K∘K summed over the ranks' parts).
+        MODAL_PETSC(MatMult(M, phi, Mphi));
+        const double unit = 1.0 / std::sqrt(dot(phi, Mphi));
+        MODAL_PETSC(VecScale(phi, unit));
+        MODAL_PETSC(VecScale(Mphi, unit));
+        MODAL_PETSC(MatMult(K, phi, Kphi));
+        const double lambda = dot(phi, Kphi);
+        MODAL_PETSC(VecWAXPY(r, -lambda, Mphi, Kphi));
+        QuotientSums sums;
+        sums.width = width;
+        sums.n = static_cast<double>(n);
+        MODAL_PETSC(VecCopy(phi, a));
+        MODAL_PETSC(VecAbs(a));
+        MODAL_PETSC(MatMult(K_abs, a, terms));  // |K|a
+        const double error = inverse_mass_norm(r);
+        sums.rows = product_norm(a, terms);
+        sums.quotient_terms = dot(a, terms);
+        MODAL_PETSC(MatMult(M, a, Kphi));  // |M|a in Kphi's place (Kφ no longer needed after the sums below)
+        sums.rows += std::abs(lambda) * product_norm(a, Kphi);
+        const double aMa = dot(a, Kphi);
+        sums.quotient_terms += std::abs(lambda) * aMa;
+        MODAL_PETSC(VecAXPY(terms, std::abs(lambda), Kphi));  // |K|a + |λ||M|a
+        const double r_rounding = eps * inverse_mass_norm(terms);
+        sums.residual = error + std::sqrt(width + 2) * r_rounding;
+        sums.residual_worst = error + (width + 2) * r_rounding;
+        MODAL_PETSC(MatMult(K, phi, Kphi));
+        sums.sums_K = abs_dot(phi, Kphi);
+        sums.sums_M = abs_dot(phi, Mphi);
+        // (Σ(K_ij φ_i φ_j)²)^½ = ((φ∘φ)ᵀ(K∘K)(φ∘φ))^½, and with M (diagonal)
+        MODAL_PETSC(VecPointwiseMult(a, phi, phi));
+        MODAL_PETSC(MatMult(K_square, a, terms));
+        const double K2 = dot(a, terms);
+        const double M2 = product_norm(a, dm);
+        MODAL_PETSC(MatMult(F, phi, terms));
+        const double form = std::max(0.0, dot(phi, terms));
+        sums.entries = std::min(std::sqrt(std::max(0.0, K2)), form) + std::abs(lambda) * M2;
+        // The kind's data level as the serial sparse path's: φᵀFφ (F with
+        // the positions' rounding; ‖K‖₁ alone had generated rest-length
+        // nets 10–1e4 spacings from the origin called divergent, 9 of 10,
+        // and called zero every resolved lowest mode of a chain of
+        // particles whose masses span 12 decades).
+        sums.data = form + std::abs(lambda) * aMa;
+        numbers.emplace_back(lambda, sums);
+        shapes.push_back(gathered == Gathered::root ? gather_to_root(phi) : VectorX::Zero(1));
+        found.push_back(nullptr);
+        MODAL_PETSC(VecDuplicate(phi, &found.back()));
+        MODAL_PETSC(VecCopy(phi, found.back()));
+      };
       // One Krylov–Schur run for the `nev` eigenpairs nearest the target:
-      // their numbers and (as `gathered` says) shapes.
-      const auto solve_nearest = [&](PetscInt nev) {
+      // their numbers and (as `gathered` says) shapes; false (and nothing
+      // kept) when `probe` gave the run up. With `start`, the run starts
+      // from it and `each` gets its pairs (λ, φ) instead of take_mode.
+      const auto solve_nearest = [&](PetscInt nev, ProbeWatch* probe, Vec start = nullptr,
+                                     const std::function<void(double, Vec)>& each = {}) {
+        if (start) {
+          MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+          MODAL_PETSC(EPSSetInitialSpace(eps_solver, 1, &start));
+        } else {
         numbers.clear();
         shapes.clear();
+        for (Vec& v : found) MODAL_PETSC(VecDestroy(&v));
+        found.clear();
         MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+        }
         MODAL_PETSC(EPSSetOperators(eps_solver, K, M));
         MODAL_PETSC(EPSSetProblemType(eps_solver, EPS_GHEP));
         MODAL_PETSC(EPSSetType(eps_solver, EPSKRYLOVSCHUR));
@@ -1115,56 +1314,31 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         MODAL_PETSC(STSetType(st, STSINVERT));
         MODAL_PETSC(STGetKSP(st, &ksp));
         direct_mumps(ksp, PCCHOLESKY);
+        if (probe) {
+          probe->sigma = target;
+          MODAL_PETSC(EPSMonitorSet(eps_solver, watch_ritz_values, probe, nullptr));
+          MODAL_PETSC(EPSSetStoppingTestFunction(eps_solver, probe_stops, probe, nullptr));
+        }
         MODAL_PETSC(EPSSetFromOptions(eps_solver));
         MODAL_PETSC(EPSSolve(eps_solver));
+        if (probe && probe->stopped) {
+          MODAL_PETSC(EPSDestroy(&eps_solver));
+          return false;
+        }
         PetscInt converged = 0;
         MODAL_PETSC(EPSGetConverged(eps_solver, &converged));
         if (converged < nev)
           throw NumericalError(fmt::format("--backend petsc: SLEPc's Krylov–Schur iteration converged {} of the {} "
                                            "modes asked for; try a larger --tol",
                                            converged, nev));
-        PetscReal K1 = 0, M1 = 0;
-        MODAL_PETSC(MatNorm(K, NORM_1, &K1));
-        MODAL_PETSC(MatNorm(M, NORM_1, &M1));
-        Vec phi = nullptr, Kphi = nullptr, Mphi = nullptr, r = nullptr;
-        MODAL_PETSC(MatCreateVecs(K, &phi, nullptr));
-        for (Vec* v : {&Kphi, &Mphi, &r}) MODAL_PETSC(VecDuplicate(phi, v));
         for (PetscInt i = 0; i < nev; ++i) {
           PetscScalar value = 0;
           MODAL_PETSC(EPSGetEigenpair(eps_solver, i, &value, nullptr, phi, nullptr));
-          // φ M-normalized, λ its Rayleigh quotient, e = ‖Kφ − λMφ‖ in the M⁻¹-norm (M diagonal).
-          MODAL_PETSC(MatMult(M, phi, Mphi));
-          PetscScalar mm = 0;
-          MODAL_PETSC(VecDot(phi, Mphi, &mm));
-          const double unit = 1.0 / std::sqrt(mm);
-          MODAL_PETSC(VecScale(phi, unit));
-          MODAL_PETSC(VecScale(Mphi, unit));
-          MODAL_PETSC(MatMult(K, phi, Kphi));
-          PetscScalar lambda = 0;
-          MODAL_PETSC(VecDot(phi, Kphi, &lambda));
-          MODAL_PETSC(VecWAXPY(r, -lambda, Mphi, Kphi));
-          MODAL_PETSC(VecPointwiseMult(Kphi, r, r));
-          MODAL_PETSC(VecPointwiseDivide(Kphi, Kphi, dm));
-          PetscScalar e2 = 0;
-          MODAL_PETSC(VecSum(Kphi, &e2));
-          PetscReal x2 = 0;
-          MODAL_PETSC(VecNorm(phi, NORM_2, &x2));
-          x2 *= x2;
-          // The kind's level, as the serial sparse path's: the residual plus
-          // the data's rounding at its worst, 4ε(φᵀFφ + |λ|φᵀMφ) (M diagonal,
-          // φᵀMφ = 1). Without it, the normwise level alone had generated
-          // rest-length nets 10–1e4 spacings from the origin called
-          // divergent (9 of 10: the positions' rounding is not in ‖K‖₁).
-          MODAL_PETSC(MatMult(F, phi, Kphi));
-          PetscScalar form = 0;
-          MODAL_PETSC(VecDot(phi, Kphi, &form));
-          const double error = std::sqrt(std::max(0.0, e2));
-          numbers.push_back({lambda, error, 4 * eps * (K1 + std::abs(lambda) * M1) * x2,
-                             error + 4 * eps * (std::max(0.0, form) + std::abs(lambda))});
-          shapes.push_back(gathered == Gathered::root ? gather_to_root(phi) : VectorX::Zero(1));
+          if (each) each(static_cast<double>(value), phi);
+          else take_mode(phi);
         }
-        for (Vec* v : {&phi, &Kphi, &Mphi, &r}) MODAL_PETSC(VecDestroy(v));
         MODAL_PETSC(EPSDestroy(&eps_solver));
+        return true;
       };
       // Completeness by inertia, as solve_sparse_modes checks it: a Krylov
       // run from one start vector can skip a copy of a repeated eigenvalue.
@@ -1174,14 +1348,53 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // below it; else the run is repeated with more wanted (at most 4 times).
       std::optional<std::pair<CompletenessCheck, std::size_t>> completeness;  // the check and its note's index
       if (options.shift || m > 0) {
-        solve_nearest(k);
+        solve_nearest(k, nullptr);
       } else {
+        // The first run probed as solve_sparse_modes probes its own (see
+        // there and ProbeWatch): at σ₀ = −ζ the wanted θ = 1/(λ − σ₀) of
+        // eigenvalues far nearer 0 than ζ differ by (λ_i − λ_j)/ζ relative
+        // (a chain of 400 particles with masses over 12 decades, its lowest
+        // λ some 1e-22 s: "converged 0 of the 10 modes" after 1000
+        // restarts). A run given up moves the shift to −λ̃_nev, down by
+        // factors of 8 until K − σM is positive definite (its inertia), or
+        // stays at the last shift with the whole budget if none is found
+        // above it; the run there is probed again against its own |σ|. The
+        // floor is the rounding of λ̃ = σ + 1/θ itself, 16ε|σ|: the serial
+        // path's other floor, the Ritz vectors' data level, needs vectors
+        // SLEPc does not return for a run it has not converged, so a shift
+        // here may move nearer a cluster of zero modes than the serial
+        // one does (more factorizations, not other modes: the kinds are
+        // decided by the modes' own sums).
+        bool probed = false;
         const CompletenessCheck check = check_completeness(
             k, n, s0, zeta,
             [&](long nev) {
-              solve_nearest(static_cast<PetscInt>(nev));
+              if (probed) {
+                solve_nearest(static_cast<PetscInt>(nev), nullptr);
+              } else {
+                probed = true;
+                for (double sigma_j = s0;; ++moves) {
+                  target = sigma_j;
+                  ProbeWatch watch;
+                  watch.nev = static_cast<PetscInt>(nev);
+                  watch.restarts = static_cast<PetscInt>(moves == 0 ? near_zero_probe : moved_probe);
+                  watch.floor = 16 * eps * std::abs(sigma_j);
+                  if (solve_nearest(static_cast<PetscInt>(nev), moves < near_zero_moves ? &watch : nullptr)) break;
+                  double sigma = -watch.top;
+                  while (sigma < 0 && sigma > sigma_j && inertia_below(K, M, sigma) != std::optional<PetscInt>(0))
+                    sigma *= 8;
+                  if (!(sigma < 0 && sigma > sigma_j)) {
+                    solve_nearest(static_cast<PetscInt>(nev), nullptr);
+                    break;
+                  }
+                  sigma_j = sigma;
+                }
+                if (moves > 0)
+                  where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay under {} |σ|)",
+                                      target, moves, moves == 1 ? "" : "s", near_zero_fraction);
+              }
               std::vector<double> lambdas;
-              for (const auto& number : numbers) lambdas.push_back(number[0]);
+              for (const auto& number : numbers) lambdas.push_back(number.first);
               return lambdas;
             },
             [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });  // moves b down past a singular K − bM
@@ -1191,13 +1404,95 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
               completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
         }
       }
+      // Copies the inertia cannot check. Where the shift moved and every
+      // returned eigenvalue lies within η of zero, the inertia cannot tell
+      // whether a copy of a repeated eigenvalue is missing, and a run from
+      // one start vector finds one direction of each eigenspace in exact
+      // arithmetic (others only through rounding): a chain of 400 particles,
+      // whose eigenvalues across it are all double (y and z), returned
+      // 2.894e-12 once and 4.258e-12 as its 10th mode under 3 ranks. So
+      // runs from random start vectors follow: of each pair below the k-th
+      // returned eigenvalue, the part M-orthogonal to every vector found,
+      // this run's added ones included (classical Gram–Schmidt, twice; a
+      // run returns both vectors of a double eigenvalue, and against the
+      // earlier vectors alone both were added: three modes at 1.967e-11), is
+      // a new direction of its eigenspace
+      // where it keeps more than 1e-3 of its M-norm and, as a mode, its
+      // residual estimate is within 1e-6 of its λ and wholly below the k-th
+      // (a missed copy, added); until a run adds none (each run's direction
+      // in an eigenspace then lies in the span found, so the span is the
+      // eigenspace), at most 4 runs. (SLEPc's deflation space was tried
+      // instead: its deflated runs converged to pairs with residuals of
+      // 0.1–1 × λ here, masses over 12 decades.)
+      std::string copies_note;
+      if (moves > 0 && completeness && completeness->first.outcome == CompletenessCheck::Outcome::complete &&
+          completeness->first.bound <= 0) {
+        PetscRandom random = nullptr;
+        MODAL_PETSC(PetscRandomCreate(PETSC_COMM_WORLD, &random));
+        Vec& start = work.add(K);
+        Vec& Md = work.add(K);
+        int runs = 0, added = 0, added_last = -1;
+        std::vector<PetscScalar> coefficients;
+        while (runs < 4 && added_last != 0 && static_cast<PetscInt>(found.size()) + k < n) {
+          std::vector<double> lambdas;
+          for (const auto& number : numbers) lambdas.push_back(number.first);
+          std::nth_element(lambdas.begin(), lambdas.begin() + (k - 1), lambdas.end());
+          const double kth = lambdas[static_cast<std::size_t>(k - 1)];
+          MODAL_PETSC(PetscRandomSetSeed(random, static_cast<unsigned long>(2026 + runs)));
+          MODAL_PETSC(PetscRandomSeed(random));
+          MODAL_PETSC(VecSetRandom(start, random));
+          added_last = 0;
+          solve_nearest(k, nullptr, start, [&](double value, Vec d) {
+            if (!(value < kth)) return;
+            MODAL_PETSC(MatMult(M, d, Md));
+            const double before = std::sqrt(std::max(0.0, dot(d, Md)));
+            const PetscInt base = static_cast<PetscInt>(found.size());  // those of this run added so far too
+            for (int pass = 0; pass < 2; ++pass) {
+              coefficients.assign(static_cast<std::size_t>(base), 0.0);
+              MODAL_PETSC(MatMult(M, d, Md));
+              MODAL_PETSC(VecMDot(Md, base, found.data(), coefficients.data()));
+              for (PetscScalar& c : coefficients) c = -c;
+              MODAL_PETSC(VecMAXPY(d, base, coefficients.data(), found.data()));
+            }
+            MODAL_PETSC(MatMult(M, d, Md));
+            if (!(std::sqrt(std::max(0.0, dot(d, Md))) > 1e-3 * before)) return;
+            take_mode(d);
+            const auto& [lambda, sums] = numbers.back();
+            if (sums.residual <= 1e-6 * std::abs(lambda) && lambda + sums.residual < kth) {
+              ++added_last;
+              return;
+            }
+            numbers.pop_back();
+            shapes.pop_back();
+            MODAL_PETSC(VecDestroy(&found.back()));
+            found.pop_back();
+          });
+          ++runs;
+          added += added_last;
+        }
+        MODAL_PETSC(PetscRandomDestroy(&random));
+        copies_note = fmt::format(
+            "completeness checked by {} more Krylov–Schur run{} from random start vectors (the inertia cannot tell "
+            "eigenvalues this near zero from rounding): {}",
+            runs, runs == 1 ? "" : "s",
+            added_last == 0
+                ? (added == 0 ? std::string("no direction below the highest returned eigenvalue outside the span of "
+                                            "the modes found")
+                              : fmt::format("{} more below the highest returned eigenvalue, which the first run "
+                                            "had missed (the lowest {} of all are reported); the last run found no "
+                                            "direction outside the span of the modes found",
+                                            added, k))
+                : fmt::format("{} more found below the highest returned eigenvalue, and the last run still found "
+                              "one: a mode below it may be missing",
+                              added));
+      }
       if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
         std::vector<std::size_t> order(numbers.size());
         std::iota(order.begin(), order.end(), std::size_t{0});
         std::stable_sort(order.begin(), order.end(),
-                         [&](std::size_t i, std::size_t j) { return numbers[i][0] < numbers[j][0]; });
+                         [&](std::size_t i, std::size_t j) { return numbers[i].first < numbers[j].first; });
         order.resize(static_cast<std::size_t>(k));
-        std::vector<std::array<double, 4>> kept_numbers;
+        std::vector<std::pair<double, QuotientSums>> kept_numbers;
         std::vector<VectorX> kept_shapes;
         for (const std::size_t i : order) {
           kept_numbers.push_back(numbers[i]);
@@ -1212,11 +1507,13 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // inertia's account of those not returned: Morse index, zero modes and
       // class over the whole spectrum (collective factorizations).
       for (std::size_t i = 0; i < numbers.size(); ++i)
-        result.modes.push_back(sparse_mode(rank == 0 ? std::move(shapes[i]) : VectorX::Zero(1), numbers[i][0],
-                                           numbers[i][1], numbers[i][2], 0.0, numbers[i][3]));
+        result.modes.push_back(
+            quotient_mode(rank == 0 ? std::move(shapes[i]) : VectorX::Zero(1), numbers[i].first, numbers[i].second));
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
-      if (completeness)
+      if (completeness && !copies_note.empty())
+        replace_note(result.notes, completeness->second, copies_note);
+      else if (completeness)
         if (auto note = unchecked_completeness_note(completeness->first, result.modes,
                                                     fmt::format("{:.3g}", completeness_margin * zeta),
                                                     fmt::format("{:.8g}", completeness->first.bound)))

@@ -686,21 +686,8 @@ struct Probe {
   std::function<bool(const VectorX&, const MatrixX&)> stop;
 };
 
-// The probe of the default shift's first run (lanczos_modes): after this
-// many restarts, the run is given up when its Ritz values all lie below
-// near_zero_fraction·ζ and the highest above their data's level (at most
-// near_zero_floor·s), and the runs move to −λ̃_nev.
-constexpr Index near_zero_probe = 20;
-constexpr double near_zero_fraction = 1e-2;
-constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
-// At most this many moves (each nearer 0: by 1/near_zero_fraction where
-// K − σM is positive definite there).
-constexpr int near_zero_moves = 16;
-// The probe of a run at a moved shift: long enough that such runs on the
-// nets of results/near_slack.md (21–23 restarts) converge within it, and so
-// are kept as they are (a probe of near_zero_probe there is made afresh:
-// 1.6 × the solves).
-constexpr Index moved_probe = 2 * near_zero_probe;
+// The probe's constants (near_zero_probe, near_zero_fraction,
+// near_zero_floor, near_zero_moves, moved_probe): modal/modes.hpp.
 
 template <class Factor, class MassOp>
 LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev, const SparseModalOptions& options,
@@ -926,9 +913,12 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const VectorX aK = absolute_product(K, a), aM = absolute_product(M, a);
   const VectorX terms = aK + std::abs(lambda) * aM;  // |K||φ| + |λ||M||φ|
   set_residual(residual, mass, r, Mphi, terms, norms.width, norms);
-  const double quotient_terms = a.dot(terms);  // |φ|ᵀ(|K| + |λ||M|)|φ|
-  const double n = static_cast<double>(K.rows());
-  const double systematic_part = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
+  QuotientSums sums;
+  sums.width = norms.width;
+  sums.n = static_cast<double>(K.rows());
+  sums.residual = residual.typical;
+  sums.residual_worst = residual.bound;
+  sums.systematic = systematic.rows() == K.rows() ? a.dot(systematic * a) : 0.0;
   if (shift.rows() == K.rows()) {
     const VectorX Sphi = shift * phi;
     const double s = phi.dot(Sphi);
@@ -937,17 +927,14 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
         std::sqrt(std::max(0.0, residual.shift_direction.dot(mass.solve(residual.shift_direction))));
     residual.shift_first = std::abs(s);
   }
-  // The estimate takes the rounding of φᵀKφ and the assembly's rounding of
-  // K and M (4ε per entry) at their typical size, as independent errors:
-  // √w ε‖φ∘(|K||φ|)‖₂ for the w terms of each entry of Kφ, √n ε Σ|φ_i(Kφ)_i|
-  // for the sum of the quotient, 4ε(Σ_ij (K_ij φ_i φ_j)²)^½ for the entries
-  // (and the same with |λ|M), each doubled. The worst case (residual_bound)
-  // sums the magnitudes instead: on a smooth mode of a net or a spring chain
-  // |φ|ᵀ|K||φ| is 10²–10⁴ × λ (K is a discrete Laplacian), and that worst
-  // case made the estimates 10³–10⁵ × the true error.
-  // K's entries at the sizes of their terms where given (SparseModalOptions::
-  // K_magnitude): a spring's transverse k(1 − L₀/L) at a small prestrain p
-  // is rounded at ε k, ε/p of itself.
+  // The entries' rounding (4ε each) at their typical size,
+  // 4ε(Σ_ij (K_ij φ_i φ_j)²)^½ and the same with |λ|M; K's entries at the
+  // sizes of their terms where given (SparseModalOptions::K_magnitude): a
+  // spring's transverse k(1 − L₀/L) at a small prestrain p is rounded at
+  // ε k, ε/p of itself. The worst case would sum the magnitudes instead: on
+  // a smooth mode of a net or a spring chain |φ|ᵀ|K||φ| is 10²–10⁴ × λ (K
+  // is a discrete Laplacian), and that worst case made the estimates
+  // 10³–10⁵ × the true error.
   double K2 = 0, M2 = 0;
   const SparseMatrix& K_terms = term_sizes.rows() == K.rows() ? term_sizes : K;
   for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K_terms, &K2}, {&M, &M2}})
@@ -958,33 +945,26 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   // stands for K's entries at their typical size too.
   const double structured = rounding_form.rows() == K.rows() ? std::max(0.0, phi.dot(rounding_form * phi))
                                                              : std::numeric_limits<double>::infinity();
-  const double typical_rounding = detail::typical_quotient_rounding(
-      norms.width, n, a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm(),
-      phi_sum_of_products(phi, Kphi), 4 * eps * (std::min(std::sqrt(K2), structured) + std::abs(lambda) * std::sqrt(M2)));
-  // The quotient's worst case: w terms in each entry of Kφ (and Mφ, whose
-  // rounding enters through φᵀMφ = 1), then n in the sums φᵀ(Kφ), φᵀ(Mφ) of
-  // the computed products, which carry no Laplacian cancellation.
-  const double sums = phi_sum_of_products(phi, Kphi) + std::abs(lambda) * phi_sum_of_products(phi, Mphi);
-  // The kind is decided as on the dense path (detail::solve_symmetric): the
-  // residual at its typical size, the data's rounding at its worst,
-  // 4ε φᵀFφ with F = K_rounding_form where given, else 4ε|φ|ᵀT|φ| with T
-  // the sizes of K's terms, plus 4ε|λ||φ|ᵀ|M||φ|. With the typical size
-  // alone, a flat net at its rest length (every out-of-plane λ zero in exact
-  // arithmetic, −6.5e-15 s as formed, with the springs' lengths rounded) had
-  // its ten lowest modes called divergent once the Lanczos vectors were
-  // accurate; the dense path calls them zero. With T, the resolved modes of
-  // a net at prestrain 1e-12 were called zero (8 of 10 at 100 × 100: T's
-  // Laplacian without its signs is 10³ × the smooth modes' λ/p).
+  sums.rows = a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm();
+  sums.sums_K = phi_sum_of_products(phi, Kphi);
+  sums.sums_M = phi_sum_of_products(phi, Mphi);
+  sums.quotient_terms = a.dot(terms);
+  sums.entries = std::min(std::sqrt(K2), structured) + std::abs(lambda) * std::sqrt(M2);
+  // The data's worst case for the kind: φᵀFφ where F is given, else
+  // |φ|ᵀT|φ| with T the sizes of K's terms. With the residual's typical
+  // size alone, a flat net at its rest length (every out-of-plane λ zero in
+  // exact arithmetic, −6.5e-15 s as formed, with the springs' lengths
+  // rounded) had its ten lowest modes called divergent once the Lanczos
+  // vectors were accurate; the dense path calls them zero. With T, the
+  // resolved modes of a net at prestrain 1e-12 were called zero (8 of 10 at
+  // 100 × 100: T's Laplacian without its signs is 10³ × the smooth modes'
+  // λ/p).
   const double data_rounding =
       std::isfinite(structured)
           ? structured
           : (term_sizes.rows() == K.rows() ? a.dot(absolute_product(term_sizes, a)) : a.dot(aK));
-  const double data_worst = 4 * eps * (data_rounding + std::abs(lambda) * a.dot(aM));
-  Mode mode = sparse_mode(std::move(phi), lambda, residual.typical, typical_rounding, systematic_part,
-                          residual.typical + systematic_part + data_worst);
-  mode.residual_bound = residual.bound + (norms.width + 1) * eps * quotient_terms + (n + 1) * eps * sums +
-                        eps * std::abs(lambda);
-  return mode;
+  sums.data = data_rounding + std::abs(lambda) * a.dot(aM);
+  return quotient_mode(std::move(phi), lambda, sums);
 }
 
 std::string plural(Index count, const char* one, const char* many) {
@@ -1239,6 +1219,15 @@ Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, doub
   mode.systematic_error = systematic;
   if (phi(detail::dominant_index(phi.cast<std::complex<double>>())) < 0) phi = -phi;
   mode.shape = phi.cast<std::complex<double>>();
+  return mode;
+}
+
+Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums) {
+  const double rounding = detail::typical_quotient_rounding(sums.width, sums.n, sums.rows, sums.sums_K, 4 * eps * sums.entries);
+  Mode mode = sparse_mode(std::move(phi), lambda, sums.residual, rounding, sums.systematic,
+                          sums.residual + sums.systematic + 4 * eps * sums.data);
+  mode.residual_bound = sums.residual_worst + (sums.width + 1) * eps * sums.quotient_terms +
+                        (sums.n + 1) * eps * (sums.sums_K + std::abs(lambda) * sums.sums_M) + eps * std::abs(lambda);
   return mode;
 }
 

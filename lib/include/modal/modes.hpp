@@ -210,6 +210,31 @@ ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& option
 Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, double systematic = 0,
                  double zero_level = 0);
 
+// The sums a mode of the symmetric pencil is judged by, computed by whoever
+// holds K, M and φ (solve_sparse_modes with Eigen, the distributed backend
+// with PETSc); φ M-normalized, λ = φᵀKφ, a = |φ|, F K's rounding form
+// (sparse_rounding_form).
+struct QuotientSums {
+  double width = 1;          // the most nonzeros in a row of K or M: the terms of an entry of Kφ
+  double n = 1;              // the coordinates: the terms of φᵀ(Kφ)
+  double residual = 0;       // ‖r‖_{M⁻¹} + r's own rounding at its typical size (error_estimate's part)
+  double residual_worst = 0;  // the same at its worst case (residual_bound's part)
+  double rows = 0;            // ‖a ∘ |K|a‖₂ + |λ|‖a ∘ |M|a‖₂: the rounding of Kφ and Mφ seen by the quotient
+  double sums_K = 0, sums_M = 0;  // Σ|φ_i(Kφ)_i|, Σ|φ_i(Mφ)_i|
+  double quotient_terms = 0;  // aᵀ(|K| + |λ||M|)a
+  double entries = 0;         // the entries' own rounding, typical: min((Σ(K_ij φ_i φ_j)²)^½, φᵀFφ) + |λ|(Σ(M_ij φ_i φ_j)²)^½
+  double data = 0;            // the data's rounding at its worst: φᵀFφ (else aᵀ|K|a) + |λ|aᵀ|M|a
+  double systematic = 0;      // |φ|ᵀE|φ| for a known error E of K (else 0)
+};
+// The mode of the sums (sparse_mode): the estimate is the residual and the
+// quotient's rounding at their typical sizes (independent errors: √width
+// terms in an entry of Kφ, √n in the sum φᵀ(Kφ), and 4ε per entry of K and
+// M, each doubled); the kind is decided, as on the dense path, with the
+// residual and the data's rounding at its worst, 4ε·data; residual_bound
+// sums the magnitudes (width + 1 terms in each entry of Kφ, n + 1 in the
+// sums).
+Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums);
+
 // What the inertia of K − σM says about the modes a shift-invert solver did
 // not return (solve_sparse_modes and the distributed backend share it).
 struct InertiaAccount {
@@ -249,6 +274,22 @@ inline constexpr double completeness_margin = 1e-4;
 // zero modes are found and counted by the inertia at σ₀ (solve_sparse_modes
 // and the distributed backend).
 inline constexpr double zero_margin = 1e-8;
+// The probe of the default shift's first run (solve_sparse_modes; the
+// distributed backend alike): after near_zero_probe restarts, a run is
+// given up when its Ritz values all lie below near_zero_fraction·|σ| and the
+// highest above their data's level (at most near_zero_floor·s on the serial
+// path, which has the Ritz vectors), and the runs move to −λ̃_nev, at most
+// near_zero_moves times (each nearer 0 by 1/near_zero_fraction where
+// K − σM is positive definite there). A run at a moved shift is probed
+// after moved_probe restarts: long enough that such runs on the nets of
+// results/near_slack.md (21–23 restarts) converge within it, and so are
+// kept as they are (a probe of near_zero_probe there is made afresh: 1.6 ×
+// the solves).
+inline constexpr long near_zero_probe = 20;
+inline constexpr double near_zero_fraction = 1e-2;
+inline constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
+inline constexpr int near_zero_moves = 16;
+inline constexpr long moved_probe = 2 * near_zero_probe;
 struct CompletenessCheck {
   enum class Outcome {
     not_needed,  // λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
