@@ -197,10 +197,10 @@ ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, con
 // bodies. Throws as solve_sparse_modes.
 ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& options = {});
 
-// One mode of the symmetric pencil as solve_sparse_modes reports it (also the
-// distributed backend's): phi M-normalized, lambda = phiᵀK phi its Rayleigh
-// quotient, error = ‖K phi − lambda M phi‖ in the M⁻¹-norm, rounding = the
-// rounding level of evaluating phiᵀK phi, 4ε(‖K‖₁ + |lambda|‖M‖₁)‖phi‖₂²,
+// One mode of the symmetric pencil (quotient_mode's, and the tree path's):
+// phi M-normalized, lambda = phiᵀK phi its Rayleigh quotient, error =
+// ‖K phi − lambda M phi‖ in the M⁻¹-norm, rounding = the caller's rounding
+// level of evaluating phiᵀK phi (quotient_mode: at its typical size),
 // systematic = |phi|ᵀ E |phi| for a known error E of K (else 0). A zero mode
 // when |lambda| is within error + systematic, within rounding or within
 // zero_level (the caller's level for deciding the kind, e.g. with the data's
