@@ -1423,8 +1423,9 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // both vectors of a double eigenvalue, and against the earlier vectors
       // alone both were added: three modes at 1.967e-11), is a new direction
       // where it keeps more than 1e-3 of its M-norm; as a mode, it is added
-      // (a missed copy) when its residual estimate is within 1e-6 of its λ
-      // and wholly below the k-th, else counted as unresolved. The runs stop
+      // (a missed copy) when its residual estimate is within
+      // copies_resolution of its λ and wholly below the k-th, else counted
+      // as unresolved. The runs stop
       // when one has found no new direction at all and converged every pair
       // it asked for (its direction in each eigenspace then lies in the span
       // found, so the span is the eigenspace), at most 4 runs; otherwise
@@ -1449,7 +1450,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         Vec& start = work.add(K);
         Vec& Md = work.add(K);
         // Per run: directions added, and directions outside the span found
-        // whose residual was not within 1e-6 of λ (neither added nor
+        // whose residual was not within copies_resolution of λ (neither added nor
         // evidence that nothing is missing).
         int runs = 0, added = 0, added_last = 0, unresolved_last = 0;
         std::vector<PetscScalar> coefficients;
@@ -1480,7 +1481,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
             if (!(std::sqrt(std::max(0.0, dot(d, Md))) > 1e-3 * before)) return;
             take_mode(d);
             const auto& [lambda, sums] = numbers.back();
-            if (sums.residual <= 1e-6 * std::abs(lambda) && lambda + sums.residual < kth) {
+            if (sums.residual <= copies_resolution * std::abs(lambda) && lambda + sums.residual < kth) {
               ++added_last;
               return;
             }
@@ -1494,25 +1495,9 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           added += added_last;
         } while (runs < 4 && (added_last > 0 || unresolved_last > 0 || short_run) &&
                  static_cast<PetscInt>(found.size()) + k < n);
-        const bool spanned = added_last == 0 && unresolved_last == 0 && !short_run;
-        const std::string found_text =
-            added == 0 ? std::string()
-                       : fmt::format("{} more below the highest returned eigenvalue, which the first run had missed "
-                                     "(the lowest {} of all are reported); ",
-                                     added, k);
-        copies_note = fmt::format(
-            "completeness checked by {} more Krylov–Schur run{} from random start vectors (the inertia cannot tell "
-            "eigenvalues this near zero from rounding): {}{}",
-            runs, runs == 1 ? "" : "s", found_text,
-            spanned ? std::string("the last run found no direction below the highest returned eigenvalue outside "
-                                  "the span of the modes found")
-                    : fmt::format("the last run {}: a mode below the highest returned may be missing",
-                                  short_run ? "converged fewer pairs than it asked for"
-                                  : unresolved_last > 0
-                                      ? fmt::format("found {} direction{} outside the span of the modes found that "
-                                                    "it could not resolve",
-                                                    unresolved_last, unresolved_last == 1 ? "" : "s")
-                                      : std::string("still added some")));
+        copies_note = copies_check_note(runs, added, static_cast<long>(k),
+                                        added_last == 0 && unresolved_last == 0 && !short_run, short_run,
+                                        unresolved_last, "Krylov–Schur");
       }
       if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
         std::vector<std::size_t> order(numbers.size());

@@ -256,6 +256,20 @@ struct InertiaAccount {
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
                       const std::function<long(double& sigma, const char* what, bool expect_indefinite)>& count_below);
 
+// The note of the copies check that follows a moved shift where the
+// inertia cannot check completeness (solve_sparse_modes and the distributed
+// backend): `runs` runs from random start vectors of `iteration`, `added`
+// directions added below the k-th eigenvalue, `spanned` when the last run
+// found no new direction and converged (else, as `short_run` and
+// `unresolved` say, a mode may be missing).
+std::string copies_check_note(int runs, int added, long k, bool spanned, bool short_run, int unresolved,
+                              const std::string& iteration);
+// A new direction of the copies check is added as a mode when its error
+// estimate is within this much of its λ (and it lies wholly below the k-th
+// eigenvalue): the serial path's estimates on graded chains run to 2e-5 of
+// λ (honest, loose), while the contaminated pairs this guards against had
+// residuals of 0.1–1 × λ.
+inline constexpr double copies_resolution = 1e-3;
 // The completeness rule for the k lowest modes of a shift-invert solver
 // (solve_sparse_modes and the distributed backend share it): a Krylov run
 // from one start vector can skip a copy of a repeated eigenvalue. With
