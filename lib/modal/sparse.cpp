@@ -109,8 +109,8 @@
 #include <limits>
 #include <memory>
 #include <numeric>
-#include <random>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -625,6 +625,7 @@ struct LanczosRun {
   std::string factor;
   bool stopped = false;
   bool refined = false;  // by refine_run
+  bool converged = true;  // false only where run_lanczos was told it need not (must_converge)
 };
 
 // Spectra's shift-invert solver, with its current Ritz values readable
@@ -692,7 +693,8 @@ struct Probe {
 
 template <class Factor, class MassOp>
 LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev, const SparseModalOptions& options,
-                       const Units& units, const Probe* probe = nullptr, const VectorX* start = nullptr) {
+                       const Units& units, const Probe* probe = nullptr, const VectorX* start = nullptr,
+                       bool must_converge = true) {
   const Index n = mass_op.rows();
   LanczosRun run;
   run.sigma = sigma;
@@ -738,6 +740,11 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
       else eigs.init();
       const Index converged = eigs.compute(Spectra::SortRule::LargestMagn, options.max_iterations, options.tolerance,
                                            Spectra::SortRule::SmallestAlge);
+      if (eigs.info() != Spectra::CompInfo::Successful && !must_converge) {  // its converged pairs only
+        run.converged = false;
+        take(eigs, probe_restarts, probe_solves);
+        return run;
+      }
       if (eigs.info() != Spectra::CompInfo::Successful)
         throw NumericalError("solve_sparse_modes: the shift-invert Lanczos iteration at σ = " + units(sigma, 6) +
                              " did not converge: " + std::to_string(converged) + " of " + std::to_string(nev) +
@@ -1299,15 +1306,16 @@ std::string copies_check_note(int runs, int added, long k, bool spanned, bool sh
     last = "the last run found no direction below the highest returned eigenvalue outside the span of the modes found";
   else
     last = std::string("the last run ") +
-           (short_run ? "did not converge"
+           (short_run ? "did not converge every pair it asked for"
             : unresolved > 0
                 ? "found " + std::to_string(unresolved) + " direction" + (unresolved == 1 ? "" : "s") +
                       " outside the span of the modes found that it could not resolve"
                 : std::string("still added some")) +
            ": a mode below the highest returned may be missing";
-  return "completeness checked by " + std::to_string(runs) + " more " + iteration + " run" + (runs == 1 ? "" : "s") +
-         " from random start vectors (the inertia cannot tell eigenvalues this near zero from rounding): " + found +
-         last;
+  return "completeness not checked by the inertia, which cannot tell eigenvalues this near zero from rounding; "
+         "copies of repeated eigenvalues checked instead by " +
+         std::to_string(runs) + " more " + iteration + " run" + (runs == 1 ? "" : "s") + " from random start vectors: " +
+         found + last;
 }
 
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
@@ -1641,13 +1649,14 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // below the k-th, else counted unresolved; until a run finds no new direction and
     // converges (its direction in each eigenspace then lies in the span
     // found), at most 4 runs; then the lowest k are kept.
-    const bool some_resolved = std::any_of(pairs.begin(), pairs.end(), [&](const auto& pair) {
-      ModeResidual unused;
-      return pencil.make_mode(pair.second, unused).kind != ModeKind::zero;
-    });
-    if (run_sigma != s0 && some_resolved && completeness &&
-        check.outcome == CompletenessCheck::Outcome::complete && check.bound <= 0 &&
-        static_cast<Index>(pairs.size()) + k < n) {
+    const auto some_resolved = [&] {
+      return std::any_of(pairs.begin(), pairs.end(), [&](const auto& pair) {
+        ModeResidual unused;
+        return pencil.make_mode(pair.second, unused).kind != ModeKind::zero;
+      });
+    };
+    if (run_sigma != s0 && completeness && check.outcome == CompletenessCheck::Outcome::complete &&
+        check.bound <= 0 && static_cast<Index>(pairs.size()) + k < n && some_resolved()) {
       std::vector<VectorX> mass_found;  // Mφ of each pair
       VectorX Md(n);
       for (const auto& pair : pairs) {
@@ -1668,15 +1677,13 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
         added_last = unresolved_last = 0;
         short_run = false;
         ++extra_runs;
-        LanczosRun extra;
-        try {
-          extra = run_lanczos(factor, mass_op, run_sigma, k, options, units, nullptr, &start);
-        } catch (const NumericalError&) {  // a check run that does not converge does not fail the analysis
-          short_run = true;
-          break;
-        }
+        // A check run that does not converge does not fail the analysis (its
+        // converged pairs are taken, and the note says a mode may be missing).
+        LanczosRun extra = run_lanczos(factor, mass_op, run_sigma, k, options, units, nullptr, &start, false);
+        short_run = !extra.converged;
         refine_run(extra, factor, mass_op);
-        runs.push_back(describe_run(extra, k, units) + ", from a random start vector (the copies check)");
+        runs.push_back(describe_run(extra, k, units) + ", from a random start vector (the copies check" +
+                       (short_run ? ", not converged)" : ")"));
         for (Index j = 0; j < extra.lambda.size(); ++j) {
           if (!(extra.lambda(j) < kth)) continue;
           VectorX d = extra.Phi.col(j);
@@ -1704,9 +1711,14 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
           ++added_last;
         }
         added += added_last;
-      } while (extra_runs < 4 && (added_last > 0 || unresolved_last > 0) && static_cast<Index>(pairs.size()) + k < n);
+      } while (extra_runs < 4 && (added_last > 0 || unresolved_last > 0 || short_run) &&
+               static_cast<Index>(pairs.size()) + k < n);
       std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
       pairs.resize(static_cast<std::size_t>(k));
+      // The factor back at b, where the check left it: the second-order
+      // estimates below need it (without, every mode of these scenes kept
+      // its linear residual term, looser, even where nothing was added).
+      factor.factor(check.bound, true);
       copies_note = copies_check_note(extra_runs, added, static_cast<long>(k), added_last == 0 && unresolved_last == 0 && !short_run,
                                       short_run, unresolved_last, "Lanczos");
     }
