@@ -766,7 +766,7 @@ struct PointSolver {
   Assembly assembly;
   Vec x = nullptr, f = nullptr;
   Mat J = nullptr, K = nullptr, M = nullptr, F = nullptr;  // F: K's rounding form (sparse_rounding_form)
-  Mat K_abs = nullptr, K_square = nullptr;                  // |K_ij| and K_ij² (the modes' sums)
+  Mat K_abs = nullptr, K_square = nullptr;                  // |K_ij| and T_ij², T the sizes of K's terms (the modes' sums)
   std::vector<Vec> found;                                   // the modes' vectors, M-normalized
   SNES snes = nullptr;
   EPS eps_solver = nullptr;
@@ -1098,7 +1098,21 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       SparseMatrix local_form;
       phase([&] { local_form = sparse_rounding_form(*part.system, *ws, q); });
       assembly.add_matrix(F, local_form);
-      for (Mat A : {M, F}) {
+      // The sizes of K's terms (Σ|terms| of each entry, summed over the
+      // ranks' parts), in K_square's place until the modes' phase squares
+      // them: K's entries are rounded at these sizes, far above |K_ij| where
+      // a spring's terms cancel (the transverse k(1 − L₀/L) at a small
+      // prestrain p carries ε/p of itself), as on the serial sparse path
+      // (SparseModalOptions::K_magnitude). With K's own entries, generated
+      // nets at p = 3e-7 … 6e-12 had estimates 1e4–1e9 × below their true
+      // errors (tests/distributed/prestrained_nets.py).
+      K_square = create_matrix(part, n);
+      {
+        SparseMatrix local_terms;
+        phase([&] { local_terms = sparse_potential_hessian_magnitude(*part.system, *ws, q); });
+        assembly.add_matrix(K_square, local_terms);
+      }
+      for (Mat A : {M, F, K_square}) {
         MODAL_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
         MODAL_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
       }
@@ -1166,31 +1180,46 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         target = s0 - high;
         where = "a shift below the spectrum";
       }
-      // |K_ij| and K_ij² (quotient_mode's sums) and the most nonzeros in a
-      // row of K (M is diagonal): the terms of an entry of Kφ.
+      // |K_ij| and T_ij² for T the sizes of K's terms (quotient_mode's
+      // sums: the products' rounding is the stored entries', the entries'
+      // own rounding their terms'), and the most nonzeros in a row of K (M
+      // is diagonal): the terms of an entry of Kφ.
       double width = 1;
       {
+        Mat terms_matrix = K_square;  // T, as the assembly left it
+        K_square = nullptr;
+        struct Owned {  // destroyed with this block, also on a throw
+          Mat& A;
+          ~Owned() {
+            if (A) MatDestroy(&A);
+          }
+        } owned{terms_matrix};
         MODAL_PETSC(MatDuplicate(K, MAT_DO_NOT_COPY_VALUES, &K_abs));
-        MODAL_PETSC(MatDuplicate(K, MAT_DO_NOT_COPY_VALUES, &K_square));
+        MODAL_PETSC(MatDuplicate(terms_matrix, MAT_DO_NOT_COPY_VALUES, &K_square));
         PetscInt first = 0, end = 0;
         MODAL_PETSC(MatGetOwnershipRange(K, &first, &end));
-        std::vector<PetscScalar> magnitudes, squares;
-        for (PetscInt row = first; row < end; ++row) {
+        std::vector<PetscScalar> entries;
+        std::vector<PetscInt> kept;
+        // A's row, each entry mapped, into B's row.
+        const auto map_row = [&](Mat A, Mat B, PetscInt row, auto&& map) {
           PetscInt count = 0;
           const PetscInt* columns = nullptr;
           const PetscScalar* values = nullptr;
-          MODAL_PETSC(MatGetRow(K, row, &count, &columns, &values));
-          magnitudes.assign(values, values + count);
-          squares.assign(values, values + count);
-          for (PetscInt j = 0; j < count; ++j) {
-            magnitudes[static_cast<std::size_t>(j)] = std::abs(values[j]);
-            squares[static_cast<std::size_t>(j)] = values[j] * values[j];
-          }
+          MODAL_PETSC(MatGetRow(A, row, &count, &columns, &values));
+          entries.resize(static_cast<std::size_t>(count));
+          for (PetscInt j = 0; j < count; ++j) entries[static_cast<std::size_t>(j)] = map(values[j]);
+          kept.assign(columns, columns + count);
+          // (MatRestoreRow sets its count to 0: the row's is kept before.
+          // Reading it afterwards had left |K| and K∘K all zero here.)
+          const PetscInt kept_count = count;
+          MODAL_PETSC(MatRestoreRow(A, row, &count, &columns, &values));
+          MODAL_PETSC(MatSetValues(B, 1, &row, kept_count, kept.data(), entries.data(), INSERT_VALUES));
+          return kept_count;
+        };
+        for (PetscInt row = first; row < end; ++row) {
+          const PetscInt count = map_row(K, K_abs, row, [](PetscScalar v) { return std::abs(v); });
           width = std::max(width, static_cast<double>(count));
-          const std::vector<PetscInt> kept(columns, columns + count);
-          MODAL_PETSC(MatRestoreRow(K, row, &count, &columns, &values));
-          MODAL_PETSC(MatSetValues(K_abs, 1, &row, count, kept.data(), magnitudes.data(), INSERT_VALUES));
-          MODAL_PETSC(MatSetValues(K_square, 1, &row, count, kept.data(), squares.data(), INSERT_VALUES));
+          map_row(terms_matrix, K_square, row, [](PetscScalar v) { return v * v; });
         }
         for (Mat A : {K_abs, K_square}) {
           MODAL_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
@@ -1237,7 +1266,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       const auto take_mode = [&](Vec phi) {
         // φ M-normalized, λ its Rayleigh quotient, r = Kφ − λMφ; the sums
         // of quotient_mode as solve_sparse_modes forms them (M diagonal:
-        // |M| = M, and F, |K| and K∘K summed over the ranks' parts).
+        // |M| = M, and F, |K| and T∘T summed over the ranks' parts).
         MODAL_PETSC(MatMult(M, phi, Mphi));
         const double unit = 1.0 / std::sqrt(dot(phi, Mphi));
         MODAL_PETSC(VecScale(phi, unit));
@@ -1265,7 +1294,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         MODAL_PETSC(MatMult(K, phi, Kphi));
         sums.sums_K = abs_dot(phi, Kphi);
         sums.sums_M = abs_dot(phi, Mphi);
-        // (Σ(K_ij φ_i φ_j)²)^½ = ((φ∘φ)ᵀ(K∘K)(φ∘φ))^½, and with M (diagonal)
+        // (Σ(T_ij φ_i φ_j)²)^½ = ((φ∘φ)ᵀ(T∘T)(φ∘φ))^½, and with M (diagonal)
         MODAL_PETSC(VecPointwiseMult(a, phi, phi));
         MODAL_PETSC(MatMult(K_square, a, terms));
         const double K2 = dot(a, terms);
