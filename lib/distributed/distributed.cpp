@@ -1376,13 +1376,37 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       };
       // Completeness by inertia, as solve_sparse_modes checks it: a Krylov
       // run from one start vector can skip a copy of a repeated eigenvalue.
-      // For the lowest modes (no shift, none negative), with b = λ_k − δ
+      // For the lowest modes (no shift), with b = λ_k − δ
       // (δ = 1e-6|λ_k| + η, η = completeness_margin·ζ) below the k-th returned eigenvalue, the inertia
       // of K − bM must count no more eigenvalues below b than were returned
       // below it; else the run is repeated with more wanted (at most 4 times).
       std::optional<std::pair<CompletenessCheck, std::size_t>> completeness;  // the check and its note's index
-      if (options.shift || m > 0) {
+      // The numbers' eigenvalues, any order.
+      const auto eigenvalues = [&] {
+        std::vector<double> lambdas;
+        for (const auto& number : numbers) lambdas.push_back(number.first);
+        return lambdas;
+      };
+      if (options.shift) {
         solve_nearest(k, nullptr);
+      } else if (m > 0) {
+        // The k nearest the shift below the spectrum are the k lowest,
+        // checked as at σ₀ (check_completeness, nothing below the shift): a
+        // run from one start vector can skip a copy of a repeated negative
+        // eigenvalue as well (a compressed net, all its lowest λ negative,
+        // returned its 9th, double, eigenvalue once and the 11th as its 10th).
+        const CompletenessCheck check = check_completeness(
+            k, n, target, zeta,
+            [&](long nev) {
+              solve_nearest(static_cast<PetscInt>(nev), nullptr);
+              return eigenvalues();
+            },
+            [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });
+        if (check.outcome != CompletenessCheck::Outcome::not_needed) {
+          completeness = {check, result.notes.size()};
+          result.notes.push_back(
+              completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
+        }
       } else {
         // The first run probed as solve_sparse_modes probes its own (see
         // there and ProbeWatch): at σ₀ = −ζ the wanted θ = 1/(λ − σ₀) of
@@ -1427,9 +1451,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                   where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay under {} |σ|)",
                                       target, moves, moves == 1 ? "" : "s", near_zero_fraction);
               }
-              std::vector<double> lambdas;
-              for (const auto& number : numbers) lambdas.push_back(number.first);
-              return lambdas;
+              return eigenvalues();
             },
             [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });  // moves b down past a singular K − bM
         if (check.outcome != CompletenessCheck::Outcome::not_needed) {
@@ -1467,7 +1489,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         return quotient_mode(VectorX::Zero(1), number.first, number.second).kind != ModeKind::zero;
       });
       if (moves > 0 && some_resolved && completeness &&
-          completeness->first.outcome == CompletenessCheck::Outcome::complete && completeness->first.bound <= 0 &&
+          completeness->first.outcome == CompletenessCheck::Outcome::complete && completeness->first.near_zero() &&
           static_cast<PetscInt>(found.size()) + k < n) {
         struct Random {  // destroyed with the phase, also on a throw
           PetscRandom random = nullptr;

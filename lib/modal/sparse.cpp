@@ -1253,7 +1253,8 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
     std::sort(lambdas.begin(), lambdas.end());
     const double lambda_k = lambdas[static_cast<std::size_t>(k - 1)];
     check.bound = lambda_k - 1e-6 * std::abs(lambda_k) - completeness_margin * zeta;
-    if (!(lambda_k > 0) || !(check.bound > s0)) {
+    check.top = lambda_k;
+    if (!(lambda_k > 0 || lambda_k < -completeness_margin * zeta) || !(check.bound > s0)) {
       check.outcome = CompletenessCheck::Outcome::not_needed;
       return check;
     }
@@ -1320,7 +1321,7 @@ std::string copies_check_note(int runs, int added, long k, bool spanned, bool sh
 
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
                                                        const std::string& margin_text, const std::string& bound_text) {
-  if (check.outcome != CompletenessCheck::Outcome::complete || check.bound > 0) return std::nullopt;
+  if (check.outcome != CompletenessCheck::Outcome::complete || !check.near_zero()) return std::nullopt;
   const auto resolved = std::count_if(modes.begin(), modes.end(), [&](const Mode& mode) {
     return mode.kind != ModeKind::zero && mode.omega2 >= check.bound;
   });
@@ -1373,6 +1374,28 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
           " within the zero modes' error estimates of zero, " + std::to_string(result.zero_modes) +
           " of them returned (--modes): " + std::to_string(near_zero) + " zero modes in all");
       result.zero_modes = static_cast<int>(near_zero);
+    }
+  }
+  // Negative eigenvalues beyond the k returned: when the highest returned
+  // mode is itself divergent, more may lie between it and zero, which
+  // neither the inertia at σ₀ nor the returned modes count (a flat net under
+  // compression 1e-9, its 324 out-of-plane λ all in [−4.0e-3, −2.7e-5] and
+  // so above σ₀ = −ζ = −0.02, had "Morse index 10", its 10 returned modes).
+  // The inertia at −η (η = completeness_margin·ζ: the level below which it
+  // tells eigenvalues from rounding, as the completeness check's) counts
+  // them; those within η of zero are not counted as negative.
+  if (!account.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::divergent) {
+    double minus_eta = -completeness_margin * account.zeta;
+    if (result.modes.back().omega2 < minus_eta) {
+      const long below = count_below(minus_eta, "Morse index count", true);
+      if (below > result.morse_index) {
+        result.notes.push_back("the inertia of K − σM at σ = −η = " + format(minus_eta, 3) + " counts " +
+                               plural(below, "eigenvalue", "eigenvalues") + " below it, of which the lowest " +
+                               std::to_string(result.modes.size()) +
+                               " are returned (--modes): Morse index " + std::to_string(below) +
+                               " (eigenvalues within η of zero are not counted as negative)");
+        result.morse_index = static_cast<int>(below);
+      }
     }
   }
   result.stability = result.morse_index > 0 ? Stability::divergence : classify(result.modes);
@@ -1656,7 +1679,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       });
     };
     if (run_sigma != s0 && completeness && check.outcome == CompletenessCheck::Outcome::complete &&
-        check.bound <= 0 && static_cast<Index>(pairs.size()) + k < n && some_resolved()) {
+        check.near_zero() && static_cast<Index>(pairs.size()) + k < n && some_resolved()) {
       std::vector<VectorX> mass_found;  // Mφ of each pair
       VectorX Md(n);
       for (const auto& pair : pairs) {
@@ -1782,16 +1805,34 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       const double sigma_low = s0 - d_hi;
       if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
         throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
+      // The nev lowest from σ_L, checked as the lowest modes at σ₀ are
+      // (check_completeness, with nothing below σ_L): a run from one start
+      // vector can skip a copy of a repeated negative eigenvalue as well (a
+      // compressed net returned its 9th, double, eigenvalue once and the
+      // 11th as its 10th). The factor left at b serves the estimates below.
       const Index nev = std::min(k, m);
-      const LanczosRun run = run_lanczos(factor, mass_op, sigma_low, nev, options, units);
-      runs.push_back(describe_run(run, nev, units));
-      const Index below = (run.lambda.array() < s0).count();
+      std::optional<LanczosRun> low;
+      const CompletenessCheck check = check_completeness(
+          nev, n, sigma_low, zeta,
+          [&](long want) {
+            low = run_lanczos(factor, mass_op, sigma_low, want, options, units);
+            runs.push_back(describe_run(*low, want, units));
+            return std::vector<double>(low->lambda.data(), low->lambda.data() + low->lambda.size());
+          },
+          [&](double& b, bool expect_indefinite) {
+            return static_cast<long>(factor_at(b, "completeness check", expect_indefinite));
+          });
+      if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
+      if (check.outcome != CompletenessCheck::Outcome::not_needed)
+        result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
+      const Index below = (low->lambda.head(std::min<Index>(nev, low->lambda.size())).array() < s0).count();
       if (below != nev)
         throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + units(s0, 6) +
                              " counts " + std::to_string(m) + " eigenvalues below it, but the Lanczos iteration from σ = " +
                              units(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
                              std::to_string(nev) + " lowest there; try a larger max_iterations or a user shift");
-      take(run, [](double) { return true; });
+      Index kept = 0;  // the nev lowest (a repeated run wanted more; run.lambda is ascending)
+      take(*low, [&](double) { return kept++ < nev; });
     }
     if (k < m)
       result.notes.push_back("the equilibrium has " + plural(m, "negative eigenvalue", "negative eigenvalues") +

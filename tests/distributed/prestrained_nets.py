@@ -7,12 +7,14 @@ Usage: prestrained_nets.py MODAL NP SEED NETS SMALLEST LARGEST
 
 Generates NETS flat square nets of SMALLEST–LARGEST particles a side (seeded
 by SEED; spacing 0.1 m, 2 g, springs of 1000 N/m, boundary fixed, no
-gravity), at prestrains p log-uniform over [1e-12, 1e-3], the first net of
-every seed at p = 0 (the degenerate variant: every out-of-plane eigenvalue
-zero). Their out-of-plane eigenvalues are known in closed form,
+gravity), at prestrains p log-uniform over [1e-12, 1e-3], every third one
+compressed (-p: written as particles and springs, every out-of-plane
+eigenvalue negative), the first net of every seed at p = 0 (the degenerate
+variant: every out-of-plane eigenvalue zero). Their out-of-plane eigenvalues are known in closed form,
     omega^2 = (k p / m) 4 [sin^2(i pi / 2(N + 1)) + sin^2(j pi / 2(N + 1))]
 (N = side - 2 free particles a side), and are the lowest for these p and
-sides (the in-plane ones lie near (k/m)(pi/(N + 1))^2 and above). The
+sides (the in-plane ones lie near (k/m)(pi/(N + 1))^2 and above; under
+compression, the lowest are the most negative). The
 reference is evaluated in 40-digit decimal arithmetic (Taylor series of sin),
 independent of modal.
 
@@ -22,8 +24,14 @@ within its error estimate of the reference in sorted order (a missed copy of
 a double eigenvalue fails), oscillatory where the reference exceeds 10 x the
 worst case of the data's rounding on a unit mode (4 eps 16 k/m: two terms of
 size k in each of a node's four springs' transverse stiffnesses, and the
-Laplacian's 4 + 4 entries summed in magnitude), zero at p = 0, and no note
-that a mode may be missing. A spring's transverse stiffness k p is formed as
+Laplacian's 4 + 4 entries summed in magnitude), divergent where it lies
+below -10 x that, zero at p = 0, no note that a mode may be missing, and
+under compression the class divergence with the Morse index the number of
+out-of-plane eigenvalues below -eta (eta = 1e-12 max K_ii/M_ii, the level
+from which the inertia tells eigenvalues from rounding): before, the sparse
+paths counted only the returned modes between -zeta and zero, and a net of
+side 20 at p = -1e-9 (324 negative eigenvalues, all above -zeta) had
+"Morse index 10". A spring's transverse stiffness k p is formed as
 k - k L0/L and carries eps/p of itself: at p = 1e-9 the formed eigenvalues
 lie some 1e-7 of themselves from the closed form, which the estimates must
 say. Before the distributed backend took K's entries at the sizes of their
@@ -48,8 +56,41 @@ EPS = 2.0 ** -52
 
 
 def scene(side, p):
+    if p < 0:
+        return explicit_scene(side, p)
     return ("gravity = [0, 0, 0]\n[[lattice]]\nname = \"net\"\nsize = [%d, %d, 1]\nspacing = 0.1\nmass = 0.002\n"
             "stiffness = 1000\nprestrain = %r\nfixed = \"boundary\"\n" % (side, side, p))
+
+
+def explicit_scene(side, p):
+    """The same net as particles and springs (the lattice takes no negative
+    prestrain): rest length h (1 - p), so that T/L = k p as the lattice's, the
+    boundary nodes as fixed points of the springs. h = 1/8 and p a multiple of
+    2^-50 make the positions and rest lengths exact in binary: the scene as
+    written is the closed form's (with h = 0.1, the rest length's rounding,
+    eps/2 of it, moved the eigenvalues by eps/2p, 2.6e-10 of themselves at
+    p = -4.3e-7, beyond the estimates of the scene as written)."""
+    h = 0.125
+
+    def inner(i, j):
+        return 0 < i < side - 1 and 0 < j < side - 1
+
+    lines = ["gravity = [0, 0, 0]"]
+    for i in range(1, side - 1):
+        for j in range(1, side - 1):
+            lines += ["[[particle]]", 'name = "p%d_%d"' % (i, j), "position = [%r, %r, 0]" % (h * i, h * j),
+                      "mass = 0.002"]
+    for i in range(side):
+        for j in range(side):
+            for a, b in (((i, j), (i + 1, j)), ((i, j), (i, j + 1))):
+                if b[0] >= side or b[1] >= side or not (inner(*a) or inner(*b)):
+                    continue
+                lines.append("[[spring]]")
+                for key, (x, y) in (("a", a), ("b", b)):
+                    lines += (['%s = "p%d_%d"' % (key, x, y)] if inner(x, y) else
+                              ['%s = "world"' % key, "%s_point = [%r, %r, 0]" % (key, h * x, h * y)])
+                lines += ["stiffness = 1000", "rest_length = %r" % (h * (1 - p))]
+    return "\n".join(lines) + "\n"
 
 
 def pi():
@@ -75,11 +116,15 @@ def sin(x):
     return total
 
 
-def reference(side, p):
+def out_of_plane(side, p):
     n = side - 2
-    scale = K_SPRING * D(repr(p)) / MASS * 4
+    scale = K_SPRING * D(p) / MASS * 4  # p's exact binary value
     s = [sin(i * pi() / (2 * (n + 1))) ** 2 for i in range(1, n + 1)]
-    return sorted(scale * (s[i] + s[j]) for i in range(n) for j in range(n))[:WANTED]
+    return sorted(scale * (s[i] + s[j]) for i in range(n) for j in range(n))
+
+
+def reference(side, p):
+    return out_of_plane(side, p)[:WANTED]
 
 
 def main():
@@ -91,6 +136,8 @@ def main():
         for trial in range(nets):
             side = rng.randint(smallest, largest)
             p = 0.0 if trial == 0 else math.exp(rng.uniform(math.log(1e-12), math.log(1e-3)))
+            if trial % 3 == 2:  # compressed: every out-of-plane eigenvalue negative
+                p = -round(p * 2.0 ** 50) / 2.0 ** 50
             path, out = os.path.join(tmp, "net%d.toml" % trial), os.path.join(tmp, "net%d.json" % trial)
             with open(path, "w") as f:
                 f.write(scene(side, p))
@@ -117,16 +164,28 @@ def main():
                 err = abs(D(mode["omega2"]) - value)
                 estimate = D(mode["error_estimate"])
                 worst = max(worst, float(err / estimate) if estimate > 0 else math.inf)
-                loosest = max(loosest, float(estimate / max(err, D(EPS) * value, D(1e-300))))
+                loosest = max(loosest, float(estimate / max(err, D(EPS) * abs(value), D(1e-300))))
                 if err > estimate:
                     failures.append("%s mode %d: %.12g, closed form %.12g: error %.2g over its estimate %.2g" %
                                     (what, i + 1, mode["omega2"], float(value), float(err), mode["error_estimate"]))
-                expected = "zero" if p == 0 else "oscillatory" if value > 10 * data else None
+                expected = ("zero" if p == 0 else "oscillatory" if value > 10 * data else
+                            "divergent" if value < -10 * data else None)
                 if expected and mode["kind"] != expected:
                     failures.append("%s mode %d: %s, expected %s (%.6g, closed form %.6g)" %
                                     (what, i + 1, mode["kind"], expected, mode["omega2"], float(value)))
-            print("%s: %s, largest error/estimate %.2g, largest estimate/error %.2g" %
-                  (what, result["stability"], worst, loosest))
+            if p < 0:
+                # every out-of-plane eigenvalue below -eta is counted (eta =
+                # 1e-12 max K_ii/M_ii, K_ii = 2k(1 + p) in-plane), where none
+                # lies within a factor 2 of it
+                eta = 1e-12 * 2 * K_SPRING * (1 + p) / float(MASS)
+                values = [float(v) for v in out_of_plane(side, p)]
+                if not any(0.5 * eta < -v < 2 * eta for v in values):
+                    morse = sum(1 for v in values if v < -eta)
+                    if result["stability"] != "divergence" or result["morse_index"] != morse:
+                        failures.append("%s: %s, Morse index %d, expected divergence with %d" %
+                                        (what, result["stability"], result["morse_index"], morse))
+            print("%s: %s (Morse index %d), largest error/estimate %.2g, largest estimate/error %.2g" %
+                  (what, result["stability"], result["morse_index"], worst, loosest))
     if failures:
         sys.exit("FAIL: " + "\n  ".join(failures))
 

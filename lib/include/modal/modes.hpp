@@ -245,7 +245,9 @@ struct InertiaAccount {
   double unit = 1;               // the factor that turns the solver's λ into rad²/s² in notes
 };
 // Sets result.morse_index (below_s0 plus the returned modes in [σ₀, 0) that
-// are negative beyond their error estimate), result.zero_modes (the returned
+// are negative beyond their error estimate; when the highest returned mode
+// is divergent, the inertia's count below −η, η = completeness_margin·ζ,
+// with a note), result.zero_modes (the returned
 // zero modes; when the highest returned mode is a zero mode, the inertia at
 // the largest zero-mode error estimate counts all of them, with a note) and
 // result.stability, from result.modes (ascending) and count_below(σ, what,
@@ -306,20 +308,30 @@ inline constexpr int near_zero_moves = 16;
 inline constexpr long moved_probe = 2 * near_zero_probe;
 struct CompletenessCheck {
   enum class Outcome {
-    not_needed,  // λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
+    not_needed,  // −η ≤ λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
     complete,    // exactly `count` eigenvalues below `bound`, as found
     incomplete   // more below `bound` than found after the last repeat
   };
   Outcome outcome = Outcome::not_needed;
   double bound = 0;         // b, as count_below left it
+  double top = 0;           // λ_k, the k-th lowest eigenvalue returned
   long count = 0, found = 0;  // the inertia's count below b, and the run's
   long nev = 0;             // the number wanted in the last run
+  // b ≤ 0 < λ_k: the returned eigenvalues from b up lie within about η of
+  // zero, where the inertia cannot tell them from rounding (a negative λ_k
+  // below −η, whose b lies further below, is checked as any other).
+  bool near_zero() const { return bound <= 0 && top > 0; }
 };
 // solve(nev) runs the solver wanting nev (≥ k) modes and returns the
 // eigenvalues it found, any order, at least k of them; count_below(b,
 // expect_indefinite) is the inertia's number of eigenvalues below b and may
 // move b off a singular K − bM (expect_indefinite: the run found some below b).
-// s0: σ₀ = −ζ; n: the number of coordinates.
+// s0: the shift below which no eigenvalue is sought: σ₀ = −ζ, or a shift
+// below the whole spectrum where the lowest modes are negative beyond −ζ;
+// zeta: ζ (η = completeness_margin·ζ); n: the number of coordinates. The
+// check is made for a negative λ_k too (below −η): a divergent net whose 10
+// lowest λ were all negative had a copy of its 9th, double, eigenvalue
+// skipped and the 11th returned as its 10th, unchecked.
 CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
                                      const std::function<std::vector<double>(long nev)>& solve,
                                      const std::function<long(double& b, bool expect_indefinite)>& count_below);
@@ -328,12 +340,12 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
 // solver's iteration ("the Lanczos iteration").
 std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
                               const std::string& iteration);
-// A complete check whose b is not above zero (b = λ_k − δ ≤ 0: every
-// returned eigenvalue lies within η of zero) counts nothing the run returned
-// above −ζ: it says nothing of whether a copy of a repeated eigenvalue among
-// the returned modes was skipped. When some returned mode is not a zero mode
+// A complete check near zero (CompletenessCheck::near_zero: b = λ_k − δ ≤ 0
+// < λ_k, every returned eigenvalue from b up within about η of zero) says
+// nothing of whether a copy of a repeated eigenvalue among the returned
+// modes above b was skipped. When some returned mode is not a zero mode
 // (modes: in the check's units), the note that says so, naming η and b as
-// the caller writes them; nullopt when b > 0 or the check did not pass; an
+// the caller writes them; nullopt when not near zero or the check did not pass; an
 // empty string, the note to drop, when every mode it left uncovered is a zero
 // mode (count_by_inertia's own inertia counts those).
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
