@@ -246,8 +246,8 @@ struct InertiaAccount {
 };
 // Sets result.morse_index (below_s0 plus the returned modes in [σ₀, 0) that
 // are negative beyond their error estimate; when the highest returned mode
-// is divergent, the inertia's count below −η, η = completeness_margin·ζ,
-// with a note), result.zero_modes (the returned
+// is divergent, a note gives the inertia's count below −η, η =
+// completeness_margin·ζ, which may include zero modes), result.zero_modes (the returned
 // zero modes; when the highest returned mode is a zero mode, the inertia at
 // the largest zero-mode error estimate counts all of them, with a note) and
 // result.stability, from result.modes (ascending) and count_below(σ, what,
@@ -310,7 +310,8 @@ struct CompletenessCheck {
   enum class Outcome {
     not_needed,  // −η ≤ λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
     complete,    // exactly `count` eigenvalues below `bound`, as found
-    incomplete   // more below `bound` than found after the last repeat
+    incomplete,  // more below `bound` than found after the last repeat
+    unavailable  // K − bM could not be factored (count_below returned < 0)
   };
   Outcome outcome = Outcome::not_needed;
   double bound = 0;         // b, as count_below left it
@@ -325,7 +326,9 @@ struct CompletenessCheck {
 // solve(nev) runs the solver wanting nev (≥ k) modes and returns the
 // eigenvalues it found, any order, at least k of them; count_below(b,
 // expect_indefinite) is the inertia's number of eigenvalues below b and may
-// move b off a singular K − bM (expect_indefinite: the run found some below b).
+// move b off a singular K − bM (expect_indefinite: the run found some below b),
+// or return a negative count where K − bM cannot be factored (the check is
+// then `unavailable`, and says so, instead of failing the analysis).
 // s0: the shift below which no eigenvalue is sought: σ₀ = −ζ, or a shift
 // below the whole spectrum where the lowest modes are negative beyond −ζ;
 // zeta: ζ (η = completeness_margin·ζ); n: the number of coordinates. The
