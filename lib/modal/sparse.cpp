@@ -1334,12 +1334,12 @@ std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& 
     return mode.kind != ModeKind::zero && mode.omega2 >= check.bound;
   });
   if (resolved == 0) return std::string();  // zero modes only: count_by_inertia's count speaks of them
-  return "completeness not checked: the returned eigenvalues all lie within η = " + margin_text +
-         " of zero (" + detail::format_number(completeness_margin * zero_margin, 2) +
-         " of the largest K_ii/M_ii), closer than the inertia of K − σM can tell them from "
-         "rounding (at σ = " + bound_text + ": " + std::to_string(check.count) +
-         " below, as found), so a copy of a repeated eigenvalue among the " + std::to_string(resolved) +
-         " returned modes that are not zero modes may be missing";
+  return "completeness not checked: the returned eigenvalues at or above σ = " + bound_text +
+         " all lie within η = " + margin_text + " of zero (" +
+         detail::format_number(completeness_margin * zero_margin, 2) +
+         " of the largest K_ii/M_ii), closer than the inertia of K − σM can tell them from rounding (" +
+         std::to_string(check.count) + " below σ, as found), so a copy of a repeated eigenvalue among the " +
+         std::to_string(resolved) + " returned modes there that are not zero modes may be missing";
 }
 
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
