@@ -1394,16 +1394,21 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
   // zero modes are rounded by more than η (a rest-length lattice far from
   // the origin, its zero modes at ±5e-5 against η = 1e-6), that count took
   // 56 of them (Morse index 72 for 16). So a note gives the count and the
-  // Morse index stays what is known. Not fatal where K + ηM cannot be
-  // factored.
+  // Morse index stays what is known. No note where K + ηM cannot be
+  // factored at −η itself (count_below moves σ off a zero pivot by 1e-6 s,
+  // far above −η: that count would take zero and positive eigenvalues).
   if (!account.shift && !result.modes.empty() && result.modes.back().kind == ModeKind::divergent) {
-    double minus_eta = -completeness_margin * account.zeta;
-    if (result.modes.back().omega2 < minus_eta) {
+    const double level = -completeness_margin * account.zeta;
+    if (result.modes.back().omega2 < level) {
+      const std::size_t notes = result.notes.size();
+      double minus_eta = level;
       long below = -1;
       try {
         below = count_below(minus_eta, "count of negative eigenvalues", true);
       } catch (const NumericalError&) {
       }
+      if (minus_eta != level) below = -1;
+      result.notes.resize(notes);  // a move's note, if any: no count is reported then
       if (below > result.morse_index)
         result.notes.push_back(
             "the inertia of K − σM at σ = −η = " + format(minus_eta, 3) + " counts " +
