@@ -828,10 +828,18 @@ TEST(Extremes, TinyEigenvaluesDoNotClaimACompletenessCheck) {
     const auto has = [&](const char* start) {
       return std::any_of(r.notes.begin(), r.notes.end(), [&](const std::string& note) { return note.rfind(start, 0) == 0; });
     };
+    // Not tiny: checked by the inertia, or, where returned modes resolved
+    // from the highest lie within the check's margin of it (uncovered_modes:
+    // trial 1 here, p = 8.1e-12), by the copies check, which must have found
+    // the span complete.
+    const bool copies_checked = std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& note) {
+      return note.find("copies of repeated eigenvalues checked instead") != std::string::npos &&
+             note.find("found no direction below the highest returned eigenvalue outside the span") != std::string::npos;
+    });
     if (!matches || tiny) {
       EXPECT_FALSE(has("completeness checked")) << what;
     } else {
-      EXPECT_TRUE(has("completeness checked")) << what;
+      EXPECT_TRUE(has("completeness checked") || copies_checked) << what;
     }
     if (!all_zero && tiny) {
       EXPECT_TRUE(has("completeness not checked")) << what;

@@ -621,12 +621,23 @@ std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
 
 // The inertia at σ, moved by 1e-6·max(|σ|, s) while a pivot is null
 // (down, or up with direction +1).
-PetscInt inertia_near(Mat K, Mat M, double& sigma, double s, int direction = -1) {
+// The inertia's count below σ, moving σ off a singular K − σM by 1e-6·s
+// steps in `direction` (at most 8), or −1 where every shift tried failed
+// (the completeness checks and count_by_inertia then say the count was not
+// made); inertia_near throws there instead.
+long inertia_count(Mat K, Mat M, double& sigma, double s, int direction = -1) {
   for (int attempt = 0; attempt < 8; ++attempt) {
-    if (const auto below = inertia_below(K, M, sigma)) return *below;
+    if (const auto below = inertia_below(K, M, sigma)) return static_cast<long>(*below);
     sigma += direction * 1e-6 * std::max(std::abs(sigma), s);
   }
-  throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
+  return -1;
+}
+
+PetscInt inertia_near(Mat K, Mat M, double& sigma, double s, int direction = -1) {
+  const long below = inertia_count(K, M, sigma, s, direction);
+  if (below < 0)
+    throw NumericalError(fmt::format("--backend petsc: K − σM is singular at every shift tried near σ = {:.6g}", sigma));
+  return static_cast<PetscInt>(below);
 }
 
 // d = −(H + shift·I)⁻¹ r when H + shift·I is positive definite (a MUMPS
@@ -1387,29 +1398,27 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         for (const auto& number : numbers) lambdas.push_back(number.first);
         return lambdas;
       };
-      if (options.shift || (m > 0 && k > m)) {
-        // (with k > m the modes above σ₀ would need the checks of m = 0:
-        // the probe, the copies check; not made, as before)
+      if (options.shift) {
         solve_nearest(k, nullptr);
       } else if (m > 0) {
-        // The k nearest the shift below the spectrum are the k lowest, all
-        // below σ₀, checked as at σ₀ (check_completeness, nothing below the shift): a
-        // run from one start vector can skip a copy of a repeated negative
-        // eigenvalue as well (a compressed net, all its lowest λ negative,
-        // returned its 9th, double, eigenvalue once and the 11th as its 10th).
+        // The k nearest the shift below the spectrum are the k lowest,
+        // checked as at σ₀ (check_completeness, nothing below the shift): a
+        // run from one start vector can skip a copy of a repeated
+        // eigenvalue, negative (a compressed net, all its lowest λ negative,
+        // returned its 9th, double, eigenvalue once and the 11th as its
+        // 10th) or not, where k > m (a compressed net of side 6 beside a
+        // nearly slack one, 20 modes wanted: the 16 negative ones and
+        // 8.83e-7, double, once). Not fatal where K − bM cannot be factored
+        // near b: the note says the check was not made. (Nor is the first
+        // run probed as at σ₀: with k > m the highest returned eigenvalues
+        // may lie far nearer 0 than the shift, and converge slowly.)
         const CompletenessCheck check = check_completeness(
             k, n, target, zeta,
             [&](long nev) {
               solve_nearest(static_cast<PetscInt>(nev), nullptr);
               return eigenvalues();
             },
-            [&](double& b, bool) {  // not fatal, as on the serial path: the note says the check was not made
-              try {
-                return static_cast<long>(inertia_near(K, M, b, s));
-              } catch (const NumericalError&) {
-                return -1L;
-              }
-            });
+            [&](double& b, bool) { return inertia_count(K, M, b, s); });
         if (check.outcome != CompletenessCheck::Outcome::not_needed) {
           completeness = {check, result.notes.size()};
           result.notes.push_back(
@@ -1461,7 +1470,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
               }
               return eigenvalues();
             },
-            [&](double& b, bool) { return static_cast<long>(inertia_near(K, M, b, s)); });  // moves b down past a singular K − bM
+            [&](double& b, bool) { return inertia_count(K, M, b, s); });  // moves b down past a singular K − bM
         if (check.outcome != CompletenessCheck::Outcome::not_needed) {
           completeness = {check, result.notes.size()};
           result.notes.push_back(
@@ -1493,11 +1502,15 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       // tried instead: its deflated runs converged to pairs with residuals
       // of 0.1–1 × λ here, masses over 12 decades.)
       std::string copies_note;
-      const bool some_resolved = std::any_of(numbers.begin(), numbers.end(), [](const auto& number) {
-        return quotient_mode(VectorX::Zero(1), number.first, number.second).kind != ModeKind::zero;
-      });
-      if (moves > 0 && some_resolved && completeness &&
-          completeness->first.outcome == CompletenessCheck::Outcome::complete && completeness->first.near_zero() &&
+      // (also where b > 0 but returned modes resolved from λ_k lie in [b, λ_k): uncovered_modes)
+      const bool unchecked = completeness && [&] {
+        std::vector<Mode> modes;
+        for (const auto& number : numbers) modes.push_back(quotient_mode(VectorX::Zero(1), number.first, number.second));
+        return completeness->first.near_zero() ? std::any_of(modes.begin(), modes.end(), [](const Mode& mode) {
+          return mode.kind != ModeKind::zero;
+        }) : uncovered_modes(completeness->first, modes) > 0;
+      }();
+      if (moves > 0 && unchecked && completeness->first.outcome == CompletenessCheck::Outcome::complete &&
           static_cast<PetscInt>(found.size()) + k < n) {
         struct Random {  // destroyed with the phase, also on a throw
           PetscRandom random = nullptr;
@@ -1594,9 +1607,8 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       account.s0 = s0;
       account.zeta = zeta;
       account.shift = options.shift;
-      count_by_inertia(result, account, [&](double& sigma, const char*, bool) {
-        return static_cast<long>(inertia_near(K, M, sigma, s, +1));
-      });
+      count_by_inertia(result, account,
+                       [&](double& sigma, const char*, bool) { return inertia_count(K, M, sigma, s, +1); });
       {  // on every rank: the same numbers, the same decision
         if (!options.shift && m > 0 && k >= m) {
           const auto below = std::count_if(result.modes.begin(), result.modes.end(),

@@ -1327,9 +1327,29 @@ std::string copies_check_note(int runs, int added, long k, bool spanned, bool sh
          found + last;
 }
 
+long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& modes) {
+  if (check.outcome != CompletenessCheck::Outcome::complete || modes.empty()) return 0;
+  const auto top = std::max_element(modes.begin(), modes.end(),
+                                    [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+  return static_cast<long>(std::count_if(modes.begin(), modes.end(), [&](const Mode& mode) {
+    return mode.kind != ModeKind::zero && mode.omega2 >= check.bound &&
+           top->omega2 - mode.omega2 > mode.error_estimate + top->error_estimate;
+  }));
+}
+
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
                                                        const std::string& margin_text, const std::string& bound_text) {
-  if (check.outcome != CompletenessCheck::Outcome::complete || !check.near_zero()) return std::nullopt;
+  if (check.outcome != CompletenessCheck::Outcome::complete || modes.empty()) return std::nullopt;
+  if (!check.near_zero()) {
+    const long between = uncovered_modes(check, modes);
+    if (between == 0) return std::nullopt;
+    return "completeness checked by the inertia of K − σM at σ = " + bound_text + ": exactly " +
+           std::to_string(check.count) + " eigenvalues lie below it, as found; but " +
+           plural(between, "returned eigenvalue lies", "returned eigenvalues lie") +
+           " between σ and the highest returned, within the check's margin of it (1e-6 of it plus η = " + margin_text +
+           ", the inertia's resolution near zero), so a copy of a repeated eigenvalue among " +
+           (between == 1 ? std::string("it") : "them") + " may be missing";
+  }
   const auto resolved = std::count_if(modes.begin(), modes.end(), [&](const Mode& mode) {
     return mode.kind != ModeKind::zero && mode.omega2 >= check.bound;
   });
@@ -1370,9 +1390,13 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
     const auto resolved_below_t = std::count_if(result.modes.begin(), result.modes.end(), [&](const Mode& mode) {
       return mode.kind == ModeKind::oscillatory && mode.omega2 < t;
     });
-    const long counted = count_below(t, "zero-mode count", true) - account.below_s0 - resolved_small_negative;
+    const long below_t = count_below(t, "zero-mode count", true);
+    const long counted = below_t - account.below_s0 - resolved_small_negative;
     const long near_zero = counted - resolved_below_t;
-    if (near_zero > result.zero_modes) {
+    if (below_t < 0) {
+      result.notes.push_back("zero modes beyond the " + std::to_string(result.zero_modes) +
+                             " returned were not counted: K − σM could not be factored near σ = " + format(t, 3));
+    } else if (near_zero > result.zero_modes) {
       result.notes.push_back(
           "the inertia of K − σM at σ = " + format(t, 3) + " counts " +
           (resolved_below_t > 0 ? plural(counted, "eigenvalue", "eigenvalues") + " from σ₀ up to it; besides the " +
@@ -1402,11 +1426,7 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
     if (result.modes.back().omega2 < level) {
       const std::size_t notes = result.notes.size();
       double minus_eta = level;
-      long below = -1;
-      try {
-        below = count_below(minus_eta, "count of negative eigenvalues", true);
-      } catch (const NumericalError&) {
-      }
+      long below = count_below(minus_eta, "count of negative eigenvalues", true);
       if (minus_eta != level) below = -1;
       result.notes.resize(notes);  // a move's note, if any: no count is reported then
       if (below > result.morse_index)
@@ -1424,10 +1444,13 @@ void count_by_inertia(ModalResult& result, const InertiaAccount& account,
   if (account.shift && result.morse_index == 0 && result.zero_modes == 0) {
     double plus = account.zeta;
     const long below_plus = count_below(plus, "zero-mode check", false);
+    if (below_plus < 0)
+      result.notes.push_back("zero modes among the eigenvalues not returned were not looked for: K − σM could not "
+                             "be factored near σ = ζ = " + format(plus, 3));
     const auto returned_near_zero = std::count_if(result.modes.begin(), result.modes.end(), [&](const Mode& mode) {
       return mode.omega2 >= s0 && mode.omega2 < plus;
     });
-    if (below_plus - account.below_s0 > returned_near_zero) {
+    if (below_plus >= 0 && below_plus - account.below_s0 > returned_near_zero) {
       result.stability = Stability::marginal;
       result.notes.push_back(plural(below_plus - account.below_s0 - returned_near_zero, "eigenvalue", "eigenvalues") +
                              " within ζ = " + format(account.zeta, 3) +
@@ -1552,6 +1575,20 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     throw NumericalError(std::string("solve_sparse_modes: K − σM cannot be factored near the ") + what + " σ = " +
                          units(sigma, 10));
   };
+  // The inertia's count below b for the completeness checks and
+  // count_by_inertia, or −1 where K − bM cannot be factored near b (the
+  // moves' notes dropped: the caller's note says the count was not made).
+  // Not fatal: on an inverted chain of 400 links (joint angles) the LDLᵀ of
+  // K − bM failed at every shift tried, where the run from σ_L had succeeded.
+  const auto count_near = [&](double& b, bool expect_indefinite, const char* what = "completeness check") -> long {
+    const std::size_t notes = result.notes.size();
+    try {
+      return static_cast<long>(factor_at(b, what, expect_indefinite));
+    } catch (const NumericalError&) {
+      result.notes.resize(notes);
+      return -1;
+    }
+  };
 
   double s0 = sigma0;
   const auto started = std::chrono::steady_clock::now();
@@ -1667,9 +1704,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
           runs.push_back(describe_run(*last, nev, units));
           return std::vector<double>(last->lambda.data(), last->lambda.data() + last->lambda.size());
         },
-        [&](double& b, bool expect_indefinite) {
-          return static_cast<long>(factor_at(b, "completeness check", expect_indefinite));
-        });
+        count_near);
     if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
     if (check.outcome != CompletenessCheck::Outcome::not_needed) {
       completeness = {check, result.notes.size()};
@@ -1693,14 +1728,20 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // below the k-th, else counted unresolved; until a run finds no new direction and
     // converges (its direction in each eigenspace then lies in the span
     // found), at most 4 runs; then the lowest k are kept.
-    const auto some_resolved = [&] {
-      return std::any_of(pairs.begin(), pairs.end(), [&](const auto& pair) {
+    // Also where b > 0 but returned modes resolved from λ_k lie in [b, λ_k)
+    // (uncovered_modes): a net at p = 7e-12 had 7 there, within η of λ_k.
+    const auto unchecked = [&] {
+      std::vector<Mode> modes;
+      for (const auto& pair : pairs) {
         ModeResidual unused;
-        return pencil.make_mode(pair.second, unused).kind != ModeKind::zero;
-      });
+        modes.push_back(pencil.make_mode(pair.second, unused));
+      }
+      return check.near_zero() ? std::any_of(modes.begin(), modes.end(),
+                                             [](const Mode& mode) { return mode.kind != ModeKind::zero; })
+                               : uncovered_modes(check, modes) > 0;
     };
     if (run_sigma != s0 && completeness && check.outcome == CompletenessCheck::Outcome::complete &&
-        check.near_zero() && static_cast<Index>(pairs.size()) + k < n && some_resolved()) {
+        static_cast<Index>(pairs.size()) + k < n && unchecked()) {
       std::vector<VectorX> mass_found;  // Mφ of each pair
       VectorX Md(n);
       for (const auto& pair : pairs) {
@@ -1767,30 +1808,21 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                                       short_run, unresolved_last, "Lanczos");
     }
   } else {
-    // Divergent: m eigenvalues below σ₀.
-    Index negatives_found = 0;
-    if (k > m) {
-      const LanczosRun run = run_lanczos(factor, mass_op, s0, k, options, units);
-      runs.push_back(describe_run(run, k, units));
-      negatives_found = (run.lambda.array() < s0).count();
-      if (negatives_found == m) {
-        take(run, [](double) { return true; });
-      } else {  // keep the k − m lowest of the non-negative part (run.lambda is ascending)
-        Index kept = 0;
-        for (Index j = 0; j < run.lambda.size() && kept < k - m; ++j)
-          if (run.lambda(j) >= s0) {
-            pairs.emplace_back(run.lambda(j), run.Phi.col(j));
-            ++kept;
-          }
-        if (kept < k - m)
-          throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(s0, 3) +
-                               " returned " + std::to_string(kept) + " eigenvalues above it, fewer than the " +
-                               std::to_string(k - m) + " that the inertia guarantees");
-      }
-    }
-    if (negatives_found != m) {
-      // σ_L below the whole spectrum, close to λ₁ (see the header comment).
-      double d_hi = std::max(2 * zeta, s0 - gershgorin);  // distance below σ₀
+    // Divergent: m eigenvalues below σ₀. The lowest come from a shift σ_L
+    // below the whole spectrum, close to λ₁ (placed once, by the inertia,
+    // when first needed); with k > m, the k − m lowest at or above σ₀ from
+    // runs at σ₀ (the k nearest σ₀, of which those at or above it are the
+    // lowest there; the ones below it are the negatives themselves where
+    // the run found all m).
+    double sigma_low = nan;
+    const auto place_low = [&] {
+      // Distances below σ₀. The first a quarter beyond the Gershgorin bound:
+      // the bound itself can be λ₁ exactly (a compressed net of side 4, each
+      // free particle with two free neighbours: the uniform vector attains
+      // it), where the factorization passed as positive definite, nothing
+      // moved σ_L off it, and the run from a singular K − σ_L M returned
+      // Ritz values equal to σ_L with vectors of no meaning.
+      double d_hi = std::max(2 * zeta, 1.25 * (s0 - gershgorin));
       double d_lo = 0;
       int tries = 0;
       while (!factor.positive_definite_at(s0 - d_hi)) {
@@ -1823,51 +1855,79 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
         if (factor.positive_definite_at(s0 - mid)) d_hi = mid;
         else d_lo = mid;
       }
-      const double sigma_low = s0 - d_hi;
+      sigma_low = s0 - d_hi;
       if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
         throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
-      // The nev lowest from σ_L. Where they are all the modes returned (k ≤
-      // m), checked as the lowest modes at σ₀ are (check_completeness, with
-      // nothing below σ_L): a run from one start vector can skip a copy of a
-      // repeated negative eigenvalue as well (a compressed net returned its
-      // 9th, double, eigenvalue once and the 11th as its 10th). The factor
-      // left at b serves the estimates below. Not where k > m: the modes
-      // above σ₀ come from the other run, which a check of these would not
-      // cover (its note would have said "just below the highest returned
-      // eigenvalue" of a b below σ₀).
-      const Index nev = std::min(k, m);
-      std::optional<LanczosRun> low;
-      const auto run_low = [&](long want) {
-        low = run_lanczos(factor, mass_op, sigma_low, want, options, units);
-        runs.push_back(describe_run(*low, want, units));
-        return std::vector<double>(low->lambda.data(), low->lambda.data() + low->lambda.size());
-      };
-      const CompletenessCheck check = k > m ? (run_low(nev), CompletenessCheck{}) : check_completeness(
-          nev, n, sigma_low, zeta, run_low,
-          [&](double& b, bool expect_indefinite) {
-            // Not fatal: on an inverted chain of 400 links (joint angles)
-            // the LDLᵀ of K − bM failed at every shift tried, where the
-            // run from σ_L had succeeded; the note says the check was not
-            // made.
-            const std::size_t notes = result.notes.size();
-            try {
-              return static_cast<long>(factor_at(b, "completeness check", expect_indefinite));
-            } catch (const NumericalError&) {
-              result.notes.resize(notes);  // the moves' notes: the check's own says it was not made
-              return -1L;
-            }
-          });
-      if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
-      if (check.outcome != CompletenessCheck::Outcome::not_needed)
-        result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
-      const Index below = (low->lambda.head(std::min<Index>(nev, low->lambda.size())).array() < s0).count();
-      if (below != nev)
+    };
+    // The `want` lowest from σ_L, of which the lowest min(want, m) must all
+    // lie below σ₀.
+    std::optional<LanczosRun> low;
+    const auto run_low = [&](long want) {
+      if (std::isnan(sigma_low)) place_low();
+      low = run_lanczos(factor, mass_op, sigma_low, want, options, units);
+      runs.push_back(describe_run(*low, want, units));
+      const Index lowest = std::min<Index>(want, m);
+      const Index below = (low->lambda.head(std::min<Index>(lowest, low->lambda.size())).array() < s0).count();
+      if (below != lowest)
         throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + units(s0, 6) +
                              " counts " + std::to_string(m) + " eigenvalues below it, but the Lanczos iteration from σ = " +
                              units(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
-                             std::to_string(nev) + " lowest there; try a larger max_iterations or a user shift");
-      Index kept = 0;  // the nev lowest (a repeated run wanted more; run.lambda is ascending)
-      take(*low, [&](double) { return kept++ < nev; });
+                             std::to_string(lowest) + " lowest there; try a larger max_iterations or a user shift");
+      return std::vector<double>(low->lambda.data(), low->lambda.data() + low->lambda.size());
+    };
+    // Each set of modes returned is checked for completeness as the lowest
+    // modes at σ₀ are (check_completeness): a run from one start vector
+    // can skip a copy of a repeated eigenvalue, negative (a compressed net
+    // returned its 9th, double, eigenvalue once and the 11th as its 10th)
+    // or not (a compressed net of side 6 beside a nearly slack one, 20
+    // modes wanted: the 16 negative ones and 8.83e-7, double, once). With
+    // k ≤ m, the runs from σ_L (nothing below it); with k > m, the merged
+    // set (nothing below σ₀ unreturned: the inertia there counts m, all
+    // returned), the runs at σ₀ repeated. The factor left at b serves the
+    // estimates below.
+    std::optional<LanczosRun> upper;
+    bool upper_has_all = false;  // the run at σ₀ found all m below it
+    const auto merged = [&] {
+      std::vector<std::pair<double, VectorX>> all;
+      for (Index j = 0; j < upper->lambda.size(); ++j)
+        if (upper_has_all || upper->lambda(j) >= s0) all.emplace_back(upper->lambda(j), upper->Phi.col(j));
+      if (!upper_has_all)
+        for (Index j = 0; j < m; ++j) all.emplace_back(low->lambda(j), low->Phi.col(j));
+      std::stable_sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      return all;
+    };
+    if (k <= m) place_low();
+    const CompletenessCheck check =
+        k <= m ? check_completeness(k, n, sigma_low, zeta, run_low, count_near)
+               : check_completeness(
+                     k, n, s0, zeta,
+                     [&](long nev) {
+                       upper = run_lanczos(factor, mass_op, s0, nev, options, units);
+                       runs.push_back(describe_run(*upper, nev, units));
+                       upper_has_all = (upper->lambda.array() < s0).count() == m;
+                       if (!upper_has_all && !low) run_low(m);
+                       const Index above = (upper->lambda.array() >= s0).count();
+                       if (above < k - m)
+                         throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(s0, 3) +
+                                              " returned " + std::to_string(above) +
+                                              " eigenvalues above it, fewer than the " + std::to_string(k - m) +
+                                              " that the inertia guarantees");
+                       std::vector<double> values;
+                       for (const auto& pair : merged()) values.push_back(pair.first);
+                       return values;
+                     },
+                     count_near);
+    if (check.outcome == CompletenessCheck::Outcome::complete) complete_below = check.bound;
+    if (check.outcome != CompletenessCheck::Outcome::not_needed) {
+      completeness = {check, result.notes.size()};
+      result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
+    }
+    if (k <= m) {
+      Index kept = 0;  // the k lowest (a repeated run wanted more; run.lambda is ascending)
+      take(*low, [&](double) { return kept++ < k; });
+    } else {
+      pairs = merged();
+      pairs.resize(static_cast<std::size_t>(k));
     }
     if (k < m)
       result.notes.push_back("the equilibrium has " + plural(m, "negative eigenvalue", "negative eigenvalues") +
@@ -2033,7 +2093,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
   if (options.shift) account.shift = user_sigma;
   account.unit = units.lambda;
   count_by_inertia(result, account, [&](double& sigma, const char* what, bool expect_indefinite) {
-    return static_cast<long>(factor_at(sigma, what, expect_indefinite));
+    return count_near(sigma, expect_indefinite, what);
   });
   result.solver = "sparse shift-invert Lanczos (Spectra SymGEigsShiftSolver; ";
   for (std::size_t i = 0; i < runs.size(); ++i) result.solver += (i ? "; then " : "") + runs[i];

@@ -252,7 +252,9 @@ struct InertiaAccount {
 // the largest zero-mode error estimate counts all of them, with a note) and
 // result.stability, from result.modes (ascending) and count_below(σ, what,
 // expect_indefinite): the number of eigenvalues below σ, which may move σ
-// off a singular point. With a shift and no divergent or zero mode returned,
+// off a singular point, or a negative number where K − σM cannot be
+// factored near σ (that count is then not made, and a note says so, where
+// it would have said something). With a shift and no divergent or zero mode returned,
 // zero eigenvalues outside the returned modes (inertia at ζ) make the class
 // marginal, with a note.
 void count_by_inertia(ModalResult& result, const InertiaAccount& account,
@@ -343,7 +345,16 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
 // solver's iteration ("the Lanczos iteration").
 std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
                               const std::string& iteration);
-// A complete check near zero (CompletenessCheck::near_zero: b = λ_k − δ ≤ 0
+// A complete check leaves [b, λ_k] unchecked: copies of λ_k not returned
+// are equally valid k-th modes, but where b > 0 and returned modes resolved
+// from λ_k (farther from it than both estimates) and not zero modes lie in
+// [b, λ_k), a copy of one of them may have been skipped, the check blind to
+// it (a net at p = 7e-12 had 7 there, within η of λ_k). The number of such
+// modes (modes: in the check's units); 0 when the check did not pass.
+long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& modes);
+// The note of a complete check that leaves returned modes unchecked
+// (modes: in the check's units, ascending): with b > 0, where
+// uncovered_modes counts some (else nullopt). A complete check near zero (CompletenessCheck::near_zero: b = λ_k − δ ≤ 0
 // < λ_k, every returned eigenvalue from b up within about η of zero) says
 // nothing of whether a copy of a repeated eigenvalue among the returned
 // modes above b was skipped. When some returned mode is not a zero mode
