@@ -619,17 +619,18 @@ std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
   return result;
 }
 
-// The inertia at σ, moved by 1e-6·max(|σ|, s) while a pivot is null
-// (down, or up with direction +1).
-// The inertia's count below σ, moving σ off a singular K − σM by 1e-6·s
-// steps in `direction` (at most 8), or −1 where every shift tried failed
-// (the completeness checks and count_by_inertia then say the count was not
-// made); inertia_near throws there instead.
+// The inertia's count below σ, moving σ by 1e-6·max(|σ|, s) while a pivot
+// is null (down, or up with direction +1; at most 8 shifts), or −1 with σ
+// as it was given where every shift tried failed (the completeness checks
+// and count_by_inertia then say the count was not made); inertia_near
+// throws there instead.
 long inertia_count(Mat K, Mat M, double& sigma, double s, int direction = -1) {
+  const double given = sigma;
   for (int attempt = 0; attempt < 8; ++attempt) {
     if (const auto below = inertia_below(K, M, sigma)) return static_cast<long>(*below);
     sigma += direction * 1e-6 * std::max(std::abs(sigma), s);
   }
+  sigma = given;
   return -1;
 }
 
@@ -693,7 +694,7 @@ struct ProbeWatch {
   double floor = 0;
   std::vector<double> values;  // the latest Ritz values λ̃ of the wanted
   bool stopped = false;
-  double top = 0;
+  double moved = 0;  // probe_move's shift, where stopped
 };
 
 PetscErrorCode watch_ritz_values(EPS eps, PetscInt, PetscInt, PetscScalar* eigr, PetscScalar* eigi, PetscReal*,
@@ -716,11 +717,11 @@ PetscErrorCode probe_stops(EPS eps, PetscInt its, PetscInt max_it, PetscInt ncon
   auto& watch = *static_cast<ProbeWatch*>(context);
   const bool at_probe = its == watch.restarts || (*reason == EPS_CONVERGED_TOL && its < watch.restarts);
   if (!at_probe || static_cast<PetscInt>(watch.values.size()) < watch.nev) return 0;
-  const double top = *std::max_element(watch.values.begin(), watch.values.end());
-  if (top < near_zero_fraction * std::abs(watch.sigma) && top > watch.floor) {
+  const auto [lowest, highest] = std::minmax_element(watch.values.begin(), watch.values.end());
+  if (const std::optional<double> to = probe_move(*lowest, *highest, watch.sigma, watch.floor)) {
     *reason = EPS_CONVERGED_USER;
     watch.stopped = true;
-    watch.top = top;
+    watch.moved = *to;
   }
   return 0;
 }
@@ -1455,7 +1456,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                   watch.restarts = static_cast<PetscInt>(moves == 0 ? near_zero_probe : moved_probe);
                   watch.floor = 16 * eps * std::abs(sigma_j);
                   if (solve_nearest(static_cast<PetscInt>(nev), moves < near_zero_moves ? &watch : nullptr)) break;
-                  double sigma = -watch.top;
+                  double sigma = watch.moved;
                   while (sigma < 0 && sigma > sigma_j && inertia_below(K, M, sigma) != std::optional<PetscInt>(0))
                     sigma *= 8;
                   if (!(sigma < 0 && sigma > sigma_j)) {
@@ -1465,7 +1466,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                   sigma_j = sigma;
                 }
                 if (moves > 0)
-                  where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay under {} |σ|)",
+                  where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay within {} |σ| of zero)",
                                       target, moves, moves == 1 ? "" : "s", near_zero_fraction);
               }
               return eigenvalues();
@@ -1504,8 +1505,10 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       std::string copies_note;
       // (also where b > 0 but returned modes resolved from λ_k lie in [b, λ_k): uncovered_modes)
       const bool unchecked = completeness && [&] {
-        std::vector<Mode> modes;
+        std::vector<Mode> modes;  // the k lowest (a repeated run returned more)
         for (const auto& number : numbers) modes.push_back(quotient_mode(VectorX::Zero(1), number.first, number.second));
+        std::sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+        modes.resize(std::min(modes.size(), static_cast<std::size_t>(k)));
         return completeness->first.near_zero() ? std::any_of(modes.begin(), modes.end(), [](const Mode& mode) {
           return mode.kind != ModeKind::zero;
         }) : uncovered_modes(completeness->first, modes) > 0;

@@ -39,15 +39,17 @@
 //     the k − m lowest non-negative ones; if it also found all m negative ones
 //     that is the answer. Otherwise (and always when k ≤ m) a second shift
 //     σ_L below the whole spectrum is found from the inertia alone (Cholesky
-//     succeeds ⇔ no eigenvalue below): start from a Gershgorin bound of
-//     D^{-1/2}KD^{-1/2}, D = diag M (rigorous for a diagonal M, a guess
-//     otherwise), move down by factors of 4 until K − σM is definite, then up
-//     (factors of 8, then bisection) until σ_L is within a quarter of its
-//     distance to σ₀ below the lowest eigenvalue λ₁, which makes λ₁ the
-//     dominant ν by at least a factor of 4 over every non-negative λ. A run at
-//     σ_L for min(k, m) eigenvalues gives the most negative ones; they must all
-//     lie below σ₀ and, when k ≥ m, number exactly m (else NumericalError):
-//     the converged count below σ₀ must equal the inertia count.
+//     succeeds ⇔ no eigenvalue below): start a quarter beyond a Gershgorin
+//     bound of D^{-1/2}KD^{-1/2}, D = diag M (rigorous for a diagonal M, a
+//     guess otherwise; the bound itself can be λ₁), move down by factors of
+//     4 until K − σM is definite, then up (factors of 8, then bisection)
+//     until σ_L is within a quarter of its distance to σ₀ below the lowest
+//     eigenvalue λ₁, which makes λ₁ the dominant ν by at least a factor of 4
+//     over every non-negative λ. Runs at σ_L give the most negative ones:
+//     with k ≤ m the k lowest, all below σ₀; with k > m all m, repeated
+//     wanting more while fewer are found below σ₀ than the inertia counts
+//     there (else NumericalError). The k returned are checked for
+//     completeness either way (check_completeness).
 // morse_index = m plus the returned modes in [−ζ, 0) that are negative beyond
 // their error estimate (so it is the count of all negative eigenvalues below
 // −ζ, returned or not, and never hides a resolved negative λ above it).
@@ -1321,8 +1323,8 @@ std::string copies_check_note(int runs, int added, long k, bool spanned, bool sh
                       " outside the span of the modes found that it could not resolve"
                 : std::string("still added some")) +
            ": a mode below the highest returned may be missing";
-  return "completeness not checked by the inertia, which cannot tell eigenvalues this near zero from rounding; "
-         "copies of repeated eigenvalues checked instead by " +
+  return "completeness not checked by the inertia for the returned eigenvalues within its margin of zero or of the "
+         "highest returned, which it cannot tell apart from rounding; copies of repeated eigenvalues checked instead by " +
          std::to_string(runs) + " more " + iteration + " run" + (runs == 1 ? "" : "s") + " from random start vectors: " +
          found + last;
 }
@@ -1576,16 +1578,19 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                          units(sigma, 10));
   };
   // The inertia's count below b for the completeness checks and
-  // count_by_inertia, or −1 where K − bM cannot be factored near b (the
-  // moves' notes dropped: the caller's note says the count was not made).
+  // count_by_inertia, or −1 with b as given where K − bM cannot be factored
+  // near b (the moves' notes dropped: the caller's note says the count was
+  // not made).
   // Not fatal: on an inverted chain of 400 links (joint angles) the LDLᵀ of
   // K − bM failed at every shift tried, where the run from σ_L had succeeded.
   const auto count_near = [&](double& b, bool expect_indefinite, const char* what = "completeness check") -> long {
     const std::size_t notes = result.notes.size();
+    const double given = b;
     try {
       return static_cast<long>(factor_at(b, what, expect_indefinite));
     } catch (const NumericalError&) {
       result.notes.resize(notes);
+      b = given;  // the notes name the σ asked for, not the last one tried
       return -1;
     }
   };
@@ -1676,11 +1681,11 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
             for (int move = 0;; ++move) {
               double moved = nan, floor = nan;
               auto stop = [&](const VectorX& values, const MatrixX& vectors) {
-                const double top = values.maxCoeff();
-                if (!(top < near_zero_fraction * std::abs(sigma_j))) return false;
+                if (!probe_move(values.minCoeff(), values.maxCoeff(), sigma_j, 0)) return false;
                 floor = std::max(std::min(near_zero_floor * scale, pencil.data_level(vectors)), 16 * eps * std::abs(sigma_j));
-                if (!(top > floor)) return false;
-                moved = -top;
+                const std::optional<double> to = probe_move(values.minCoeff(), values.maxCoeff(), sigma_j, floor);
+                if (!to) return false;
+                moved = *to;
                 return true;
               };
               const Probe probe{move == 0 ? near_zero_probe : moved_probe, stop};
@@ -1688,8 +1693,11 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                                  move < near_zero_moves ? &probe : nullptr);
               if (!last->stopped) break;
               runs.push_back(describe_run(*last, nev, units) + ", stopped: its " + std::to_string(nev) +
-                             " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) + ", under " +
-                             detail::format_number(near_zero_fraction, 1) + " |σ| and above their data's level " +
+                             (last->lambda.maxCoeff() > 0
+                                  ? " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) + ", under "
+                                  : " Ritz values lie in [" + units(last->lambda.minCoeff(), 3) + ", " +
+                                        units(last->lambda.maxCoeff(), 3) + "], within ") +
+                             detail::format_number(near_zero_fraction, 1) + " |σ| of zero and beyond their data's level " +
                              units(floor, 3) + ", where σ separates them poorly");
               double sigma = moved;
               while (sigma < 0 && sigma > sigma_j && !factor.positive_definite_at(sigma)) sigma *= 8;
@@ -1859,21 +1867,38 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       if (!(factor.positive_definite() && factor.sigma() == sigma_low) && !factor.positive_definite_at(sigma_low))
         throw std::logic_error("solve_sparse_modes: the shift below the spectrum lost its factor");
     };
-    // The `want` lowest from σ_L, of which the lowest min(want, m) must all
-    // lie below σ₀.
+    // The `want` lowest from σ_L.
     std::optional<LanczosRun> low;
     const auto run_low = [&](long want) {
       if (std::isnan(sigma_low)) place_low();
       low = run_lanczos(factor, mass_op, sigma_low, want, options, units);
       runs.push_back(describe_run(*low, want, units));
-      const Index lowest = std::min<Index>(want, m);
+      return std::vector<double>(low->lambda.data(), low->lambda.data() + low->lambda.size());
+    };
+    const auto below_s0 = [&] { return static_cast<Index>((low->lambda.array() < s0).count()); };
+    // The lowest `lowest` of the last run from σ_L must all lie below σ₀.
+    const auto verify_low = [&](Index lowest) {
       const Index below = (low->lambda.head(std::min<Index>(lowest, low->lambda.size())).array() < s0).count();
       if (below != lowest)
         throw NumericalError("solve_sparse_modes: the inertia of K − σM at σ = " + units(s0, 6) +
                              " counts " + std::to_string(m) + " eigenvalues below it, but the Lanczos iteration from σ = " +
                              units(sigma_low, 6) + " found only " + std::to_string(below) + " of the " +
                              std::to_string(lowest) + " lowest there; try a larger max_iterations or a user shift");
-      return std::vector<double>(low->lambda.data(), low->lambda.data() + low->lambda.size());
+    };
+    // With k > m, all m: a run that skips a copy of a repeated negative
+    // eigenvalue finds fewer below σ₀ than the inertia counts there, and is
+    // repeated wanting the shortfall plus 2 more (at most 4 repeats), as
+    // check_completeness repeats its runs (a compressed net whose −7.546
+    // has four copies: 15 of its 16 found wanting 16, all wanting 20).
+    const auto find_negatives = [&] {
+      long want = static_cast<long>(m);
+      for (int attempt = 0;; ++attempt) {
+        run_low(want);
+        const Index below = below_s0();
+        if (below >= m || attempt == 4 || want >= n - 2) break;
+        want = std::min<long>(static_cast<long>(n) - 2, want + static_cast<long>(m - below) + 2);
+      }
+      verify_low(m);
     };
     // Each set of modes returned is checked for completeness as the lowest
     // modes at σ₀ are (check_completeness): a run from one start vector
@@ -1905,7 +1930,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                        upper = run_lanczos(factor, mass_op, s0, nev, options, units);
                        runs.push_back(describe_run(*upper, nev, units));
                        upper_has_all = (upper->lambda.array() < s0).count() == m;
-                       if (!upper_has_all && !low) run_low(m);
+                       if (!upper_has_all && !low) find_negatives();
                        const Index above = (upper->lambda.array() >= s0).count();
                        if (above < k - m)
                          throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(s0, 3) +
@@ -1923,6 +1948,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       result.notes.push_back(completeness_note(check, units(check.bound, 8), "the Lanczos iteration"));
     }
     if (k <= m) {
+      verify_low(k);
       Index kept = 0;  // the k lowest (a repeated run wanted more; run.lambda is ascending)
       take(*low, [&](double) { return kept++ < k; });
     } else {

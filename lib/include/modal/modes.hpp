@@ -308,6 +308,21 @@ inline constexpr double near_zero_fraction = 1e-2;
 inline constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
 inline constexpr int near_zero_moves = 16;
 inline constexpr long moved_probe = 2 * near_zero_probe;
+// The probe's decision on the wanted Ritz values λ̃ of a run at σ (lowest and
+// highest of them): given up where those nearest zero's far side lie within
+// near_zero_fraction·|σ| of zero and beyond `floor` (the data's level), by
+// the highest where it is positive, else by the lowest (every λ̃ negative,
+// within η of zero: a compressed net at p = −2e-13 had its 10th mode left
+// unconverged at σ₀, "zero" with an estimate 16 × its λ, and 315 resolved
+// negative eigenvalues counted as zero modes). Returns the shift to move to
+// (to be moved on down while K − σM is not positive definite there): −λ̃_max
+// where λ̃_max > 0, else 2λ̃_min (below the lowest by its own distance from
+// zero); nullopt where the run is not given up.
+inline std::optional<double> probe_move(double lowest, double highest, double sigma, double floor) {
+  const double reach = highest > 0 ? highest : -lowest;
+  if (!(reach < near_zero_fraction * std::abs(sigma)) || !(reach > floor)) return std::nullopt;
+  return highest > 0 ? -highest : 2 * lowest;
+}
 struct CompletenessCheck {
   enum class Outcome {
     not_needed,  // −η ≤ λ_k ≤ 0 (or b ≤ σ₀): nothing to check between σ₀ and it
@@ -346,14 +361,16 @@ CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
 std::string completeness_note(const CompletenessCheck& check, const std::string& bound_text,
                               const std::string& iteration);
 // A complete check leaves [b, λ_k] unchecked: copies of λ_k not returned
-// are equally valid k-th modes, but where b > 0 and returned modes resolved
+// are equally valid k-th modes, but where returned modes resolved
 // from λ_k (farther from it than both estimates) and not zero modes lie in
 // [b, λ_k), a copy of one of them may have been skipped, the check blind to
 // it (a net at p = 7e-12 had 7 there, within η of λ_k). The number of such
-// modes (modes: in the check's units); 0 when the check did not pass.
+// modes (modes: in the check's units, the k returned); 0 when the check did
+// not pass. (Near zero, b ≤ 0 < λ_k, every mode from b up is unchecked: see
+// below.)
 long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& modes);
 // The note of a complete check that leaves returned modes unchecked
-// (modes: in the check's units, ascending): with b > 0, where
+// (modes: in the check's units, ascending): not near zero, where
 // uncovered_modes counts some (else nullopt). A complete check near zero (CompletenessCheck::near_zero: b = λ_k − δ ≤ 0
 // < λ_k, every returned eigenvalue from b up within about η of zero) says
 // nothing of whether a copy of a repeated eigenvalue among the returned
