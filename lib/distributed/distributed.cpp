@@ -678,13 +678,14 @@ double peak_memory() {
 // The probe of a Krylov–Schur run (as solve_sparse_modes probes its Lanczos
 // runs; modal/modes.hpp, near_zero_probe): at restart `restarts` (or when
 // the run converges before it), the run is given up (EPS_CONVERGED_USER,
-// `stopped`) when its `nev` wanted Ritz values λ̃ = σ + 1/θ all lie below
-// near_zero_fraction·|σ| and the highest, `top`, above `floor`. The values
+// `stopped`) where probe_move says so of its `nev` wanted Ritz values
+// λ̃ = σ + 1/θ with `floor`, and `moved` is its shift. The values
 // are those of the restart before (SLEPc calls the monitor after the
 // stopping test): upper bounds of the lowest eigenvalues that fall as the
-// run goes on, so a stale top under |σ|/100 is a true one, and the move
-// to −top a shift above the one the current values would give (more
-// moves, not a wrong one: the inertia checks each). The monitor and
+// run goes on, so a stale highest under |σ|/100 is a true one, and the move
+// to −λ̃_max a shift above the one the current values would give (more
+// moves, not a wrong one: the inertia checks each; a stale lowest, where
+// all are negative, errs the same way). The monitor and
 // the test run on every rank with the same (replicated) projected problem,
 // so every rank decides alike.
 struct ProbeWatch {
@@ -1431,7 +1432,8 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         // eigenvalues far nearer 0 than ζ differ by (λ_i − λ_j)/ζ relative
         // (a chain of 400 particles with masses over 12 decades, its lowest
         // λ some 1e-22 s: "converged 0 of the 10 modes" after 1000
-        // restarts). A run given up moves the shift to −λ̃_nev, down by
+        // restarts). A run given up moves the shift to −λ̃_nev (or 2λ̃_1 where
+        // all are negative: probe_move), down by
         // factors of 8 until K − σM is positive definite (its inertia), or
         // stays at the last shift with the whole budget if none is found
         // above it; the run there is probed again against its own |σ|. The

@@ -1642,7 +1642,9 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // 3.6 × its estimate from the closed form), if its Ritz
     // values λ̃_i, upper bounds of the lowest eigenvalues (ShiftInvertSolver),
     // all lie below near_zero_fraction·ζ but not all below their data's
-    // level, it is given up and the runs are made at σ₁ = −λ̃_nev instead,
+    // level, it is given up and the runs are made at σ₁ = −λ̃_nev instead
+    // (where all are negative, within near_zero_fraction·ζ of zero and
+    // beyond their data's level, at σ₁ = 2λ̃_1: probe_move),
     // moved down by factors of 8 until K − σ₁M is positive definite (some
     // eigenvalue in [σ₀, 0) may lie below the first σ₁), or at σ₀ if none is
     // found above it; each run at σ₁ is refined (refine_run). At σ₁ the
@@ -1673,7 +1675,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
           } else {
             probed = true;
             // Probed runs from σ₀ down: each given up moves the shift to its
-            // −λ̃_nev (nearer 0 by 1/near_zero_fraction, or less where K − σM
+            // −λ̃_nev or 2λ̃_1 (probe_move; nearer 0 by 1/near_zero_fraction, or less where K − σM
             // is not positive definite there), which must lie above the
             // rounding of λ̃ = σ + 1/θ itself (16 ε|σ|): a zero mode's Ritz
             // value is rounding, and its data level (φᵀFφ) may be 0.
@@ -1694,10 +1696,12 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
               if (!last->stopped) break;
               runs.push_back(describe_run(*last, nev, units) + ", stopped: its " + std::to_string(nev) +
                              (last->lambda.maxCoeff() > 0
-                                  ? " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) + ", under "
+                                  ? " Ritz values lie at or below " + units(last->lambda.maxCoeff(), 3) + ", under " +
+                                        detail::format_number(near_zero_fraction, 1) + " |σ| and above their data's level "
                                   : " Ritz values lie in [" + units(last->lambda.minCoeff(), 3) + ", " +
-                                        units(last->lambda.maxCoeff(), 3) + "], within ") +
-                             detail::format_number(near_zero_fraction, 1) + " |σ| of zero and beyond their data's level " +
+                                        units(last->lambda.maxCoeff(), 3) + "], within " +
+                                        detail::format_number(near_zero_fraction, 1) +
+                                        " |σ| of zero and beyond their data's level −") +
                              units(floor, 3) + ", where σ separates them poorly");
               double sigma = moved;
               while (sigma < 0 && sigma > sigma_j && !factor.positive_definite_at(sigma)) sigma *= 8;

