@@ -1507,13 +1507,9 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       std::string copies_note;
       // (also where b > 0 but returned modes resolved from λ_k lie in [b, λ_k): uncovered_modes)
       const bool unchecked = completeness && [&] {
-        std::vector<Mode> modes;  // the k lowest (a repeated run returned more)
+        std::vector<Mode> modes;  // of which the k lowest (a repeated run returned more)
         for (const auto& number : numbers) modes.push_back(quotient_mode(VectorX::Zero(1), number.first, number.second));
-        std::sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
-        modes.resize(std::min(modes.size(), static_cast<std::size_t>(k)));
-        return completeness->first.near_zero() ? std::any_of(modes.begin(), modes.end(), [](const Mode& mode) {
-          return mode.kind != ModeKind::zero;
-        }) : uncovered_modes(completeness->first, modes) > 0;
+        return leaves_modes_unchecked(completeness->first, std::move(modes), k);
       }();
       if (moves > 0 && unchecked && completeness->first.outcome == CompletenessCheck::Outcome::complete &&
           static_cast<PetscInt>(found.size()) + k < n) {

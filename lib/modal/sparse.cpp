@@ -1323,8 +1323,9 @@ std::string copies_check_note(int runs, int added, long k, bool spanned, bool sh
                       " outside the span of the modes found that it could not resolve"
                 : std::string("still added some")) +
            ": a mode below the highest returned may be missing";
-  return "completeness not checked by the inertia for the returned eigenvalues within its margin of zero or of the "
-         "highest returned, which it cannot tell apart from rounding; copies of repeated eigenvalues checked instead by " +
+  return "completeness not checked by the inertia for the returned eigenvalues within its margin (η plus 1e-6 of the "
+         "highest returned) of zero or of the highest returned, where a count below a shift cannot separate them from "
+         "either; copies of repeated eigenvalues checked instead by " +
          std::to_string(runs) + " more " + iteration + " run" + (runs == 1 ? "" : "s") + " from random start vectors: " +
          found + last;
 }
@@ -1337,6 +1338,14 @@ long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& mo
     return mode.kind != ModeKind::zero && mode.omega2 >= check.bound &&
            top->omega2 - mode.omega2 > mode.error_estimate + top->error_estimate;
   }));
+}
+
+bool leaves_modes_unchecked(const CompletenessCheck& check, std::vector<Mode> modes, long k) {
+  if (check.outcome != CompletenessCheck::Outcome::complete) return false;
+  std::sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+  modes.resize(std::min(modes.size(), static_cast<std::size_t>(std::max(k, 0L))));
+  if (!check.near_zero()) return uncovered_modes(check, modes) > 0;
+  return std::any_of(modes.begin(), modes.end(), [](const Mode& mode) { return mode.kind != ModeKind::zero; });
 }
 
 std::optional<std::string> unchecked_completeness_note(const CompletenessCheck& check, const std::vector<Mode>& modes,
@@ -1683,6 +1692,8 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
             for (int move = 0;; ++move) {
               double moved = nan, floor = nan;
               auto stop = [&](const VectorX& values, const MatrixX& vectors) {
+                // First with no floor: the data's level costs products with
+                // the Ritz vectors, made only for a run the probe would give up.
                 if (!probe_move(values.minCoeff(), values.maxCoeff(), sigma_j, 0)) return false;
                 floor = std::max(std::min(near_zero_floor * scale, pencil.data_level(vectors)), 16 * eps * std::abs(sigma_j));
                 const std::optional<double> to = probe_move(values.minCoeff(), values.maxCoeff(), sigma_j, floor);
@@ -1742,15 +1753,13 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // found), at most 4 runs; then the lowest k are kept.
     // Also where b > 0 but returned modes resolved from λ_k lie in [b, λ_k)
     // (uncovered_modes): a net at p = 7e-12 had 7 there, within η of λ_k.
-    const auto unchecked = [&] {
+    const auto unchecked = [&] {  // made last: each mode costs products
       std::vector<Mode> modes;
       for (const auto& pair : pairs) {
         ModeResidual unused;
         modes.push_back(pencil.make_mode(pair.second, unused));
       }
-      return check.near_zero() ? std::any_of(modes.begin(), modes.end(),
-                                             [](const Mode& mode) { return mode.kind != ModeKind::zero; })
-                               : uncovered_modes(check, modes) > 0;
+      return leaves_modes_unchecked(check, std::move(modes), k);
     };
     if (run_sigma != s0 && completeness && check.outcome == CompletenessCheck::Outcome::complete &&
         static_cast<Index>(pairs.size()) + k < n && unchecked()) {
@@ -1916,13 +1925,20 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // estimates below.
     std::optional<LanczosRun> upper;
     bool upper_has_all = false;  // the run at σ₀ found all m below it
+    // The merged set ascending, as (λ, run, column): the runs' vectors are
+    // copied once, for the pairs kept, not at every check.
+    struct Pick {
+      double lambda;
+      const LanczosRun* run;
+      Index column;
+    };
     const auto merged = [&] {
-      std::vector<std::pair<double, VectorX>> all;
+      std::vector<Pick> all;
       for (Index j = 0; j < upper->lambda.size(); ++j)
-        if (upper_has_all || upper->lambda(j) >= s0) all.emplace_back(upper->lambda(j), upper->Phi.col(j));
+        if (upper_has_all || upper->lambda(j) >= s0) all.push_back({upper->lambda(j), &*upper, j});
       if (!upper_has_all)
-        for (Index j = 0; j < m; ++j) all.emplace_back(low->lambda(j), low->Phi.col(j));
-      std::stable_sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (Index j = 0; j < m; ++j) all.push_back({low->lambda(j), &*low, j});
+      std::stable_sort(all.begin(), all.end(), [](const Pick& a, const Pick& b) { return a.lambda < b.lambda; });
       return all;
     };
     if (k <= m) place_low();
@@ -1942,7 +1958,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                                               " eigenvalues above it, fewer than the " + std::to_string(k - m) +
                                               " that the inertia guarantees");
                        std::vector<double> values;
-                       for (const auto& pair : merged()) values.push_back(pair.first);
+                       for (const Pick& pick : merged()) values.push_back(pick.lambda);
                        return values;
                      },
                      count_near);
@@ -1956,8 +1972,10 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       Index kept = 0;  // the k lowest (a repeated run wanted more; run.lambda is ascending)
       take(*low, [&](double) { return kept++ < k; });
     } else {
-      pairs = merged();
-      pairs.resize(static_cast<std::size_t>(k));
+      std::vector<Pick> picks = merged();
+      picks.resize(static_cast<std::size_t>(k));
+      pairs.clear();
+      for (const Pick& pick : picks) pairs.emplace_back(pick.lambda, pick.run->Phi.col(pick.column));
     }
     if (k < m)
       result.notes.push_back("the equilibrium has " + plural(m, "negative eigenvalue", "negative eigenvalues") +

@@ -374,6 +374,11 @@ std::string completeness_note(const CompletenessCheck& check, const std::string&
 // not pass. (Near zero, b ≤ 0 < λ_k, every mode from b up is unchecked: see
 // below.)
 long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& modes);
+// Whether a complete check leaves some of the k lowest of `modes` (in the
+// check's units, any order) unchecked, the copies check's trigger on both
+// sparse paths: near zero, any of them that is not a zero mode; elsewhere,
+// uncovered_modes counts some. False where the check did not pass.
+bool leaves_modes_unchecked(const CompletenessCheck& check, std::vector<Mode> modes, long k);
 // The note of a complete check that leaves returned modes unchecked
 // (modes: in the check's units, ascending): not near zero, where
 // uncovered_modes counts some (else nullopt). A complete check near zero (CompletenessCheck::near_zero: b = λ_k − δ ≤ 0
