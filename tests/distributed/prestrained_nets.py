@@ -204,12 +204,15 @@ def main():
             # eigenvalue, not of the k-th lowest: the answer may be
             # incomplete, as it says, but never wrong.
             missing = [note for note in result["notes"] if "may be missing" in note]
-            if missing and not mixed:
+            # (The serial path probes those runs and checks their copies; the
+            # distributed one does neither: its notes are allowed.)
+            if missing and not (mixed and np_ != "0"):
                 failures += ["%s: %s" % (what, note) for note in missing]
             ref = values[:wanted]
             if missing and mixed:
                 ref = [min(values, key=lambda v, x=D(mode["omega2"]): abs(v - x)) for mode in modes]
             worst, loosest = 0.0, 0.0
+            unresolved = 0  # modes within 10 eta of zero returned as zero modes where the data resolve them
             for i, (mode, value) in enumerate(zip(modes, ref)):
                 err = abs(D(mode["omega2"]) - value)
                 estimate = D(mode["error_estimate"])
@@ -222,15 +225,18 @@ def main():
                             "divergent" if value < -10 * data else None)
                 # eta = 1e-12 max K_ii/M_ii (K_ii = 2k(1 + p) in-plane)
                 near_eta = abs(value) < 10 * 1e-12 * 2 * K_SPRING * (1 + p_zeta) / float(MASS)
-                if (tiny and trial > 0) or (mixed and near_eta):
+                if (tiny and trial > 0) or (mixed and near_eta and np_ != "0"):
                     # beyond 10 x the data's worst case the estimates may
                     # still exceed |lambda| (they are loose: up to 1e15 x the
                     # error here), "zero": only the sign is required. Beside
-                    # a compressed net (k > m), the runs at sigma_0 are not
-                    # probed, and modes within 10 eta of zero may converge
-                    # too poorly to be resolved (seeds 7, 10, 12: 1.1e-7,
-                    # 2.1e-7, 1.0e-6 returned as zero modes, within their
-                    # estimates)
+                    # a compressed net (k > m), the distributed backend's runs
+                    # near zero are not probed, and modes within 10 eta of
+                    # zero may converge too poorly to be resolved (as the
+                    # serial path's did before it probed them, seeds 7, 10,
+                    # 12: 1.1e-7, 2.1e-7, 1.0e-6 returned as zero modes,
+                    # within their estimates)
+                    if mode["kind"] == "zero" and abs(value) > 10 * data:
+                        unresolved += 1
                     expected = (None if mode["kind"] == "zero" else
                                 "divergent" if value < 0 else "oscillatory" if value > 0 else None)
                 if expected and mode["kind"] != expected:
@@ -265,8 +271,10 @@ def main():
                     counted = "counts %d eigenvalues below it" % below_eta
                     if below_eta > morse and not any(counted in note for note in result["notes"]):
                         failures.append("%s: no note that the inertia %s" % (what, counted))
-            print("%s: %s (Morse index %d), largest error/estimate %.2g, largest estimate/error %.2g" %
-                  (what, result["stability"], result["morse_index"], worst, loosest))
+            print("%s: %s (Morse index %d), largest error/estimate %.2g, largest estimate/error %.2g%s" %
+                  (what, result["stability"], result["morse_index"], worst, loosest,
+                   ("; %d near zero returned as zero modes" % unresolved if unresolved else "") +
+                   ("; a note: a mode may be missing" if missing else "")))
     if failures:
         sys.exit("FAIL: " + "\n  ".join(failures))
 

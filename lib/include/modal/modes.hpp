@@ -376,7 +376,8 @@ std::string completeness_note(const CompletenessCheck& check, const std::string&
 long uncovered_modes(const CompletenessCheck& check, const std::vector<Mode>& modes);
 // Whether a complete check leaves some of the k lowest of `modes` (in the
 // check's units, any order) unchecked, the copies check's trigger on both
-// sparse paths: near zero, any of them that is not a zero mode; elsewhere,
+// sparse paths: near zero, any of them at or above b that is not a zero
+// mode (those below b the inertia counted: a divergent one); elsewhere,
 // uncovered_modes counts some. False where the check did not pass.
 bool leaves_modes_unchecked(const CompletenessCheck& check, std::vector<Mode> modes, long k);
 // The note of a complete check that leaves returned modes unchecked
