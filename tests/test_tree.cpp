@@ -24,6 +24,7 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -330,6 +331,46 @@ TEST(TreeModes, DenseChainEstimatesAreTypicalNotWorstCase) {
 
 // The path is chosen by the documented rule and refused in words where it
 // does not apply.
+// Inverted chains (g < 0: every mode divergent, λ_k = −(|g|/a)·x_{N+1−k})
+// on the sparse path in joint angles, N drawn from [200, 700] twice: the ten
+// most negative within their estimates of the Laguerre reference, and their
+// completeness checked by the inertia of K − bM. Before MUMPS's null pivots
+// were taken at an absolute threshold (null_pivot_threshold, modes.hpp), its
+// normwise default took a legitimate pivot (5–45 ε of the norm) for null at
+// every shift tried near b, 1e-6 of λ₁₀ from it while the nearest eigenvalue
+// lies 1e-2 of λ₁₀ away, and the check was reported as not made (N = 400 and
+// 1200).
+TEST(TreeModes, InvertedChainsAreCheckedByTheInertia) {
+  std::mt19937_64 rng(2911);
+  for (int trial = 0; trial < 2; ++trial) {
+    const int N = std::uniform_int_distribution<int>(200, 700)(rng);
+    const double gravity = -std::exp(std::uniform_real_distribution<double>(std::log(0.5), std::log(20.0))(rng));
+    const std::string what = "N = " + std::to_string(N) + ", g = " + std::to_string(gravity);
+    const Model model = load_model(std::string(MODAL_SOURCE_DIR) + "/models/hanging_chain.toml",
+                                   {"N=" + std::to_string(N), "g=" + exact_text(gravity)});
+    AnalysisOptions options;
+    options.modes = 10;
+    options.solver = SolverChoice::sparse;
+    const Analysis a = analyze(model, options);
+    ASSERT_TRUE(a.sparse.has_value()) << what;
+    const ModalResult& r = a.result();
+    ASSERT_EQ(r.modes.size(), 10u) << what;
+    EXPECT_EQ(r.stability, Stability::divergence) << what;
+    EXPECT_EQ(r.morse_index, N) << what;
+    const LD g = static_cast<LD>(-gravity), length = 1.0L / N;
+    for (int k = 1; k <= 10; ++k) {
+      const double truth = static_cast<double>(-g / length * laguerre_zero(N, N + 1 - k));
+      const Mode& m = r.modes[static_cast<std::size_t>(k - 1)];
+      EXPECT_LE(std::abs(m.omega2 - truth), m.error_estimate) << what << " mode " << k << ": " << m.omega2
+                                                               << " against " << truth;
+    }
+    const bool checked = std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& note) {
+      return note.rfind("completeness checked by the inertia", 0) == 0 && note.find("exactly 9 eigenvalues") != std::string::npos;
+    });
+    EXPECT_TRUE(checked) << what << ": " << (r.notes.empty() ? std::string("no notes") : r.notes.front());
+  }
+}
+
 TEST(TreeModes, TheSolverChoiceFollowsTheRule) {
   const std::string models = std::string(MODAL_SOURCE_DIR) + "/models/";
   AnalysisOptions tree;

@@ -575,7 +575,8 @@ PetscErrorCode lagged_converged(SNES snes, PetscInt step, PetscReal xnorm, Petsc
 
 // The number of eigenvalues of (K, M) below σ: the negative pivots of a MUMPS
 // LDLᵀ of K − σM (ICNTL(13) = 1: no ScaLAPACK root, so every pivot is seen;
-// ICNTL(24) = 1: null pivots detected). Nothing when a pivot is null.
+// ICNTL(24) = 1: null pivots detected, at null_pivot_threshold). Nothing
+// when a pivot is null.
 // A MUMPS Cholesky (LDLᵀ, with its inertia) of A = K − σM, or of K + σI
 // when M is null; `factored` false when MUMPS met a problem (a null pivot).
 // The caller destroys the KSP and A.
@@ -596,6 +597,7 @@ KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored) {
   MODAL_PETSC(PCFactorGetMatrix(pc, &F));
   MODAL_PETSC(MatMumpsSetIcntl(F, 13, 1));
   MODAL_PETSC(MatMumpsSetIcntl(F, 24, 1));
+  MODAL_PETSC(MatMumpsSetCntl(F, 3, null_pivot_threshold));  // absolute: only rows that underflow (modes.hpp)
   MODAL_PETSC(KSPSetErrorIfNotConverged(ksp, PETSC_FALSE));
   MODAL_PETSC(KSPSetUp(ksp));
   MatFactorError error = MAT_FACTOR_NOERROR;

@@ -287,6 +287,21 @@ inline constexpr double copies_resolution = 1e-3;
 // zero was checked: a net at prestrain 1e-10, all its low ω² near 1e-11 s,
 // went unchecked.
 inline constexpr double completeness_margin = 1e-4;
+// The null-pivot threshold of MUMPS's LDLᵀ (CNTL(3), with null pivots
+// detected, ICNTL(24) = 1), behind every inertia count of an indefinite
+// K − σM (the serial sparse path and the distributed backend): negative,
+// hence absolute, so only pivot rows whose entries underflow are null.
+// MUMPS's default is normwise, 1e5 ε of the matrix's norm, about 20 × η/s:
+// it took legitimate small pivots of graded matrices for null (an inverted
+// chain of 400 links in joint angles had its completeness check "not
+// made", K − bM refused at every shift tried, with b 1e-6 of λ from the
+// nearest eigenvalue and the pivot between 5 and 45 ε of the norm), and
+// near zero it refused the counts at −η that zero modes make. A count is
+// then that of a matrix within the factorization's backward error of
+// K − σM (typically a small multiple of ε s), which the margins the counts
+// are read with are set far above (η = 1e-12 s, about 4500 ε s;
+// 1e-6 |λ_k| + η).
+inline constexpr double null_pivot_threshold = -std::numeric_limits<double>::min();
 // ζ = zero_margin·s, s the spectrum's scale (the largest K_ii/M_ii): the
 // shift-invert solvers' default shift σ₀ = −ζ lies just below zero, so that
 // zero modes are found and counted by the inertia at σ₀ (solve_sparse_modes

@@ -5,7 +5,8 @@
 // INFOG(12)) at the cost of a supernodal Cholesky, where CHOLMOD's LDLᵀ is
 // simplicial (scalar, several times slower on 2-D and 3-D meshes) and does not
 // pivot. Null pivots are detected (ICNTL(24)) and reported as a failure, like
-// a zero pivot. One symbolic analysis serves every σ (the pattern of A is
+// a zero pivot, but only pivots whose rows underflow (CNTL(3) < 0: an
+// absolute threshold; see null_pivot_threshold). One symbolic analysis serves every σ (the pattern of A is
 // fixed).
 //
 // Compiled twice (see ../mumps.hpp): without MODAL_MUMPS_MPI against the
@@ -20,6 +21,7 @@
 // functions stay safe to call from several threads, and MUMPS jobs, which are
 // short next to the rest of a sparse analysis, take turns.
 #include "modal/mumps.hpp"
+#include "modal/modes.hpp"
 
 #include <dmumps_c.h>
 #if defined(MODAL_MUMPS_MPI)
@@ -82,8 +84,8 @@ MumpsLdlt::MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order) : sta
   } else {
     s.id.icntl[6] = 7;  // ICNTL(7): ordering chosen by MUMPS
   }
-  s.id.icntl[23] = 1;   // ICNTL(24): detect null pivots
-  s.id.cntl[2] = 0.0;   // CNTL(3): default null-pivot threshold
+  s.id.icntl[23] = 1;  // ICNTL(24): detect null pivots,
+  s.id.cntl[2] = null_pivot_threshold;  // CNTL(3): only where they underflow (see mumps.hpp)
   s.id.n = static_cast<MUMPS_INT>(s.n);
   s.id.nnz = static_cast<MUMPS_INT8>(s.positions.size());
   s.id.irn = s.irn.data();
