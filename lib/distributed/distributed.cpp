@@ -575,12 +575,12 @@ PetscErrorCode lagged_converged(SNES snes, PetscInt step, PetscReal xnorm, Petsc
 
 // The number of eigenvalues of (K, M) below σ: the negative pivots of a MUMPS
 // LDLᵀ of K − σM (ICNTL(13) = 1: no ScaLAPACK root, so every pivot is seen;
-// ICNTL(24) = 1: null pivots detected, at null_pivot_threshold). Nothing
-// when a pivot is null.
+// ICNTL(24) = 1: null pivots detected, at CNTL(3) = null_threshold).
+// Nothing when a pivot is null.
 // A MUMPS Cholesky (LDLᵀ, with its inertia) of A = K − σM, or of K + σI
 // when M is null; `factored` false when MUMPS met a problem (a null pivot).
 // The caller destroys the KSP and A.
-KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored) {
+KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored, double null_threshold) {
   MODAL_PETSC(MatDuplicate(K, MAT_COPY_VALUES, &A));
   if (M) {
     MODAL_PETSC(MatAXPY(A, -sigma, M, DIFFERENT_NONZERO_PATTERN));
@@ -597,7 +597,7 @@ KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored) {
   MODAL_PETSC(PCFactorGetMatrix(pc, &F));
   MODAL_PETSC(MatMumpsSetIcntl(F, 13, 1));
   MODAL_PETSC(MatMumpsSetIcntl(F, 24, 1));
-  MODAL_PETSC(MatMumpsSetCntl(F, 3, null_pivot_threshold));  // absolute: only rows that underflow (modes.hpp)
+  MODAL_PETSC(MatMumpsSetCntl(F, 3, null_threshold));
   MODAL_PETSC(KSPSetErrorIfNotConverged(ksp, PETSC_FALSE));
   MODAL_PETSC(KSPSetUp(ksp));
   MatFactorError error = MAT_FACTOR_NOERROR;
@@ -609,7 +609,7 @@ KSP mumps_cholesky(Mat K, Mat M, double sigma, Mat& A, Mat& F, bool& factored) {
 std::optional<PetscInt> inertia_below(Mat K, Mat M, double sigma) {
   Mat A = nullptr, F = nullptr;
   bool factored = false;
-  KSP ksp = mumps_cholesky(K, M, sigma, A, F, factored);
+  KSP ksp = mumps_cholesky(K, M, sigma, A, F, factored, null_pivot_threshold);  // a count (modes.hpp)
   std::optional<PetscInt> result;
   if (factored) {
     PetscInt negative = 0, zero = 0, positive = 0;
@@ -649,7 +649,7 @@ PetscInt inertia_near(Mat K, Mat M, double& sigma, double s, int direction = -1)
 bool solve_shifted_positive(Mat H, double shift, Vec r, Vec d) {
   Mat A = nullptr, F = nullptr;
   bool factored = false;
-  KSP ksp = mumps_cholesky(H, nullptr, shift, A, F, factored);
+  KSP ksp = mumps_cholesky(H, nullptr, shift, A, F, factored, 0.0);  // MUMPS's default: a solve
   bool ok = false;
   if (factored) {
     PetscInt negative = 0, zero = 0, positive = 0;

@@ -31,8 +31,12 @@ class MumpsLdlt {
   ~MumpsLdlt();
 
   // Factors A (same pattern as at construction); the number of negative
-  // pivots, or nothing when the factorization failed or met a null pivot.
-  std::optional<Eigen::Index> factor(const SparseMatrix& A);
+  // pivots, or nothing when the factorization failed or met a null pivot:
+  // one whose row underflows (null_pivot_threshold, modal/modes.hpp), or
+  // with `normwise_null`, one whose row is below MUMPS's default, a
+  // multiple of ε times the norm (for a shift the user chose, which may be
+  // an eigenvalue: the caller moves it).
+  std::optional<Eigen::Index> factor(const SparseMatrix& A, bool normwise_null = false);
   // Y = A⁻¹X for `columns` vectors (n × columns, column-major, one solve
   // phase for all); false when MUMPS fails.
   bool solve(const double* in, double* out, int columns = 1);

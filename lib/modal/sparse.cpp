@@ -441,8 +441,11 @@ class ShiftedFactor {
   // caller knows of a vector with a negative Rayleigh quotient, so a
   // supernodal LLᵀ would only fail (after up to a whole factorization's work):
   // go to the LDLᵀ with pivoting at once. A hint only; the count is exact
-  // either way.
-  std::optional<Index> factor(double sigma, bool inertia = true, bool expect_indefinite = false) {
+  // either way. `normwise_null`: MUMPS's own test of null pivots (for a
+  // shift the user chose, which may be an eigenvalue), instead of rows that
+  // underflow (MumpsLdlt::factor).
+  std::optional<Index> factor(double sigma, bool inertia = true, bool expect_indefinite = false,
+                              bool normwise_null = false) {
     assemble(sigma);
     active_ = Active::none;
     const bool skip_llt = inertia && expect_indefinite && analyzed_ && automatic_supernodal_;
@@ -458,7 +461,7 @@ class ShiftedFactor {
     // indefinite matrix: MUMPS's LDLᵀ gives the inertia.
     if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_, automatic_->ordering());
     ++factorizations_;
-    if (std::optional<Index> below = mumps_->factor(A_)) {
+    if (std::optional<Index> below = mumps_->factor(A_, normwise_null)) {
       active_ = Active::mumps;
       indefinite_ = *below > 0;
       return below;
@@ -1579,9 +1582,9 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
 
   // Factors at σ, moving σ by 1e-6·max(|σ|, s) (at most 3 times) when the
   // LDLᵀ factorization breaks down; returns the count below the final σ.
-  auto factor_at = [&](double& sigma, const char* what, bool expect_indefinite = false) {
+  auto factor_at = [&](double& sigma, const char* what, bool expect_indefinite = false, bool normwise_null = false) {
     for (int attempt = 0; attempt < 4; ++attempt) {
-      if (const std::optional<Index> below = factor.factor(sigma, true, expect_indefinite)) return *below;
+      if (const std::optional<Index> below = factor.factor(sigma, true, expect_indefinite, normwise_null)) return *below;
       const double moved = sigma + 1e-6 * std::max(std::abs(sigma), scale);
       result.notes.push_back(std::string("K − σM has no LDLᵀ factorization without pivoting at the ") + what +
                              " σ = " + units(sigma, 10) + " (a zero pivot); moved to σ = " +
@@ -1673,6 +1676,13 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
       }
       sigma_j = sigma_run = sigma;
     }
+    if (sigma_run != s0) refine_run(run, factor, mass_op);
+    return run;
+  };
+  // A probed run's repeat, wanting `nev`, at the shift it kept (refined
+  // where that moved).
+  const auto rerun = [&](long nev, double sigma_run) {
+    LanczosRun run = run_lanczos(factor, mass_op, sigma_run, nev, options, units);
     if (sigma_run != s0) refine_run(run, factor, mass_op);
     return run;
   };
@@ -1771,14 +1781,14 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // The factor back at b, where the check left it: the second-order
     // estimates below need it (without, every mode of these scenes kept
     // its linear residual term, looser, even where nothing was added).
-    factor.factor(check.bound, true);
+    factor.factor(check.bound, true, check.count > 0);
     copies_note = copies_check_note(extra_runs, added, static_cast<long>(k), added_last == 0 && unresolved_last == 0 && !short_run,
                                     short_run, unresolved_last, "Lanczos");
   };
 
   if (options.shift) {
     user_sigma = *options.shift;
-    below_user_shift = factor_at(user_sigma, "requested");
+    below_user_shift = factor_at(user_sigma, "requested", false, true);  // σ may be an eigenvalue: moved off
     const LanczosRun run = run_lanczos(factor, mass_op, user_sigma, k, options, units);
     runs.push_back(describe_run(run, k, units));
     take(run, [](double) { return true; });
@@ -1832,8 +1842,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
         k, n, s0, zeta,
         [&](long nev) {
           if (last) {
-            last = run_lanczos(factor, mass_op, run_sigma, nev, options, units);
-            if (run_sigma != s0) refine_run(*last, factor, mass_op);
+            last = rerun(nev, run_sigma);
           } else {
             last = probed_run(nev, run_sigma, [&](double sigma) { return factor.positive_definite_at(sigma); });
           }
@@ -1942,11 +1951,11 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
     // modes wanted: the 16 negative ones and 8.83e-7, double, once). With
     // k ≤ m, the runs from σ_L (nothing below it); with k > m, the merged
     // set (nothing below σ₀ unreturned: the inertia there counts m, all
-    // returned), the runs at σ₀ repeated. The factor left at b serves the
-    // estimates below.
+    // returned), the runs at σ₀ (or the probe's moved shift) repeated. The
+    // factor left at b serves the estimates below.
     std::optional<LanczosRun> upper;
     double upper_sigma = s0;     // its shift: σ₀, or where the probe moved it
-    bool upper_has_all = false;  // the run at σ₀ found all m below it
+    bool upper_has_all = false;  // the run near σ₀ found all m below σ₀
     // The merged set ascending, as (λ, run, column): the runs' vectors are
     // copied once, for the pairs kept, not at every check.
     struct Pick {
@@ -1970,8 +1979,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                      k, n, s0, zeta,
                      [&](long nev) {
                        if (upper) {
-                         upper = run_lanczos(factor, mass_op, upper_sigma, nev, options, units);
-                         if (upper_sigma != s0) refine_run(*upper, factor, mass_op);
+                         upper = rerun(nev, upper_sigma);
                        } else {
                          // Probed as where m = 0, a moved shift kept only where
                          // the inertia there is still m (the modes within η of
@@ -1988,9 +1996,9 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
                        if (!upper_has_all && !low) find_negatives();
                        const Index above = (upper->lambda.array() >= s0).count();
                        if (above < k - m)
-                         throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(s0, 3) +
-                                              " returned " + std::to_string(above) +
-                                              " eigenvalues above it, fewer than the " + std::to_string(k - m) +
+                         throw NumericalError("solve_sparse_modes: the Lanczos iteration at σ = " + units(upper_sigma, 3) +
+                                              " returned " + std::to_string(above) + " eigenvalues at or above σ₀ = " +
+                                              units(s0, 3) + ", fewer than the " + std::to_string(k - m) +
                                               " that the inertia guarantees");
                        std::vector<double> values;
                        for (const Pick& pick : merged()) values.push_back(pick.lambda);
@@ -2200,7 +2208,8 @@ class TreeShiftedFactor {
   double sigma() const { return sigma_; }
   bool valid() const { return valid_; }
   bool positive_definite() const { return valid_ && negative_ == 0; }
-  std::optional<Index> factor(double sigma, bool /*inertia*/ = true, bool /*expect_indefinite*/ = false) {
+  std::optional<Index> factor(double sigma, bool /*inertia*/ = true, bool /*expect_indefinite*/ = false,
+                              bool /*normwise_null*/ = false) {
     sigma_ = sigma;
     valid_ = factor_.factor(p_, 1.0, -sigma);
     if (!valid_) return std::nullopt;

@@ -197,15 +197,15 @@ def main():
                 failures.append("%s: %d modes" % (what, len(modes)))
                 continue
             # A note that a mode may be missing fails a single net (the path
-            # at sigma_0 must resolve it). Beside a compressed net, where the
-            # returned eigenvalues within eta of zero are neither probed nor
-            # checked for copies (k > m), such a note is allowed, and then
-            # every returned eigenvalue must be within its estimate of some
-            # eigenvalue, not of the k-th lowest: the answer may be
-            # incomplete, as it says, but never wrong.
+            # at sigma_0 must resolve it), and a mixed scene on the serial
+            # path (which probes the runs near zero with k > m and checks
+            # their copies). Beside a compressed net on the distributed
+            # backend, whose returned eigenvalues within eta of zero are
+            # neither probed nor checked for copies (k > m), such a note is
+            # allowed, and then every returned eigenvalue must be within its
+            # estimate of some eigenvalue, not of the k-th lowest: the answer
+            # may be incomplete, as it says, but never wrong.
             missing = [note for note in result["notes"] if "may be missing" in note]
-            # (The serial path probes those runs and checks their copies; the
-            # distributed one does neither: its notes are allowed.)
             if missing and not (mixed and np_ != "0"):
                 failures += ["%s: %s" % (what, note) for note in missing]
             ref = values[:wanted]

@@ -288,19 +288,20 @@ inline constexpr double copies_resolution = 1e-3;
 // went unchecked.
 inline constexpr double completeness_margin = 1e-4;
 // The null-pivot threshold of MUMPS's LDLᵀ (CNTL(3), with null pivots
-// detected, ICNTL(24) = 1), behind every inertia count of an indefinite
-// K − σM (the serial sparse path and the distributed backend): negative,
-// hence absolute, so only pivot rows whose entries underflow are null.
-// MUMPS's default is normwise, 1e5 ε of the matrix's norm, about 20 × η/s:
-// it took legitimate small pivots of graded matrices for null (an inverted
-// chain of 400 links in joint angles had its completeness check "not
-// made", K − bM refused at every shift tried, with b 1e-6 of λ from the
-// nearest eigenvalue and the pivot between 5 and 45 ε of the norm), and
-// near zero it refused the counts at −η that zero modes make. A count is
-// then that of a matrix within the factorization's backward error of
-// K − σM (typically a small multiple of ε s), which the margins the counts
-// are read with are set far above (η = 1e-12 s, about 4500 ε s;
-// 1e-6 |λ_k| + η).
+// detected, ICNTL(24) = 1) for the inertia counts of an indefinite K − σM
+// (the serial sparse path and the distributed backend): negative, hence
+// absolute, so only pivot rows whose entries underflow are null. MUMPS's
+// default is normwise (a multiple of ε times the norm of the scaled
+// matrix): it took a legitimate pivot row of a graded matrix for null (an
+// inverted chain of 400 links in joint angles had its completeness check
+// "not made", K − bM refused at every shift tried, b 1e-6 |λ₁₀| below
+// λ₁₀ and the nearest other eigenvalue 1e-2 |λ₁₀| away; the row measured
+// between 1e-15 and 1e-14 of the norm). A count is then that of a matrix
+// within the factorization's backward error of K − σM (typically a small
+// multiple of ε s), which the margins the counts are read with are set far
+// above (η = 1e-12 s, about 4500 ε s; 1e-6 |λ_k| + η). A shift the user
+// chose keeps MUMPS's default (MumpsLdlt::factor): it may be an eigenvalue
+// itself, and is then moved off, with a note.
 inline constexpr double null_pivot_threshold = -std::numeric_limits<double>::min();
 // ζ = zero_margin·s, s the spectrum's scale (the largest K_ii/M_ii): the
 // shift-invert solvers' default shift σ₀ = −ζ lies just below zero, so that
@@ -311,7 +312,8 @@ inline constexpr double zero_margin = 1e-8;
 // distributed backend alike): after near_zero_probe restarts, a run is
 // given up where probe_move says so, and the runs move to its shift, at
 // most near_zero_moves times (each nearer 0 by 1/near_zero_fraction where
-// K − σM is positive definite there). A run at a moved shift is probed
+// K − σM is positive definite there; where m > 0, on the serial path with
+// k > m, where its inertia is still m). A run at a moved shift is probed
 // after moved_probe restarts: long enough that such runs on the nets of
 // results/near_slack.md (21–23 restarts) converge within it, and so are
 // kept as they are (a probe of near_zero_probe there is made afresh: 1.6 ×
@@ -333,7 +335,8 @@ inline constexpr long moved_probe = 2 * near_zero_probe;
 // negative eigenvalues counted as zero modes; a net at p = 0, whose 10
 // lowest Ritz values are rounding in [−2.5e-9, −1.6e-9] against a floor of
 // 2.2e-9, is not moved). The caller moves the shift on down while K − σM is
-// not positive definite there. nullopt where the run is not given up.
+// not positive definite there (where m > 0: while the inertia there is not
+// m). nullopt where the run is not given up.
 inline std::optional<double> probe_move(double lowest, double highest, double sigma, double floor) {
   const double within = near_zero_fraction * std::abs(sigma);
   if (highest > 0) {

@@ -5,8 +5,8 @@
 // INFOG(12)) at the cost of a supernodal Cholesky, where CHOLMOD's LDLᵀ is
 // simplicial (scalar, several times slower on 2-D and 3-D meshes) and does not
 // pivot. Null pivots are detected (ICNTL(24)) and reported as a failure, like
-// a zero pivot, but only pivots whose rows underflow (CNTL(3) < 0: an
-// absolute threshold; see null_pivot_threshold). One symbolic analysis serves every σ (the pattern of A is
+// a zero pivot: for inertia counts only pivots whose rows underflow (CNTL(3)
+// < 0: an absolute threshold; null_pivot_threshold, modal/modes.hpp). One symbolic analysis serves every σ (the pattern of A is
 // fixed).
 //
 // Compiled twice (see ../mumps.hpp): without MODAL_MUMPS_MPI against the
@@ -84,8 +84,7 @@ MumpsLdlt::MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order) : sta
   } else {
     s.id.icntl[6] = 7;  // ICNTL(7): ordering chosen by MUMPS
   }
-  s.id.icntl[23] = 1;  // ICNTL(24): detect null pivots,
-  s.id.cntl[2] = null_pivot_threshold;  // CNTL(3): only where they underflow (see mumps.hpp)
+  s.id.icntl[23] = 1;  // ICNTL(24): detect null pivots (CNTL(3): in factor)
   s.id.n = static_cast<MUMPS_INT>(s.n);
   s.id.nnz = static_cast<MUMPS_INT8>(s.positions.size());
   s.id.irn = s.irn.data();
@@ -100,8 +99,9 @@ MumpsLdlt::~MumpsLdlt() {
   }
 }
 
-std::optional<Eigen::Index> MumpsLdlt::factor(const SparseMatrix& A) {
+std::optional<Eigen::Index> MumpsLdlt::factor(const SparseMatrix& A, bool normwise_null) {
   State& s = *state_;
+  s.id.cntl[2] = normwise_null ? 0.0 : null_pivot_threshold;  // CNTL(3): 0 is MUMPS's default
   for (std::size_t i = 0; i < s.positions.size(); ++i) s.values[i] = A.valuePtr()[s.positions[i]];
   if (!s.analyzed) {
     s.id.job = 1;
