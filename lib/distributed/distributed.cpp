@@ -783,6 +783,7 @@ struct PointSolver {
   Mat J = nullptr, K = nullptr, M = nullptr, F = nullptr;  // F: K's rounding form (sparse_rounding_form)
   Mat K_abs = nullptr, K_square = nullptr;                  // |K_ij| and T_ij², T the sizes of K's terms (the modes' sums)
   std::vector<Vec> found;                                   // the modes' vectors, M-normalized
+  std::vector<Vec> negatives;  // with k > m: the m eigenvectors below σ₀ from a shift below the spectrum
   SNES snes = nullptr;
   EPS eps_solver = nullptr;
   PointSolver() = default;
@@ -792,7 +793,8 @@ struct PointSolver {
     if (assembly.gather) VecScatterDestroy(&assembly.gather);
     for (Vec* v : {&assembly.local, &x, &f})
       if (*v) VecDestroy(v);
-    for (Vec& v : found) VecDestroy(&v);
+    for (std::vector<Vec>* vectors : {&found, &negatives})
+      for (Vec& v : *vectors) VecDestroy(&v);
     for (Mat* A : {&J, &K, &M, &F, &K_abs, &K_square})
       if (*A) MatDestroy(A);
     if (snes) SNESDestroy(&snes);
@@ -1166,16 +1168,14 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       const PetscInt m = inertia_near(K, M, s0, s);
       const PetscInt k = std::min<PetscInt>(options.modes > 0 ? options.modes : 10, n);
       // Where SLEPc looks: the user's shift; σ₀ when no eigenvalue lies below
-      // it; else a shift below the whole spectrum, found from the inertia
-      // alone (down by factors of 4, then up by bisection until it is within
-      // a quarter of its distance to σ₀ below λ₁), so that the k nearest it
-      // are the k lowest.
+      // it; else, for the m below σ₀, a shift below the whole spectrum,
+      // found from the inertia alone (down by factors of 4, then up by
+      // bisection until it is within a quarter of its distance to σ₀ below
+      // λ₁), so that the m nearest it are the m lowest (with k > m, placed
+      // when first needed: the runs at σ₀ below may find all m).
       double target = s0;
       std::string where = "σ₀ = −ζ";
-      if (options.shift) {
-        target = *options.shift;
-        where = "the shift";
-      } else if (m > 0) {
+      const auto below_spectrum = [&] {
         double low = zeta, high = 0;  // distances below σ₀: low fails (eigenvalues below), high succeeds
         for (int tries = 0;; ++tries) {
           if (tries > 200) throw NumericalError("--backend petsc: no shift below the spectrum was found");
@@ -1192,7 +1192,13 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           if (inertia_near(K, M, sigma, s) == 0) high = s0 - sigma;
           else low = mid;
         }
-        target = s0 - high;
+        return s0 - high;
+      };
+      if (options.shift) {
+        target = *options.shift;
+        where = "the shift";
+      } else if (m > 0 && k <= m) {
+        target = below_spectrum();
         where = "a shift below the spectrum";
       }
       // |K_ij| and T_ij² for T the sizes of K's terms (quotient_mode's
@@ -1330,22 +1336,21 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         MODAL_PETSC(VecCopy(phi, found.back()));
       };
       // One Krylov–Schur run for the `nev` eigenpairs nearest the target:
-      // their numbers and (as `gathered` says) shapes; false (and nothing
-      // kept) when `probe` gave the run up. With `start`, the run starts
-      // from it and `each` gets its pairs (λ, φ) instead of take_mode.
+      // their numbers and (as `gathered` says) shapes, in place of the last
+      // run's; false (and nothing kept) when `probe` gave the run up. With
+      // `each`, it gets the pairs (λ, φ) instead of take_mode and the
+      // numbers are left as they were; with `start`, the run starts from it.
       bool short_run = false;  // a check run converged fewer pairs than it asked for
       const auto solve_nearest = [&](PetscInt nev, ProbeWatch* probe, Vec start = nullptr,
                                      const std::function<void(double, Vec)>& each = {}) {
-        if (start) {
-          MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
-          MODAL_PETSC(EPSSetInitialSpace(eps_solver, 1, &start));
-        } else {
-        numbers.clear();
-        shapes.clear();
-        for (Vec& v : found) MODAL_PETSC(VecDestroy(&v));
-        found.clear();
-        MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+        if (!each) {
+          numbers.clear();
+          shapes.clear();
+          for (Vec& v : found) MODAL_PETSC(VecDestroy(&v));
+          found.clear();
         }
+        MODAL_PETSC(EPSCreate(PETSC_COMM_WORLD, &eps_solver));
+        if (start) MODAL_PETSC(EPSSetInitialSpace(eps_solver, 1, &start));
         MODAL_PETSC(EPSSetOperators(eps_solver, K, M));
         MODAL_PETSC(EPSSetProblemType(eps_solver, EPS_GHEP));
         MODAL_PETSC(EPSSetType(eps_solver, EPSKRYLOVSCHUR));
@@ -1402,77 +1407,57 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         for (const auto& number : numbers) lambdas.push_back(number.first);
         return lambdas;
       };
-      if (options.shift) {
-        solve_nearest(k, nullptr);
-      } else if (m > 0) {
-        // The k nearest the shift below the spectrum are the k lowest,
-        // checked as at σ₀ (check_completeness, nothing below the shift): a
-        // run from one start vector can skip a copy of a repeated
-        // eigenvalue, negative (a compressed net, all its lowest λ negative,
-        // returned its 9th, double, eigenvalue once and the 11th as its
-        // 10th) or not, where k > m (a compressed net of side 6 beside a
-        // nearly slack one, 20 modes wanted: the 16 negative ones and
-        // 8.83e-7, double, once). Not fatal where K − bM cannot be factored
-        // near b: the note says the check was not made. (Nor is the first
-        // run probed as at σ₀: with k > m the highest returned eigenvalues
-        // may lie far nearer 0 than the shift, and converge slowly.)
-        const CompletenessCheck check = check_completeness(
-            k, n, target, zeta,
-            [&](long nev) {
-              solve_nearest(static_cast<PetscInt>(nev), nullptr);
-              return eigenvalues();
-            },
-            [&](double& b, bool) { return inertia_count(K, M, b, s); });
-        if (check.outcome != CompletenessCheck::Outcome::not_needed) {
-          completeness = {check, result.notes.size()};
-          result.notes.push_back(
-              completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
+      // The first run of each case without a user shift that wants modes at
+      // or above σ₀, probed as solve_sparse_modes probes its own (see there
+      // and ProbeWatch): at σ₀ = −ζ the wanted θ = 1/(λ − σ₀) of eigenvalues
+      // far nearer 0 than ζ differ by (λ_i − λ_j)/ζ relative (a chain of 400
+      // particles with masses over 12 decades, its lowest λ some 1e-22 s:
+      // "converged 0 of the 10 modes" after 1000 restarts). A run given up
+      // moves the shift to −λ̃_nev (or 2λ̃_1 where all are negative:
+      // probe_move), down by factors of 8 until K − σM has the inertia of
+      // σ₀ there (`below`: 0, positive definite, where m = 0; m, none between
+      // σ₀ and the shift, where k > m), or stays at the last shift with the
+      // whole budget if none is found above it; the run there is probed again
+      // against its own |σ|. The floor is the rounding of λ̃ = σ + 1/θ itself,
+      // 16ε|σ|: the serial path's other floor, the Ritz vectors' data level,
+      // needs vectors SLEPc does not return for a run it has not converged,
+      // so a shift here may move nearer a cluster of zero modes than the
+      // serial one does (more factorizations, not other modes: the kinds are
+      // decided by the modes' own sums). `target` is left at the run's shift.
+      const auto probed_solve = [&](PetscInt nev, PetscInt below) {
+        for (double sigma_j = s0;; ++moves) {
+          target = sigma_j;
+          ProbeWatch watch;
+          watch.nev = nev;
+          watch.restarts = static_cast<PetscInt>(moves == 0 ? near_zero_probe : moved_probe);
+          watch.floor = 16 * eps * std::abs(sigma_j);
+          if (solve_nearest(nev, moves < near_zero_moves ? &watch : nullptr)) break;
+          double sigma = watch.moved;
+          while (sigma < 0 && sigma > sigma_j && inertia_below(K, M, sigma) != std::optional<PetscInt>(below))
+            sigma *= 8;
+          if (!(sigma < 0 && sigma > sigma_j)) {
+            solve_nearest(nev, nullptr);
+            break;
+          }
+          sigma_j = sigma;
         }
-      } else {
-        // The first run probed as solve_sparse_modes probes its own (see
-        // there and ProbeWatch): at σ₀ = −ζ the wanted θ = 1/(λ − σ₀) of
-        // eigenvalues far nearer 0 than ζ differ by (λ_i − λ_j)/ζ relative
-        // (a chain of 400 particles with masses over 12 decades, its lowest
-        // λ some 1e-22 s: "converged 0 of the 10 modes" after 1000
-        // restarts). A run given up moves the shift to −λ̃_nev (or 2λ̃_1 where
-        // all are negative: probe_move), down by
-        // factors of 8 until K − σM is positive definite (its inertia), or
-        // stays at the last shift with the whole budget if none is found
-        // above it; the run there is probed again against its own |σ|. The
-        // floor is the rounding of λ̃ = σ + 1/θ itself, 16ε|σ|: the serial
-        // path's other floor, the Ritz vectors' data level, needs vectors
-        // SLEPc does not return for a run it has not converged, so a shift
-        // here may move nearer a cluster of zero modes than the serial
-        // one does (more factorizations, not other modes: the kinds are
-        // decided by the modes' own sums).
-        bool probed = false;
+        if (moves > 0)
+          where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay within {} |σ| of zero)",
+                              target, moves, moves == 1 ? "" : "s", near_zero_fraction);
+      };
+      // Each set of modes returned is checked for completeness as the lowest
+      // modes at σ₀ are (check_completeness): a run from one start vector
+      // can skip a copy of a repeated eigenvalue, negative (a compressed net,
+      // all its lowest λ negative, returned its 9th, double, eigenvalue once
+      // and the 11th as its 10th) or not (a compressed net of side 6 beside
+      // a nearly slack one, 20 modes wanted: the 16 negative ones and
+      // 8.83e-7, double, once). Not fatal where K − bM cannot be factored
+      // near b: the note says the check was not made.
+      const auto check_lowest = [&](double sigma_check, const std::function<void(PetscInt)>& run) {
         const CompletenessCheck check = check_completeness(
-            k, n, s0, zeta,
+            k, n, sigma_check, zeta,
             [&](long nev) {
-              if (probed) {
-                solve_nearest(static_cast<PetscInt>(nev), nullptr);
-              } else {
-                probed = true;
-                for (double sigma_j = s0;; ++moves) {
-                  target = sigma_j;
-                  ProbeWatch watch;
-                  watch.nev = static_cast<PetscInt>(nev);
-                  watch.restarts = static_cast<PetscInt>(moves == 0 ? near_zero_probe : moved_probe);
-                  watch.floor = 16 * eps * std::abs(sigma_j);
-                  if (solve_nearest(static_cast<PetscInt>(nev), moves < near_zero_moves ? &watch : nullptr)) break;
-                  double sigma = watch.moved;
-                  while (sigma < 0 && sigma > sigma_j && inertia_below(K, M, sigma) != std::optional<PetscInt>(0))
-                    sigma *= 8;
-                  if (!(sigma < 0 && sigma > sigma_j)) {
-                    solve_nearest(static_cast<PetscInt>(nev), nullptr);
-                    break;
-                  }
-                  sigma_j = sigma;
-                }
-                if (moves > 0)
-                  where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay within {} |σ| of zero)",
-                                      target, moves, moves == 1 ? "" : "s", near_zero_fraction);
-              }
+              run(static_cast<PetscInt>(nev));
               return eigenvalues();
             },
             [&](double& b, bool) { return inertia_count(K, M, b, s); });  // moves b down past a singular K − bM
@@ -1481,6 +1466,125 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           result.notes.push_back(
               completeness_note(check, fmt::format("{:.8g}", check.bound), "SLEPc's Krylov–Schur iteration"));
         }
+      };
+      if (options.shift) {
+        solve_nearest(k, nullptr);
+      } else if (m > 0 && k <= m) {
+        // The k nearest the shift below the spectrum are the k lowest,
+        // checked as at σ₀ (nothing below the shift).
+        check_lowest(target, [&](PetscInt nev) { solve_nearest(nev, nullptr); });
+      } else if (m > 0) {
+        // k > m, as solve_sparse_modes (lib/modal/sparse.cpp): the k − m
+        // lowest at or above σ₀ from runs at σ₀ (the k nearest it), the first
+        // probed as where m = 0 with a moved shift kept only where the
+        // inertia there is still m (the modes within η of zero beside a
+        // compressed net converge slowly from a shift far below them, or not
+        // at all from one below the spectrum: tests/distributed/
+        // prestrained_nets.py --mixed, seed 3's scene 4 returned 2.457e-6 as
+        // its 19th where a copy of 1.538e-6 belongs); the m below σ₀ from the
+        // same runs where they found all m, else from a shift below the
+        // spectrum (placed when first needed), wanting the shortfall plus 2
+        // more while a run finds fewer than m there (at most 4 repeats).
+        double upper_sigma = s0, low_sigma = std::numeric_limits<double>::quiet_NaN();
+        std::vector<std::pair<double, QuotientSums>> low_numbers;  // the m negatives' (solver.negatives: their vectors)
+        std::vector<VectorX> low_shapes;
+        std::vector<Vec>& negatives = solver.negatives;
+        const auto find_negatives = [&] {
+          low_sigma = below_spectrum();
+          target = low_sigma;
+          long want = static_cast<long>(m), below = 0;
+          for (int attempt = 0;; ++attempt) {
+            low_numbers.clear();
+            low_shapes.clear();
+            for (Vec& v : negatives) MODAL_PETSC(VecDestroy(&v));
+            negatives.clear();
+            solve_nearest(static_cast<PetscInt>(want), nullptr, nullptr, [&](double, Vec phi) {
+              take_mode(phi);  // then moved aside from the numbers
+              low_numbers.push_back(numbers.back());
+              numbers.pop_back();
+              low_shapes.push_back(std::move(shapes.back()));
+              shapes.pop_back();
+              negatives.push_back(found.back());
+              found.pop_back();
+            });
+            below = std::count_if(low_numbers.begin(), low_numbers.end(), [&](const auto& p) { return p.first < s0; });
+            if (below >= m || attempt == 4 || want >= n - 2) break;
+            want = std::min<long>(static_cast<long>(n) - 2, want + static_cast<long>(m) - below + 2);
+          }
+          if (below < m)
+            throw NumericalError(fmt::format("--backend petsc: the inertia of K − σM at σ₀ = {:.3g} counts {} "
+                                             "eigenvalues below it, but SLEPc found {} of them from σ = {:.6g}",
+                                             s0, m, below, low_sigma));
+          // the m lowest, all below σ₀
+          std::vector<std::size_t> order(low_numbers.size());
+          std::iota(order.begin(), order.end(), std::size_t{0});
+          std::stable_sort(order.begin(), order.end(),
+                           [&](std::size_t i, std::size_t j) { return low_numbers[i].first < low_numbers[j].first; });
+          std::vector<std::pair<double, QuotientSums>> kept_numbers;
+          std::vector<VectorX> kept_shapes;
+          std::vector<Vec> kept_vectors;
+          for (std::size_t j = 0; j < order.size(); ++j) {
+            const std::size_t i = order[j];
+            if (static_cast<PetscInt>(j) < m) {
+              kept_numbers.push_back(low_numbers[i]);
+              kept_shapes.push_back(std::move(low_shapes[i]));
+              kept_vectors.push_back(negatives[i]);
+            } else {
+              MODAL_PETSC(VecDestroy(&negatives[i]));
+            }
+          }
+          low_numbers = std::move(kept_numbers);
+          low_shapes = std::move(kept_shapes);
+          negatives = std::move(kept_vectors);
+          target = upper_sigma;
+        };
+        bool probed = false;
+        check_lowest(s0, [&](PetscInt nev) {
+          target = upper_sigma;
+          if (probed) {
+            solve_nearest(nev, nullptr);
+          } else {
+            probed = true;
+            probed_solve(nev, m);
+            upper_sigma = target;
+          }
+          const auto below = std::count_if(numbers.begin(), numbers.end(), [&](const auto& p) { return p.first < s0; });
+          const PetscInt above = static_cast<PetscInt>(numbers.size()) - static_cast<PetscInt>(below);
+          if (above < k - m)
+            throw NumericalError(fmt::format("--backend petsc: SLEPc's Krylov–Schur iteration at σ = {:.6g} returned "
+                                             "{} eigenvalues at or above σ₀ = {:.3g}, fewer than the {} that the "
+                                             "inertia guarantees",
+                                             upper_sigma, above, s0, k - m));
+          if (below == m) return;  // the run found all m
+          if (negatives.empty()) find_negatives();
+          // the merged set: this run's at or above σ₀, and the m negatives (copies)
+          for (std::size_t i = numbers.size(); i-- > 0;) {
+            if (!(numbers[i].first < s0)) continue;
+            numbers.erase(numbers.begin() + static_cast<std::ptrdiff_t>(i));
+            shapes.erase(shapes.begin() + static_cast<std::ptrdiff_t>(i));
+            MODAL_PETSC(VecDestroy(&found[i]));
+            found.erase(found.begin() + static_cast<std::ptrdiff_t>(i));
+          }
+          for (std::size_t j = 0; j < negatives.size(); ++j) {
+            numbers.push_back(low_numbers[j]);
+            shapes.push_back(low_shapes[j]);
+            found.push_back(nullptr);
+            MODAL_PETSC(VecDuplicate(negatives[j], &found.back()));
+            MODAL_PETSC(VecCopy(negatives[j], found.back()));
+          }
+        });
+        if (!std::isnan(low_sigma))
+          where += fmt::format(", and at σ = {:.6g} below the spectrum for the {} below σ₀", low_sigma, m);
+      } else {
+        bool probed = false;
+        check_lowest(s0, [&](PetscInt nev) {
+          if (probed) {
+            solve_nearest(nev, nullptr);
+          } else {
+            probed = true;
+            probed_solve(nev, 0);
+          }
+        });
       }
       // Copies the inertia cannot check. Where the shift moved and every
       // returned eigenvalue lies within η of zero (some of them resolved,
@@ -1573,6 +1677,12 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         copies_note = copies_check_note(runs, added, static_cast<long>(k),
                                         added_last == 0 && unresolved_last == 0 && !short_run, short_run,
                                         unresolved_last, "Krylov–Schur");
+      }
+      // The vectors are needed no more (the shapes are kept as `gathered`
+      // says): released before the inertia counts below factor K − σM.
+      for (std::vector<Vec>* vectors : {&found, &solver.negatives}) {
+        for (Vec& v : *vectors) MODAL_PETSC(VecDestroy(&v));
+        vectors->clear();
       }
       if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
         std::vector<std::size_t> order(numbers.size());

@@ -6,8 +6,8 @@
 // simplicial (scalar, several times slower on 2-D and 3-D meshes) and does not
 // pivot. Null pivots are detected (ICNTL(24)) and reported as a failure, like
 // a zero pivot: for inertia counts only pivots whose rows underflow (CNTL(3)
-// < 0: an absolute threshold; null_pivot_threshold, modal/modes.hpp). One symbolic analysis serves every σ (the pattern of A is
-// fixed).
+// < 0: an absolute threshold; null_pivot_threshold, modal/modes.hpp). One
+// symbolic analysis serves every σ (the pattern of A is fixed).
 //
 // Compiled twice (see ../mumps.hpp): without MODAL_MUMPS_MPI against the
 // sequential MUMPS (its communicator is the stand-in's USE_COMM_WORLD), with
