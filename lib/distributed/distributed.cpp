@@ -686,8 +686,9 @@ double peak_memory() {
 // stopping test): upper bounds of the lowest eigenvalues that fall as the
 // run goes on, so a stale highest under |σ|/100 is a true one, and the move
 // to −λ̃_max a shift above the one the current values would give (more
-// moves, not a wrong one: the inertia checks each; a stale lowest, where
-// all are negative, errs the same way). The monitor and
+// moves, not a wrong one: the inertia checks each, that K − σM stays
+// positive definite where m = 0 and has m eigenvalues below σ where k > m;
+// a stale lowest, where all are negative, errs the same way). The monitor and
 // the test run on every rank with the same (replicated) projected problem,
 // so every rank decides alike.
 struct ProbeWatch {
@@ -1168,11 +1169,11 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       const PetscInt m = inertia_near(K, M, s0, s);
       const PetscInt k = std::min<PetscInt>(options.modes > 0 ? options.modes : 10, n);
       // Where SLEPc looks: the user's shift; σ₀ when no eigenvalue lies below
-      // it; else, for the m below σ₀, a shift below the whole spectrum,
-      // found from the inertia alone (down by factors of 4, then up by
-      // bisection until it is within a quarter of its distance to σ₀ below
-      // λ₁), so that the m nearest it are the m lowest (with k > m, placed
-      // when first needed: the runs at σ₀ below may find all m).
+      // it; else, for the min(k, m) lowest (all below σ₀), a shift below
+      // the whole spectrum, found from the inertia alone (down by factors of
+      // 4, then up by bisection until it is within a quarter of its distance
+      // to σ₀ below λ₁), so that the ones nearest it are the lowest (with
+      // k > m, placed when first needed: the runs at σ₀ below may find all m).
       double target = s0;
       std::string where = "σ₀ = −ζ";
       const auto below_spectrum = [&] {
@@ -1538,9 +1539,10 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           negatives = std::move(kept_vectors);
           target = upper_sigma;
         };
-        bool probed = false;
+        bool probed = false, merged = false;  // merged: the last run's set took the m negatives from low_sigma
         check_lowest(s0, [&](PetscInt nev) {
           target = upper_sigma;
+          merged = false;
           if (probed) {
             solve_nearest(nev, nullptr);
           } else {
@@ -1557,13 +1559,14 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
                                              upper_sigma, above, s0, k - m));
           if (below == m) return;  // the run found all m
           if (negatives.empty()) find_negatives();
+          merged = true;
           // the merged set: this run's at or above σ₀, and the m negatives (copies)
           for (std::size_t i = numbers.size(); i-- > 0;) {
             if (!(numbers[i].first < s0)) continue;
-            numbers.erase(numbers.begin() + static_cast<std::ptrdiff_t>(i));
-            shapes.erase(shapes.begin() + static_cast<std::ptrdiff_t>(i));
             MODAL_PETSC(VecDestroy(&found[i]));
             found.erase(found.begin() + static_cast<std::ptrdiff_t>(i));
+            numbers.erase(numbers.begin() + static_cast<std::ptrdiff_t>(i));
+            shapes.erase(shapes.begin() + static_cast<std::ptrdiff_t>(i));
           }
           for (std::size_t j = 0; j < negatives.size(); ++j) {
             numbers.push_back(low_numbers[j]);
@@ -1573,7 +1576,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
             MODAL_PETSC(VecCopy(negatives[j], found.back()));
           }
         });
-        if (!std::isnan(low_sigma))
+        if (merged)
           where += fmt::format(", and at σ = {:.6g} below the spectrum for the {} below σ₀", low_sigma, m);
       } else {
         bool probed = false;
@@ -1618,7 +1621,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         return leaves_modes_unchecked(completeness->first, std::move(modes), k);
       }();
       if (moves > 0 && unchecked && completeness->first.outcome == CompletenessCheck::Outcome::complete &&
-          static_cast<PetscInt>(found.size()) + k < n) {
+          std::min(static_cast<PetscInt>(found.size()), k) + k < n) {
         struct Random {  // destroyed with the phase, also on a throw
           PetscRandom random = nullptr;
           ~Random() {
