@@ -275,10 +275,10 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
   }
   // Frees a supernodal factor's numeric part and keeps its symbolic
   // analysis (the next factorize needs no new one): while MUMPS holds
-  // K − σM, the two factors need not occupy memory at once (1.7 GB each for
-  // a net of 10⁶ coordinates, and on a virtual machine every page first
-  // touched costs time: measured 0.4 GB/s there). A simplicial factor
-  // (small: chains) is left as it is.
+  // K − σM, the two factors need not occupy memory at once (a slack net of
+  // 10⁶ coordinates: peak 5.70 → 4.92 GB; on a virtual machine every page
+  // first touched also costs time, about 0.4 GB/s measured here). A
+  // simplicial factor (small: chains) is left as it is.
   void release_numeric() {
     if (m_cholmodFactor == nullptr || !m_cholmodFactor->is_super || m_cholmodFactor->xtype == CHOLMOD_PATTERN) return;
     cholmod_change_factor(CHOLMOD_PATTERN, /*to_ll=*/1, /*to_super=*/1, /*to_packed=*/1, /*to_monotonic=*/1,
