@@ -112,6 +112,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -284,6 +285,14 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
     cholmod_change_factor(CHOLMOD_PATTERN, /*to_ll=*/1, /*to_super=*/1, /*to_packed=*/1, /*to_monotonic=*/1,
                           m_cholmodFactor, &cholmod());
     m_factorizationIsOk = false;
+  }
+  // Whether the last factorize ran out of memory. Eigen judges a
+  // factorization by L->minor alone, and a factor CHOLMOD could not fill
+  // (a released one, refilled) keeps minor = n without numbers: taken as
+  // positive definite, it would have given a false inertia.
+  bool out_of_memory() {
+    return cholmod().status == CHOLMOD_OUT_OF_MEMORY ||
+           (m_cholmodFactor != nullptr && m_cholmodFactor->xtype == CHOLMOD_PATTERN);
   }
   // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
   bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
@@ -545,6 +554,7 @@ class ShiftedFactor {
     }
     automatic_->factorize(A_);
     ++factorizations_;
+    if (automatic_->out_of_memory()) throw std::bad_alloc();  // the program's out-of-memory report, not a count
     if (automatic_->info() != Eigen::Success) {
       if (!automatic_supernodal_) analyzed_ = false;
       return std::nullopt;
