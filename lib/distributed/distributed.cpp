@@ -775,6 +775,34 @@ DistributedSession::~DistributedSession() { SlepcFinalize(); }
 
 namespace {
 
+// Keeps the `count` lowest of `numbers` (a stable order: equal ones as they
+// came) with their shapes and, where given, their vectors; the vectors not
+// kept are destroyed.
+template <class Sums>
+void keep_lowest(std::size_t count, std::vector<std::pair<double, Sums>>& numbers, std::vector<VectorX>& shapes,
+                 std::vector<Vec>* vectors = nullptr) {
+  std::vector<std::size_t> order(numbers.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t i, std::size_t j) { return numbers[i].first < numbers[j].first; });
+  std::vector<std::pair<double, Sums>> kept_numbers;
+  std::vector<VectorX> kept_shapes;
+  std::vector<Vec> kept_vectors;
+  for (std::size_t j = 0; j < order.size(); ++j) {
+    const std::size_t i = order[j];
+    if (j < count) {
+      kept_numbers.push_back(numbers[i]);
+      kept_shapes.push_back(std::move(shapes[i]));
+      if (vectors != nullptr) kept_vectors.push_back((*vectors)[i]);
+    } else if (vectors != nullptr) {
+      MODAL_PETSC(VecDestroy(&(*vectors)[i]));
+    }
+  }
+  numbers = std::move(kept_numbers);
+  shapes = std::move(kept_shapes);
+  if (vectors != nullptr) *vectors = std::move(kept_vectors);
+}
+
 // The PETSc and SLEPc objects of one point, released with it.
 struct PointSolver {
   Part part;
@@ -1446,6 +1474,18 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
           where = fmt::format("σ = {:.6g}, moved {} time{} from σ₀ = −ζ (the Ritz values lay within {} |σ| of zero)",
                               target, moves, moves == 1 ? "" : "s", near_zero_fraction);
       };
+      // check_lowest's runs: the first probed (probed_solve, `below` as
+      // there), its repeats wanting more modes at the shift it settled on.
+      const auto probed_first = [&](PetscInt below) {
+        return [&, below, probed = false](PetscInt nev) mutable {
+          if (probed) {
+            solve_nearest(nev, nullptr);
+          } else {
+            probed = true;
+            probed_solve(nev, below);
+          }
+        };
+      };
       // Each set of modes returned is checked for completeness as the lowest
       // modes at σ₀ are (check_completeness): a run from one start vector
       // can skip a copy of a repeated eigenvalue, negative (a compressed net,
@@ -1516,40 +1556,15 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
             throw NumericalError(fmt::format("--backend petsc: the inertia of K − σM at σ₀ = {:.3g} counts {} "
                                              "eigenvalues below it, but SLEPc found {} of them from σ = {:.6g}",
                                              s0, m, below, low_sigma));
-          // the m lowest, all below σ₀
-          std::vector<std::size_t> order(low_numbers.size());
-          std::iota(order.begin(), order.end(), std::size_t{0});
-          std::stable_sort(order.begin(), order.end(),
-                           [&](std::size_t i, std::size_t j) { return low_numbers[i].first < low_numbers[j].first; });
-          std::vector<std::pair<double, QuotientSums>> kept_numbers;
-          std::vector<VectorX> kept_shapes;
-          std::vector<Vec> kept_vectors;
-          for (std::size_t j = 0; j < order.size(); ++j) {
-            const std::size_t i = order[j];
-            if (static_cast<PetscInt>(j) < m) {
-              kept_numbers.push_back(low_numbers[i]);
-              kept_shapes.push_back(std::move(low_shapes[i]));
-              kept_vectors.push_back(negatives[i]);
-            } else {
-              MODAL_PETSC(VecDestroy(&negatives[i]));
-            }
-          }
-          low_numbers = std::move(kept_numbers);
-          low_shapes = std::move(kept_shapes);
-          negatives = std::move(kept_vectors);
+          keep_lowest(static_cast<std::size_t>(m), low_numbers, low_shapes, &negatives);  // the m lowest, all below σ₀
           target = upper_sigma;
         };
-        bool probed = false, merged = false;  // merged: the last run's set took the m negatives from low_sigma
-        check_lowest(s0, [&](PetscInt nev) {
+        bool merged = false;  // the last run's set took the m negatives from low_sigma
+        check_lowest(s0, [&, run = probed_first(m)](PetscInt nev) mutable {
           target = upper_sigma;
           merged = false;
-          if (probed) {
-            solve_nearest(nev, nullptr);
-          } else {
-            probed = true;
-            probed_solve(nev, m);
-            upper_sigma = target;
-          }
+          run(nev);
+          upper_sigma = target;
           const auto below = std::count_if(numbers.begin(), numbers.end(), [&](const auto& p) { return p.first < s0; });
           const PetscInt above = static_cast<PetscInt>(numbers.size()) - static_cast<PetscInt>(below);
           if (above < k - m)
@@ -1579,15 +1594,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         if (merged)
           where += fmt::format(", and at σ = {:.6g} below the spectrum for the {} below σ₀", low_sigma, m);
       } else {
-        bool probed = false;
-        check_lowest(s0, [&](PetscInt nev) {
-          if (probed) {
-            solve_nearest(nev, nullptr);
-          } else {
-            probed = true;
-            probed_solve(nev, 0);
-          }
-        });
+        check_lowest(s0, probed_first(0));
       }
       // Copies the inertia cannot check. Where the shift moved and every
       // returned eigenvalue lies within η of zero (some of them resolved,
@@ -1687,21 +1694,8 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
         for (Vec& v : *vectors) MODAL_PETSC(VecDestroy(&v));
         vectors->clear();
       }
-      if (static_cast<PetscInt>(numbers.size()) > k) {  // the k lowest of a repeated run
-        std::vector<std::size_t> order(numbers.size());
-        std::iota(order.begin(), order.end(), std::size_t{0});
-        std::stable_sort(order.begin(), order.end(),
-                         [&](std::size_t i, std::size_t j) { return numbers[i].first < numbers[j].first; });
-        order.resize(static_cast<std::size_t>(k));
-        std::vector<std::pair<double, QuotientSums>> kept_numbers;
-        std::vector<VectorX> kept_shapes;
-        for (const std::size_t i : order) {
-          kept_numbers.push_back(numbers[i]);
-          kept_shapes.push_back(std::move(shapes[i]));
-        }
-        numbers = std::move(kept_numbers);
-        shapes = std::move(kept_shapes);
-      }
+      if (static_cast<PetscInt>(numbers.size()) > k)  // the k lowest of a repeated run
+        keep_lowest(static_cast<std::size_t>(k), numbers, shapes);
       // The modes on every rank (the numbers come from collective reductions,
       // so every rank decides alike; the shapes only on rank 0), then the
       // inertia's account of those not returned: Morse index, zero modes and

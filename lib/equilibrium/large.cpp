@@ -30,6 +30,7 @@
 // out-of-plane coordinates at its flat start) no Newton step is attempted:
 // the damped method below starts at once.
 #include "equilibrium/problem.hpp"
+#include "core/cholmod_factor.hpp"
 
 #include <nlopt.hpp>
 
@@ -41,6 +42,7 @@
 #include <exception>
 #include <iomanip>
 #include <limits>
+#include <new>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -88,19 +90,10 @@ double lbfgs_objective(unsigned n, const double* x, double* grad, void* data) {
   }
 }
 
-// CHOLMOD's supernodal Cholesky factor, with the pivot order its analysis chose.
-class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> {
- public:
-  // A matrix that is not positive definite is an answer here (the damped
-  // method then shifts it), not a warning for the user's terminal.
-  SupernodalLlt() { cholmod().print = 0; }
-  // order[k] = the k-th coordinate; empty before an analysis.
-  std::vector<int> ordering() const {
-    if (m_cholmodFactor == nullptr || m_cholmodFactor->Perm == nullptr) return {};
-    const auto* perm = static_cast<const int*>(m_cholmodFactor->Perm);
-    return std::vector<int>(perm, perm + m_cholmodFactor->n);
-  }
-};
+// CHOLMOD's supernodal Cholesky factor, with the pivot order its analysis
+// chose. A matrix that is not positive definite is an answer here (the damped
+// method then shifts it).
+using SupernodalLlt = detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>>;
 
 // Newton steps d with ∇∇V d = −r (see the header comment), with counters for
 // the report.
@@ -127,6 +120,7 @@ class NewtonSteps {
     ++factorizations;
     llt_.factorize(A);
     rate_ = 0;
+    if (llt_.out_of_memory()) throw std::bad_alloc();  // the program's out-of-memory report, not an indefinite ∇∇V
     if (llt_.info() != Eigen::Success) return {};
     VectorX d = -llt_.solve(r);
     if (!d.allFinite()) return {};

@@ -100,6 +100,7 @@
 // (each O(nnz(L))) and a second Lanczos run. A user shift adds the factorization
 // at σ₀ for the Morse index.
 #include "detail.hpp"
+#include "core/cholmod_factor.hpp"
 #include "mumps.hpp"
 
 #include <Eigen/CholmodSupport>
@@ -221,14 +222,9 @@ bool is_pivot_order(const std::vector<int>& order, Index n) {
   return true;
 }
 
-class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lower> {
+class CholmodFactor : public detail::CholmodAccess<Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lower>> {
  public:
-  explicit CholmodFactor(Eigen::CholmodMode mode = Eigen::CholmodAuto) {
-    setMode(mode);
-    cholmod().print = 0;  // a failed factorization is reported by us, not printed by CHOLMOD
-  }
-  CholmodFactor(const CholmodFactor&) = delete;
-  CholmodFactor& operator=(const CholmodFactor&) = delete;
+  explicit CholmodFactor(Eigen::CholmodMode mode = Eigen::CholmodAuto) { setMode(mode); }
   ~CholmodFactor() {
     for (cholmod_dense** d : {&x_, &y_, &e_}) cholmod_free_dense(d, &cholmod());
   }
@@ -286,23 +282,8 @@ class CholmodFactor : public Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lo
                           m_cholmodFactor, &cholmod());
     m_factorizationIsOk = false;
   }
-  // Whether the last factorize ran out of memory. Eigen judges a
-  // factorization by L->minor alone, and a factor CHOLMOD could not fill
-  // (a released one, refilled) keeps minor = n without numbers: taken as
-  // positive definite, it would have given a false inertia.
-  bool out_of_memory() {
-    return cholmod().status == CHOLMOD_OUT_OF_MEMORY ||
-           (m_cholmodFactor != nullptr && m_cholmodFactor->xtype == CHOLMOD_PATTERN);
-  }
   // Whether the factor is LDLᵀ (else LLᵀ); valid after a factorization.
   bool is_ldlt() const { return m_cholmodFactor != nullptr && !m_cholmodFactor->is_ll && !m_cholmodFactor->is_super; }
-  // The fill-reducing pivot order of the analysis (entry k: the k-th
-  // variable); empty before an analysis.
-  std::vector<int> ordering() const {
-    if (m_cholmodFactor == nullptr || m_cholmodFactor->Perm == nullptr) return {};
-    const auto* perm = static_cast<const int*>(m_cholmodFactor->Perm);
-    return std::vector<int>(perm, perm + m_cholmodFactor->n);
-  }
   // Whether the symbolic analysis chose a supernodal (LLᵀ) factor.
   bool is_supernodal() const { return m_cholmodFactor != nullptr && m_cholmodFactor->is_super; }
   // Negative and zero entries of D (LDLᵀ; an LLᵀ factor that exists has none).
