@@ -13,6 +13,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -29,9 +30,64 @@
 #include <climits>
 #include <cstring>
 
+#include <signal.h>
 #include <unistd.h>
 
 namespace {
+
+// A library that ends the process with exit() in the middle of a computation
+// (libgomp, CHOLMOD's threads, when it cannot start a thread: "libgomp:
+// Thread creation failed", under a memory or thread limit) would leave exit
+// status 1, which means a usage error here, and the outputs' temporaries
+// behind. While main runs, such an exit is reported as a failed computation
+// (exit status 4); main's own returns pass untouched.
+std::atomic<bool> main_running{false};
+
+void library_ended_the_process() {
+  if (!main_running.load()) return;
+  modal::remove_output_temporaries();
+  static const char text[] =
+      "modal: a library this computation uses ended the process before the computation finished "
+      "(its own message, if any, is above)\n";
+  static_cast<void>(write(STDERR_FILENO, text, sizeof text - 1));
+  _exit(static_cast<int>(modal::ExitStatus::numerical));
+}
+
+// OpenBLAS 0.3.21 raises SIGINT itself when it cannot start its threads
+// (blas_thread_init), which the handler of remove_output_temporaries_on_signals
+// would re-raise as an interrupt (status 130). A SIGINT the process sent
+// itself while main runs is that library's way out; any other (the
+// terminal's, another process's) goes on to the previous handler.
+struct sigaction previous_interrupt {};
+
+void interrupt(int signal, siginfo_t* info, void* context) {
+  if (info != nullptr && info->si_code == SI_TKILL && info->si_pid == getpid()) library_ended_the_process();
+  if ((previous_interrupt.sa_flags & SA_SIGINFO) != 0) {
+    previous_interrupt.sa_sigaction(signal, info, context);
+  } else if (previous_interrupt.sa_handler == SIG_DFL) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  } else if (previous_interrupt.sa_handler != SIG_IGN) {
+    previous_interrupt.sa_handler(signal);
+  }
+}
+
+void library_interrupts_end_the_process() {
+  struct sigaction action {};
+  action.sa_sigaction = interrupt;
+  action.sa_flags = SA_SIGINFO | SA_RESTART;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, &previous_interrupt);
+}
+
+struct MainRunning {
+  MainRunning() {
+    if (std::atexit(library_ended_the_process) == 0) main_running = true;
+  }
+  ~MainRunning() { main_running = false; }
+  MainRunning(const MainRunning&) = delete;
+  MainRunning& operator=(const MainRunning&) = delete;
+};
 
 // Option checks whose messages read as sentences ("--modes must be a whole
 // number ≥ 1, got 0"), not CLI11's "Value 0 not in range 0 to 1.79e308".
@@ -317,12 +373,16 @@ std::string usage_failure(const CLI::App* app, const CLI::Error& e) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+// A function try block: memory refused while the command line is being set
+// up (under a small address-space limit) is reported as any lack of memory.
+int main(int argc, char** argv) try {
 #if defined(MODAL_DISTRIBUTED)
   const modal::DistributedSession session;  // MPI, PETSc and SLEPc for the whole process
 #endif
   modal_program::set_memory_policy();
+  const MainRunning running;  // from here, a library's exit() is a failed computation
   modal::remove_output_temporaries_on_signals();  // an interrupt leaves the previous outputs as they were
+  library_interrupts_end_the_process();
   // A closed pipe (modal … | head) is a failed write, reported with exit
   // status 2 (check_written), not a death by SIGPIPE.
   std::signal(SIGPIPE, SIG_IGN);
@@ -708,4 +768,12 @@ int main(int argc, char** argv) {
     std::cerr << "modal: failure: unknown error\n";
     return static_cast<int>(modal::ExitStatus::numerical);
   }
+} catch (const std::bad_alloc& e) {
+  try {
+    std::cerr << modal::error_message(e) << '\n';
+  } catch (...) {  // no memory even for the message
+    static const char text[] = "modal: out of memory\n";
+    static_cast<void>(write(STDERR_FILENO, text, sizeof text - 1));
+  }
+  return static_cast<int>(modal::ExitStatus::numerical);
 }

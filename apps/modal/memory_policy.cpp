@@ -10,17 +10,27 @@
 //
 // - glibc's malloc takes every block from its heap, none from a private mmap
 //   (M_MMAP_MAX 0), never trims it (M_TRIM_THRESHOLD −1) and grows it 64 MiB at
-//   a time (M_TOP_PAD): freed memory is reused without page faults;
+//   a time (M_TOP_PAD; under an address-space limit at most 1/64 of it):
+//   freed memory is reused without page faults;
 // - each time the heap has grown, the new part is advised for transparent huge
 //   pages (madvise MADV_HUGEPAGE: a system with THP "madvise", Debian's
 //   default, then backs it with 2 MiB pages). glibc does this itself only when
 //   its glibc.malloc.hugetlb tunable is set in the environment at start; here
 //   the program's malloc, calloc and realloc call glibc's and then look at the
 //   heap's end (sbrk(0), a variable read), so the work is one comparison per
-//   call and one madvise per 64 MiB of growth.
+//   call and one madvise per growth of the heap.
+//
+// An allocation the system refuses many times in a row (the same size, from
+// the same thread) is a library retrying it in a loop that never ends:
+// Debian 12's OpenBLAS (0.3.21) asks again and again for its 128 MiB work
+// buffer when malloc fails (OpenBLAS issue #5289, fixed in 0.3.30), so under
+// an address-space limit (ulimit -v, a batch system's h_vmem) that a run
+// reaches, the process spun at full CPU for ever. The program then ends as
+// on any lack of memory: the outputs' temporaries removed, "out of memory"
+// and exit status 4.
 //
 // With MODAL_JEMALLOC the program runs on jemalloc instead, configured the same
-// way by malloc_conf. Under the sanitizers nothing is set.
+// way by malloc_conf (without that guard). Under the sanitizers nothing is set.
 
 #include "memory_policy.hpp"
 
@@ -45,13 +55,19 @@ void modal_program::set_memory_policy() {}
 
 #elif defined(__GLIBC__) && !defined(MODAL_PROGRAM_SANITIZED)
 
+#include <modal/core.hpp>
+#include <modal/pipeline.hpp>
+#include <modal/report.hpp>
+
 #include <malloc.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 
 extern "C" {
 void* __libc_malloc(std::size_t size);
@@ -76,30 +92,72 @@ void follow_heap() noexcept {
   static_cast<void>(madvise(reinterpret_cast<void*>(from), end - from, MADV_HUGEPAGE));
 }
 
+// A retry loop, not a caller that gives up: a program that is refused memory
+// throws or reports at once, and the loop above runs thousands of times a
+// second.
+constexpr unsigned refusals_in_a_row = 1000;
+thread_local std::size_t refused_bytes = 0;
+thread_local unsigned refusals = 0;
+
+[[noreturn]] void end_refused(std::size_t bytes) noexcept {
+  modal::remove_output_temporaries();
+  char limit[96] = "";
+  if (const double as = modal::address_space_limit(); as > 0)
+    std::snprintf(limit, sizeof limit, "; the process's address space is limited to %.0f MB (ulimit -v)", as / 1e6);
+  char text[384];
+  const int length = std::snprintf(text, sizeof text,
+                                   "modal: out of memory: the system refused an allocation of %.0f MB %u times in a "
+                                   "row, which a library of this computation retries without end%s\n",
+                                   static_cast<double>(bytes) / 1e6, refusals_in_a_row, limit);
+  if (length > 0) static_cast<void>(write(STDERR_FILENO, text, static_cast<std::size_t>(length)));
+  _exit(static_cast<int>(modal::ExitStatus::numerical));
+}
+
+// `block` as glibc returned it for `bytes`, after counting a refusal.
+void* counted(void* block, std::size_t bytes) noexcept {
+  if (block != nullptr || bytes == 0) {
+    refusals = 0;
+    return block;
+  }
+  if (bytes != refused_bytes) {
+    refused_bytes = bytes;
+    refusals = 0;
+  }
+  if (++refusals >= refusals_in_a_row) end_refused(bytes);
+  return nullptr;
+}
+
 }  // namespace
 
 extern "C" void* malloc(std::size_t size) {
   void* block = __libc_malloc(size);
   follow_heap();
-  return block;
+  return counted(block, size);
 }
 
 extern "C" void* calloc(std::size_t count, std::size_t size) {
   void* block = __libc_calloc(count, size);
   follow_heap();
-  return block;
+  std::size_t bytes = 0;
+  if (__builtin_mul_overflow(count, size, &bytes)) return block;  // refused for its size, not retried
+  return counted(block, bytes);
 }
 
 extern "C" void* realloc(void* block, std::size_t size) {
   void* moved = __libc_realloc(block, size);
   follow_heap();
-  return moved;
+  return counted(moved, size);
 }
 
 void modal_program::set_memory_policy() {
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, -1);  // never
-  mallopt(M_TOP_PAD, 64 << 20);
+  // Under an address-space limit (ulimit -v) the pad is at most 1/64 of
+  // it: glibc does not retry a refused growth without the pad, so a 64 MiB
+  // pad made a 50 MB process fail under a 75 MB limit.
+  double pad = 64 << 20;
+  if (const double limit = modal::address_space_limit(); limit > 0) pad = std::min(pad, limit / 64);
+  mallopt(M_TOP_PAD, static_cast<int>(pad));
   advised_end.store(reinterpret_cast<std::uintptr_t>(sbrk(0)));
   following.store(true);
 }

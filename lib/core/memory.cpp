@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
+
 namespace modal {
 
 double available_memory() {
@@ -20,6 +22,12 @@ double available_memory() {
   while (in >> key >> kilobytes >> unit)
     if (key == "MemAvailable:") return kilobytes * 1024;
   return 0;
+}
+
+double address_space_limit() noexcept {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 0;
+  return static_cast<double>(limit.rlim_cur);
 }
 
 std::string format_bytes(double bytes) {

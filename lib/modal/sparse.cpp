@@ -486,8 +486,7 @@ class ShiftedFactor {
       return;
     }
     if (active_ == Active::none) throw std::logic_error("solve_sparse_modes: solve without a factorization");
-    if (!automatic_->solve_into(in, out, columns))
-      throw NumericalError("solve_sparse_modes: a CHOLMOD solve with K − σM failed");
+    if (!automatic_->solve_into(in, out, columns)) solve_failed();
     if (indefinite_) {
       // CHOLMOD's LDLᵀ does not pivot: for an indefinite matrix its entries may
       // grow; one step of iterative refinement recovers most of the lost accuracy.
@@ -495,8 +494,7 @@ class ShiftedFactor {
       Eigen::Map<MatrixX> y(out, size(), columns);
       residual_ = x - A_ * y;
       correction_.resize(size(), columns);
-      if (!automatic_->solve_into(residual_.data(), correction_.data(), columns))
-        throw NumericalError("solve_sparse_modes: a CHOLMOD solve with K − σM failed");
+      if (!automatic_->solve_into(residual_.data(), correction_.data(), columns)) solve_failed();
       y += correction_;
     }
   }
@@ -511,6 +509,12 @@ class ShiftedFactor {
   }
 
  private:
+  // A CHOLMOD solve that failed: for lack of memory (its workspace), the
+  // program's out-of-memory failure, not a numerical one.
+  [[noreturn]] void solve_failed() const {
+    if (automatic_->out_of_memory()) throw std::bad_alloc();
+    throw NumericalError("solve_sparse_modes: a CHOLMOD solve with K − σM failed");
+  }
   enum class Active { none, cholmod, mumps };
 
   void assemble(double sigma) {
@@ -768,6 +772,8 @@ LanczosRun run_lanczos(Factor& factor, MassOp& mass_op, double sigma, Index nev,
     }
   } catch (const NumericalError&) {
     throw;
+  } catch (const std::bad_alloc&) {
+    throw;  // out of memory (a factor's solve, Spectra's workspace): said as such
   } catch (const std::exception& e) {
     throw NumericalError(std::string("solve_sparse_modes: the Lanczos iteration failed: ") + e.what());
   }

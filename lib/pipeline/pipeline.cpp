@@ -158,6 +158,14 @@ Path choose_path(const System& sys, SolverChoice choice, double limit, int modes
   return Path::dense;
 }
 
+// What refused the memory: the address-space limit where one is set
+// (ulimit -v, a batch system's h_vmem), else the machine.
+std::string memory_refused_by() {
+  if (const double limit = address_space_limit(); limit > 0)
+    return "the process's address-space limit (ulimit -v) of " + format_bytes(limit) + " allowed";
+  return "this machine could give it";
+}
+
 // Runs `work`, turning memory exhaustion into OutOfMemory with the estimate
 // of what `what` was expected to need.
 template <class Work>
@@ -167,9 +175,8 @@ auto within_estimate(double bytes, const std::string& what, Work&& work) {
   } catch (const OutOfMemory&) {
     throw;
   } catch (const std::bad_alloc&) {
-    throw OutOfMemory(fmt::format("out of memory: {} was estimated to need about {} and needed more than this "
-                                  "machine could give it",
-                                  what, format_bytes(bytes)));
+    throw OutOfMemory(fmt::format("out of memory: {} was estimated to need about {} and needed more than {}", what,
+                                  format_bytes(bytes), memory_refused_by()));
   }
 }
 
@@ -221,7 +228,7 @@ std::string raw_error_message(const std::exception& error) {
   if (dynamic_cast<const SceneError*>(&error)) return error.what();
   if (dynamic_cast<const OutOfMemory*>(&error)) return std::string("modal: ") + error.what();
   if (dynamic_cast<const std::bad_alloc*>(&error))
-    return "modal: out of memory: the computation needed more memory than this machine could give it";
+    return "modal: out of memory: the computation needed more memory than " + memory_refused_by();
   if (exit_status(error) == ExitStatus::bad_input) return std::string("modal: ") + error.what();
   return std::string("modal: numerical failure: ") + error.what();
 }

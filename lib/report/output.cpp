@@ -152,7 +152,10 @@ void begin_renames() {
 // Leaves it, and acts on a signal that came meanwhile.
 void end_renames() {
   commit_state.store(idle);
-  if (const int signal = pending_signal.exchange(0); signal != 0) std::raise(signal);
+  // Through the handler's own path (default action, then raise): a handler
+  // the program put in front (apps/modal/main.cpp) must not take this
+  // raise, sent by the process itself, for a library's.
+  if (const int signal = pending_signal.exchange(0); signal != 0) remove_temporaries_and_reraise(signal);
 }
 
 }  // namespace

@@ -924,6 +924,10 @@ class TreeFactor {
 // What the machine can still give a process: MemAvailable of /proc/meminfo,
 // in bytes; 0 when it cannot be read.
 double available_memory();
+// The process's address-space limit (RLIMIT_AS: ulimit -v, a batch system's
+// h_vmem) in bytes, 0 when none is set. Allocates nothing (safe where malloc
+// has failed).
+double address_space_limit() noexcept;
 // "3.2 GB", "850 MB", "12 kB": a size in decimal units, for messages.
 std::string format_bytes(double bytes);
 // Nothing when `bytes` fit the limit; else the sentence that refuses: "… needs

@@ -30,14 +30,24 @@
 
 #include <algorithm>
 #include <mutex>
+#include <new>
 
 namespace modal::detail {
 namespace {
 
+// The job set in `id`. A workspace MUMPS could not allocate (INFOG(1) = −5,
+// −7 in the analysis: real, integer; −13 in any job: a Fortran ALLOCATE
+// refused) is the
+// program's out-of-memory failure (std::bad_alloc), not a failed
+// factorization, which callers would take for a singular K − σM. Not for the
+// termination job (-2) of a destructor.
 void run_mumps(DMUMPS_STRUC_C& id) {
-  static std::mutex mumps;
-  const std::lock_guard<std::mutex> lock(mumps);
-  dmumps_c(&id);
+  {
+    static std::mutex mumps;
+    const std::lock_guard<std::mutex> lock(mumps);
+    dmumps_c(&id);
+  }
+  if (id.job != -2 && (id.infog[0] == -5 || id.infog[0] == -7 || id.infog[0] == -13)) throw std::bad_alloc();
 }
 
 }  // namespace
