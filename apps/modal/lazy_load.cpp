@@ -9,7 +9,7 @@
 // and the tables below; the first call of a stub lands in modal_lazy_resolve.
 // The library (libmodal, the Python module) links them as usual.
 
-#include <modal/report.hpp>
+#include "memory_policy.hpp"
 
 #include <dlfcn.h>
 #include <unistd.h>
@@ -55,11 +55,10 @@ void* handles[64] = {};
 [[noreturn]] void cannot_load(const char* what, const char* library, const char* symbol, const char* why) {
   // No exception can pass the stub that called; end the process as an
   // unknown failure does (exit 4), leaving no partial output.
-  modal::remove_output_temporaries();
-  std::fprintf(stderr, "modal: cannot %s %s from %s, which this computation needs: %s\n", what, symbol, library,
-               why != nullptr ? why : "unknown reason");
-  std::fflush(stderr);
-  _exit(4);
+  char text[1024];
+  std::snprintf(text, sizeof text, "modal: cannot %s %s from %s, which this computation needs: %s\n", what, symbol,
+                library, why != nullptr ? why : "unknown reason");
+  modal_program::end_now(text);
 }
 
 // Loads library l (once) and fills the program's copies of its initialized data.

@@ -45,12 +45,9 @@ std::atomic<bool> main_running{false};
 
 void library_ended_the_process() {
   if (!main_running.load()) return;
-  modal::remove_output_temporaries();
-  static const char text[] =
+  modal_program::end_now(
       "modal: a library this computation uses ended the process before the computation finished "
-      "(its own message, if any, is above)\n";
-  static_cast<void>(write(STDERR_FILENO, text, sizeof text - 1));
-  _exit(static_cast<int>(modal::ExitStatus::numerical));
+      "(its own message, if any, is above)\n");
 }
 
 // OpenBLAS 0.3.21 raises SIGINT itself when it cannot start its threads

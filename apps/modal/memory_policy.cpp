@@ -34,7 +34,13 @@
 
 #include "memory_policy.hpp"
 
+#include <modal/pipeline.hpp>
+#include <modal/report.hpp>
+
+#include <unistd.h>
+
 #include <cstdlib>  // defines __GLIBC__ on glibc
+#include <cstring>
 
 #if defined(__has_feature)
 #if __has_feature(address_sanitizer)
@@ -56,8 +62,6 @@ void modal_program::set_memory_policy() {}
 #elif defined(__GLIBC__) && !defined(MODAL_PROGRAM_SANITIZED)
 
 #include <modal/core.hpp>
-#include <modal/pipeline.hpp>
-#include <modal/report.hpp>
 
 #include <malloc.h>
 #include <sys/mman.h>
@@ -100,17 +104,15 @@ thread_local std::size_t refused_bytes = 0;
 thread_local unsigned refusals = 0;
 
 [[noreturn]] void end_refused(std::size_t bytes) noexcept {
-  modal::remove_output_temporaries();
   char limit[96] = "";
   if (const double as = modal::address_space_limit(); as > 0)
     std::snprintf(limit, sizeof limit, "; the process's address space is limited to %.0f MB (ulimit -v)", as / 1e6);
   char text[384];
-  const int length = std::snprintf(text, sizeof text,
-                                   "modal: out of memory: the system refused an allocation of %.0f MB %u times in a "
-                                   "row, which a library of this computation retries without end%s\n",
-                                   static_cast<double>(bytes) / 1e6, refusals_in_a_row, limit);
-  if (length > 0) static_cast<void>(write(STDERR_FILENO, text, static_cast<std::size_t>(length)));
-  _exit(static_cast<int>(modal::ExitStatus::numerical));
+  std::snprintf(text, sizeof text,
+                "modal: out of memory: the system refused an allocation of %.0f MB %u times in a row, which a "
+                "library of this computation retries without end%s\n",
+                static_cast<double>(bytes) / 1e6, refusals_in_a_row, limit);
+  modal_program::end_now(text);
 }
 
 // `block` as glibc returned it for `bytes`, after counting a refusal.
@@ -167,3 +169,9 @@ void modal_program::set_memory_policy() {
 void modal_program::set_memory_policy() {}
 
 #endif
+
+void modal_program::end_now(const char* text) noexcept {
+  modal::remove_output_temporaries();
+  static_cast<void>(write(STDERR_FILENO, text, std::strlen(text)));
+  _exit(static_cast<int>(modal::ExitStatus::numerical));
+}
