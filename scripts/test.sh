@@ -25,7 +25,8 @@ echo "test.sh: $jobs parallel jobs"
 # The free disk is printed before each build: the three builds, ccache's copy
 # of them and the tests' files take several GB, and a full disk shows up as
 # unrelated failures ("No space left on device" inside a linker or MPI).
-free_disk() { df -h . "${TMPDIR:-/tmp}" | sed 's/^/test.sh: /'; }
+# Information only: it never stops the run.
+free_disk() { df -hP . "${TMPDIR:-/tmp}" 2>&1 | sed 's/^/test.sh: /' || true; }
 free_disk
 # Compiles go through ccache where it is installed (setup-debian.sh installs
 # it), with paths taken relative to this checkout, so that a fresh clone on a
