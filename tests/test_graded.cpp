@@ -52,6 +52,21 @@ Body link(int parent, JointType joint, const Vec3& origin, double m, double l) {
   return b;
 }
 
+// A hanging chain of hinges about y, body i's whole mass a point at the
+// next hinge (link() without inertia): a point-mass chain (PointMassChain).
+SystemDescription point_mass_chain_scene(const std::vector<double>& masses, const std::vector<double>& lengths) {
+  SystemDescription d;
+  d.gravity = Vec3(0, 0, -9.81);
+  Vec3 origin = Vec3::Zero();
+  for (std::size_t i = 0; i < masses.size(); ++i) {
+    Body b = link(static_cast<int>(i) - 1, JointType::hinge, origin, masses[i], lengths[i]);
+    b.inertia.setZero();
+    d.bodies.push_back(b);
+    origin = Vec3(0, 0, -lengths[i]);
+  }
+  return d;
+}
+
 // ω² of the closed form: m1 l1 l2 x² − g (m1+m2)(l1+l2) x + g²(m1+m2) = 0,
 // the small root as product / large root.
 std::pair<double, double> double_pendulum_roots(LD m1, LD m2, LD l1, LD l2, LD g) {
@@ -1099,16 +1114,10 @@ TEST(Graded, LongGradedHingeChainsKeepTheirKinds) {
         springs.push_back(rng() % 10 < 3 ? 0.0 : log_uniform(rng, 1e-6, 1e6));
       }
     }
-    SystemDescription d;
-    d.gravity = Vec3(0, 0, -9.81);
-    Vec3 origin = Vec3::Zero();
+    SystemDescription d = point_mass_chain_scene(masses, lengths);
     for (std::size_t i = 0; i < masses.size(); ++i) {
-      Body b = link(static_cast<int>(i) - 1, JointType::hinge, origin, masses[i], lengths[i]);
-      b.inertia.setZero();
-      b.stiffness = springs[i];
-      if (b.stiffness != 0) b.rest = VectorX::Zero(1);
-      d.bodies.push_back(b);
-      origin = Vec3(0, 0, -lengths[i]);
+      d.bodies[i].stiffness = springs[i];
+      if (springs[i] != 0) d.bodies[i].rest = VectorX::Zero(1);
     }
     const System s(d);
     const std::vector<LD> reference = reference_omega2(s, VectorX::Zero(s.size()));
@@ -1609,6 +1618,180 @@ TEST(Graded, FlatNetsOnTheSparsePathHoldTheirEigenvaluesWithinTheirEstimates) {
                                                           << " ± " << mode.error_estimate;
     }
   }
+}
+
+// Point-mass chains (PointMassChain; docs/design.md, "Point-mass chains"):
+// hinges on parallel axes, each body's whole mass a point at the next hinge
+// (link() with no inertia), hanging straight. In absolute angles M =
+// D_l Ĵᵀ D_m Ĵ D_l, whose inverse is the tridiagonal D_l⁻¹ Ĵ⁻¹ D_m⁻¹ Ĵ⁻ᵀ D_l⁻¹
+// (Ĵ⁻¹ unit lower bidiagonal), and K = diag(g l_j Σ_{b≥j} m_b); so Kφ = λMφ
+// is the pencil (M⁻¹, K⁻¹) (ψ = Mφ), tridiagonal and diagonal, whose
+// eigenvalues tridiagonal_pencil_eigenvalues bisects in __float128 from the
+// lengths and masses alone (no matrix modal formed).
+
+// Masses and lengths of `links` links, each log-uniform over [1/spread, spread].
+void graded_point_masses(std::mt19937_64& rng, int links, double spread, std::vector<double>& masses,
+                         std::vector<double>& lengths) {
+  for (int i = 0; i < links; ++i) {
+    masses.push_back(log_uniform(rng, 1 / spread, spread));
+    lengths.push_back(log_uniform(rng, 1 / spread, spread));
+  }
+}
+
+std::vector<LD> point_mass_chain_reference(const std::vector<double>& masses, const std::vector<double>& lengths) {
+  const std::size_t n = masses.size();
+  std::vector<__float128> diagonal(n), off(n > 0 ? n - 1 : 0), inverse_k(n);
+  __float128 below = 0;
+  for (std::size_t j = n; j-- > 0;) {
+    below += masses[j];
+    inverse_k[j] = 1 / (static_cast<__float128>(9.81) * lengths[j] * below);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const __float128 l = lengths[i];
+    diagonal[i] = (1 / static_cast<__float128>(masses[i]) + (i > 0 ? 1 / static_cast<__float128>(masses[i - 1]) : 0)) /
+                  (l * l);
+    if (i > 0) off[i - 1] = -1 / (static_cast<__float128>(masses[i - 1]) * lengths[i] * lengths[i - 1]);
+  }
+  return tridiagonal_pencil_eigenvalues(diagonal, off, inverse_k);
+}
+
+// The structure is found where it holds and nowhere else: every generated
+// point-mass chain (2–40 links, masses and lengths log-uniform over 1e-4 …
+// 1e4) has it, with a mismatch at rounding level (measured up to 9e-16);
+// the same chain with rods' inertia, a mass half way along its link (but
+// the last), an armature, bent at a joint (but the first, which turns it
+// whole), a hinge turned to another axis, or a branch, has not.
+TEST(PointMassChains, TheStructureIsFoundWhereItHoldsAndNowhereElse) {
+  std::mt19937_64 rng(3011);
+  double worst = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int links = 2 + static_cast<int>(rng() % 39);
+    std::vector<double> masses, lengths;
+    graded_point_masses(rng, links, 1e4, masses, lengths);
+    const SystemDescription chain = point_mass_chain_scene(masses, lengths);
+    const std::string what = "trial " + std::to_string(trial) + ", " + std::to_string(links) + " links";
+    auto found = [](const SystemDescription& d, const VectorX& q) {
+      const System s(d);
+      LinearizeOptions any_point;  // a bent chain is not an equilibrium; its M is what counts here
+      any_point.tolerance = std::numeric_limits<double>::infinity();
+      return !linearize(s, q.size() == 0 ? VectorX(VectorX::Zero(s.size())) : q, any_point).absolute.chain.empty();
+    };
+    {
+      const System s(chain);
+      const LinearModel model = linearize(s, VectorX::Zero(s.size()));
+      ASSERT_FALSE(model.absolute.chain.empty()) << what;
+      EXPECT_LE(model.absolute.chain.mismatch, 64 * std::numeric_limits<double>::epsilon()) << what;
+      worst = std::max(worst, model.absolute.chain.mismatch);
+    }
+    const auto pick = static_cast<std::size_t>(rng() % static_cast<unsigned>(links));
+    SystemDescription d = chain;
+    d.bodies[pick].inertia = (masses[pick] * lengths[pick] * lengths[pick] / 12) * Mat3::Identity();
+    EXPECT_FALSE(found(d, {})) << what << ": rod inertia on body " << pick;
+    // The last body's mass may lie anywhere on its line (nothing hangs below
+    // it); any other's must be at the next hinge.
+    d = chain;
+    d.bodies[pick].com *= 0.5;
+    EXPECT_EQ(found(d, {}), pick + 1 == static_cast<std::size_t>(links))
+        << what << ": the mass half way along link " << pick;
+    d = chain;
+    d.bodies[pick].armature = 1e-3 * masses[pick] * lengths[pick] * lengths[pick];
+    EXPECT_FALSE(found(d, {})) << what << ": an armature on body " << pick;
+    {
+      const System s(chain);
+      // Turning the first joint turns the chain whole: still straight.
+      VectorX q = VectorX::Zero(s.size());
+      q(static_cast<Eigen::Index>(pick)) = 0.3;
+      EXPECT_EQ(found(chain, q), pick == 0) << what << ": turned at joint " << pick;
+    }
+    if (pick > 0) {
+      d = chain;
+      d.bodies[pick].axis = Vec3::UnitX();
+      EXPECT_FALSE(found(d, {})) << what << ": joint " << pick << " about x";
+    }
+    if (links >= 3) {
+      d = chain;
+      d.bodies.back().parent = 0;  // a branch from the first body
+      d.bodies.back().origin = Vec3(0, 0, -lengths[0]);
+      EXPECT_FALSE(found(d, {})) << what << ": a branch";
+    }
+  }
+  std::printf("point-mass chains: worst mismatch %.1e\n", worst);
+}
+
+// Long graded point-mass chains on the default path (LAPACK from 150
+// coordinates: the tridiagonal U⁻¹KU⁻ᵀ and MRRR), every mode against the
+// __float128 reference: 150–320 links, masses and lengths log-uniform over
+// 1e-2 … 1e2 (so M spans up to 1e12 and more), ascending, descending or
+// shuffled. Every ω² within its estimate and its residual bound of its
+// reference, and both measured against the true error (floored at 1e-15
+// relative: the reference's own rounding is 1e-30).
+TEST(PointMassChains, LongGradedChainsMatchTheQuadPrecisionReference) {
+  std::mt19937_64 rng(3017);
+  double loosest_estimate = 0, loosest_bound = 0, worst_error = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    const int links = std::uniform_int_distribution<int>(150, 320)(rng);
+    std::vector<double> masses, lengths;
+    graded_point_masses(rng, links, 1e2, masses, lengths);
+    if (trial == 0) std::sort(lengths.begin(), lengths.end());
+    if (trial == 1) std::sort(masses.rbegin(), masses.rend());
+    const System s(point_mass_chain_scene(masses, lengths));
+    const ModalResult r = solve_modes(linearize(s, VectorX::Zero(s.size())));
+    const std::string what = "trial " + std::to_string(trial) + ", " + std::to_string(links) + " links";
+    EXPECT_NE(r.solver.find("point-mass chain"), std::string::npos) << what << ": " << r.solver;
+    const std::vector<LD> reference = point_mass_chain_reference(masses, lengths);
+    ASSERT_EQ(r.modes.size(), reference.size()) << what;
+    EXPECT_EQ(r.stability, Stability::stable) << what;
+    for (std::size_t k = 0; k < reference.size(); ++k) {
+      const Mode& m = r.modes[k];
+      const double truth = static_cast<double>(reference[k]);
+      const double error = std::abs(m.omega2 - truth), floor = std::max(error, 1e-15 * truth);
+      EXPECT_LE(error, m.error_estimate) << what << " mode " << k + 1 << ": " << m.omega2 << " against " << truth;
+      EXPECT_LE(error, m.residual_bound) << what << " mode " << k + 1 << ": " << m.omega2 << " against " << truth;
+      loosest_estimate = std::max(loosest_estimate, m.error_estimate / floor);
+      loosest_bound = std::max(loosest_bound, m.residual_bound / floor);
+      worst_error = std::max(worst_error, error / truth);
+    }
+  }
+  std::printf("long point-mass chains: worst relative error %.1e, estimate / error up to %.1e, bound / error up to %.1e\n",
+              worst_error, loosest_estimate, loosest_bound);
+}
+
+// Short graded point-mass chains forced onto the LAPACK path (2–40 links,
+// masses and lengths over 1e-4 … 1e4), some with joint springs (K then
+// tridiagonal in absolute angles: the products by the chain's structure, the
+// pairs by dsygst and divide and conquer), against the reference of
+// test_graded (AD in long double, solved by Eigen), which shares nothing
+// with the chain's structure.
+TEST(PointMassChains, ShortGradedChainsMatchTheLongDoubleReference) {
+  std::mt19937_64 rng(3023);
+  Figures f;
+  int tridiagonal = 0;
+  for (int trial = 0; trial < 30; ++trial) {
+    const int links = 2 + static_cast<int>(rng() % 39);
+    std::vector<double> masses, lengths;
+    graded_point_masses(rng, links, 1e4, masses, lengths);
+    SystemDescription d = point_mass_chain_scene(masses, lengths);
+    const bool springs = trial % 3 == 2;
+    if (springs)
+      for (std::size_t i = 0; i < d.bodies.size(); ++i) {
+        d.bodies[i].stiffness = masses[i] * 9.81 * lengths[i] * log_uniform(rng, 1e-2, 1e2);
+        d.bodies[i].rest = VectorX::Zero(1);
+      }
+    const System s(d);
+    ModalOptions options;
+    options.dense_solver = DenseSolver::lapack;
+    const ModalResult r = solve_modes(linearize(s, VectorX::Zero(s.size())), options);
+    const std::string what = "trial " + std::to_string(trial) + ", " + std::to_string(links) + " links" +
+                             (springs ? " with springs" : "");
+    if (!springs) {
+      EXPECT_NE(r.solver.find("point-mass chain"), std::string::npos) << what << ": " << r.solver;
+      ++tridiagonal;
+    }
+    check_modes(r, reference_omega2(s, VectorX::Zero(s.size())), what, f, false);
+    for (const Mode& m : r.modes) EXPECT_EQ(m.kind, ModeKind::oscillatory) << what;
+  }
+  print_figures("short point-mass chains", f);
+  EXPECT_GE(tridiagonal, 15);
 }
 
 }  // namespace

@@ -1693,7 +1693,45 @@ AbsoluteAngleModel absolute_angle_model(const System& s, Workspace& w, const Vec
     congruence(m.K, m2, false);
     congruence(m.K_magnitude, m2, true);
   }
+  m.chain = point_mass_chain(s, m.M, parents);
   return m;
+}
+
+PointMassChain point_mass_chain(const System& s, const MatrixX& M, const std::vector<int>& parents) {
+  const int n = s.size();
+  const auto& bodies = s.bodies();
+  if (s.is_map() || n < 2 || M.rows() != n || M.cols() != n || static_cast<int>(parents.size()) != n ||
+      static_cast<int>(bodies.size()) != n)
+    return {};
+  for (int b = 0; b < n; ++b)
+    if (s.joint_size(b) != 1 || s.first_coordinate(b) != b || bodies[static_cast<std::size_t>(b)].parent != b - 1 ||
+        parents[static_cast<std::size_t>(b)] != b - 1 || !(bodies[static_cast<std::size_t>(b)].mass > 0))
+      return {};
+  // μ_j = Σ_{b≥j} m_b (positive terms: relative error at most (n − j)ε).
+  PointMassChain c;
+  c.mass.resize(n);
+  VectorX below(n);
+  double sum = 0;
+  for (int j = n - 1; j >= 0; --j) {
+    c.mass(j) = bodies[static_cast<std::size_t>(j)].mass;
+    sum += c.mass(j);
+    below(j) = sum;
+  }
+  // M_jj = l_j² μ_j, M_0j = l_0 l_j μ_j: |l_j| from the diagonal, its sign
+  // from the first row (l_0 > 0: the chain's direction is a convention).
+  c.lever.resize(n);
+  for (int j = 0; j < n; ++j) {
+    const double size = std::sqrt(M(j, j) / below(j));
+    if (!(size > 0) || !std::isfinite(size) || (j > 0 && M(0, j) == 0)) return {};
+    c.lever(j) = j > 0 && M(0, j) < 0 ? -size : size;
+  }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i <= j; ++i) {
+      const double model = c.lever(i) * c.lever(j) * below(j);
+      c.mismatch = std::max(c.mismatch, std::abs(M(i, j) - model) / std::abs(model));
+      if (!(c.mismatch <= 1e-11)) return {};
+    }
+  return c;
 }
 
 std::optional<std::string> tree_pencil_unsupported(const System& s) {

@@ -98,9 +98,14 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // `K_rounding_form` (n×n or empty; LinearModel::K_rounding_form, scaled as
 // K): where given, the kinds take the data's rounding as 4ε φᵀFφ instead of
 // the entrywise |φ|ᵀ(K_error − K_systematic_error)|φ|.
+// `chain` (or null): M's point-mass chain structure (PointMassChain, in the
+// units of M as given), within its mismatch of M: the products with M and
+// M⁻¹ of the analysis then cost O(n) per vector, and where K is diagonal
+// every pair comes from the tridiagonal U⁻¹KU⁻ᵀ (MRRR) in O(n²).
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
-                            Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix());
+                            Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),
+                            const PointMassChain* chain = nullptr);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 

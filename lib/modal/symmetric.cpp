@@ -163,9 +163,91 @@ bool small_product(int m, int n, int k) {
 // diagonal K, |K| and E (n² entries each, twice over with the refinement)
 // for longer than the sparse products took. It refers to the matrix it is
 // given, or owns one made for it; neither copied nor moved.
+// M = D_l Ĵᵀ D_m Ĵ D_l of a point-mass chain (PointMassChain, in the
+// units of the pencil solved): products with M, |M| and U⁻¹, U⁻ᵀ (M = UUᵀ,
+// U = D_l Ĵᵀ D_m^½) in O(n) per column, and the tridiagonal U⁻¹KU⁻ᵀ of a
+// diagonal K. Row i of U⁻¹ is (e_i/l_i − e_{i+1}/l_{i+1})/√m_i.
+class ChainMass {
+ public:
+  explicit ChainMass(const PointMassChain& c) : lever_(c.lever), mass_(c.mass), root_(c.mass.cwiseSqrt()) {}
+  Eigen::Index size() const { return lever_.size(); }
+  // C ← beta C + op B, op = M or |M| (= D_|l| Ĵᵀ D_m Ĵ D_|l|): a prefix sum
+  // and a suffix sum per column, each rounded as a sum of at most n terms.
+  void multiply(const MatrixX& B, bool absolute, double beta, MatrixX& C) const {
+    const Eigen::Index n = size();
+    if (beta == 0) C.setZero(n, B.cols());
+    const VectorX l = absolute ? VectorX(lever_.cwiseAbs()) : lever_;
+    VectorX v(n);
+    for (Eigen::Index c = 0; c < B.cols(); ++c) {
+      double sum = 0;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        sum += l(i) * B(i, c);
+        v(i) = mass_(i) * sum;
+      }
+      sum = 0;
+      for (Eigen::Index i = n - 1; i >= 0; --i) {
+        sum += v(i);
+        C(i, c) += l(i) * sum;
+      }
+    }
+  }
+  // B ← U⁻¹B (the standard form's residuals: ‖U⁻¹r‖ = ‖r‖_{M⁻¹}).
+  void solve(MatrixX& B) const {
+    const Eigen::Index n = size();
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double next = i + 1 < n ? B(i + 1, c) / lever_(i + 1) : 0.0;
+        B(i, c) = (B(i, c) / lever_(i) - next) / root_(i);
+      }
+  }
+  // B ← U⁻ᵀB (the pencil's vectors from the standard form's).
+  void solve_transposed(MatrixX& B) const {
+    const Eigen::Index n = size();
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (Eigen::Index i = n - 1; i >= 0; --i) {
+        const double previous = i > 0 ? B(i - 1, c) / root_(i - 1) : 0.0;
+        B(i, c) = (B(i, c) / root_(i) - previous) / lever_(i);
+      }
+  }
+  // ‖|U⁻¹|‖₂ ≤ (‖U⁻¹‖₁‖U⁻¹‖∞)^½.
+  double inverse_norm() const {
+    const Eigen::Index n = size();
+    double rows = 0, columns = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double after = i + 1 < n ? 1 / std::abs(lever_(i + 1)) : 0.0;
+      rows = std::max(rows, (1 / std::abs(lever_(i)) + after) / root_(i));
+      const double above = i > 0 ? 1 / root_(i - 1) : 0.0;
+      columns = std::max(columns, (1 / root_(i) + above) / std::abs(lever_(i)));
+    }
+    return std::sqrt(rows * columns);
+  }
+  // U⁻¹KU⁻ᵀ for the diagonal k of K: diagonal d and subdiagonal e (n, the
+  // last entry 0), C_ii = (k_i/l_i² + k_{i+1}/l_{i+1}²)/m_i and C_{i+1,i} =
+  // −k_{i+1}/(l_{i+1}²√(m_i m_{i+1})): no cancellation where K ≥ 0.
+  void tridiagonal(const VectorX& k, VectorX& d, VectorX& e) const {
+    const Eigen::Index n = size();
+    d.resize(n);
+    e.setZero(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double own = k(i) / lever_(i) / lever_(i);
+      const double next = i + 1 < n ? k(i + 1) / lever_(i + 1) / lever_(i + 1) : 0.0;
+      d(i) = (own + next) / mass_(i);
+      if (i + 1 < n) e(i) = -next / root_(i) / root_(i + 1);
+    }
+  }
+
+ private:
+  VectorX lever_, mass_, root_;
+};
+
 class Operand {
  public:
   explicit Operand(const MatrixX& A) : dense_(&A) { decide(); }
+  // A point-mass chain's M: products by its structure (ChainMass), never dense.
+  Operand(const MatrixX& A, const ChainMass& chain) : dense_(&A), chain_(&chain) {
+    rows_ = A.rows();
+    cols_ = A.cols();
+  }
   explicit Operand(MatrixX&& A) : owned_(std::move(A)), dense_(&owned_) { decide(); }
   Operand(const Operand&) = delete;
   Operand& operator=(const Operand&) = delete;
@@ -177,6 +259,10 @@ class Operand {
     if (m == 0 || n == 0) return;
     if (k == 0) {
       if (beta == 0) C.setZero();
+      return;
+    }
+    if (chain_ != nullptr) {
+      chain_->multiply(B, absolute, beta, C);
       return;
     }
     if (sparse_) {
@@ -216,6 +302,7 @@ class Operand {
   }
   MatrixX owned_;
   const MatrixX* dense_;
+  const ChainMass* chain_ = nullptr;
   Eigen::Index rows_ = 0, cols_ = 0;
   bool sparse_ = false;
   Eigen::SparseMatrix<double> sparse_matrix_, absolute_;
@@ -324,6 +411,46 @@ void lapack_pairs(const MatrixX& K, const Cholesky& mass, VectorX& lambda, Matri
   solve_upper(L, Phi);  // Φ = L⁻ᵀY
 }
 
+// Every eigenvalue of the symmetric tridiagonal matrix with diagonal d and
+// subdiagonal e (n each, e's last entry unused), ascending (LAPACK dsterf:
+// implicit QL/QR without vectors).
+VectorX tridiagonal_eigenvalues(VectorX d, VectorX e) {
+  const int n = static_cast<int>(d.size());
+  int info = 0;
+  dsterf_(&n, d.data(), e.data(), &info);
+  if (info != 0) throw NumericalError("LAPACK dsterf did not converge (info " + std::to_string(info) + ")");
+  return d;
+}
+
+// The orthonormal eigenvectors of its p lowest eigenvalues (n×p) by MRRR
+// (LAPACK dstemr, which keeps the relative accuracy a matrix may define:
+// tryrac), and in `values` those eigenvalues; an empty matrix where dstemr
+// fails (the caller then solves otherwise).
+MatrixX tridiagonal_lowest(VectorX d, VectorX e, int p, VectorX* values = nullptr) {
+  const int n = static_cast<int>(d.size());
+  if (p <= 0) return MatrixX(n, 0);
+  VectorX w(n);
+  MatrixX Z(n, p);
+  const int il = 1, iu = p;
+  const double vl = 0, vu = 0;
+  int found = 0, tryrac = 1, info = 0, lwork = -1, liwork = -1, isize = 0;
+  double size = 0;
+  std::vector<int> isuppz(static_cast<std::size_t>(2 * p));
+  const char* range = p == n ? "A" : "I";
+  dstemr_("V", range, &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n, &p,
+          isuppz.data(), &tryrac, &size, &lwork, &isize, &liwork, &info, 1, 1);
+  if (info != 0) return {};
+  lwork = std::max(1, static_cast<int>(size));
+  liwork = std::max(1, isize);
+  std::vector<double> work(static_cast<std::size_t>(lwork));
+  std::vector<int> iwork(static_cast<std::size_t>(liwork));
+  dstemr_("V", range, &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n, &p,
+          isuppz.data(), &tryrac, work.data(), &lwork, iwork.data(), &liwork, &info, 1, 1);
+  if (info != 0 || found != p) return {};
+  if (values != nullptr) *values = w.head(p);
+  return Z;
+}
+
 // K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
 // C = L⁻¹KL⁻ᵀ, with the factor L of M that the caller already has (LAPACK
 // dsygst, or scalings where L is diagonal, then dsytrd: the first half of
@@ -346,37 +473,18 @@ class TridiagonalPencil {
     if (info != 0) throw NumericalError("LAPACK dsytrd failed (info " + std::to_string(info) + ")");
     e_(n_ - 1) = 0;
   }
-  // Every eigenvalue, ascending (dsterf: implicit QL/QR without vectors).
-  VectorX eigenvalues() const {
-    VectorX d = d_, e = e_;
-    int info = 0;
-    dsterf_(&n_, d.data(), e.data(), &info);
-    if (info != 0) throw NumericalError("LAPACK dsterf did not converge (info " + std::to_string(info) + ")");
-    return d;
-  }
+  // Every eigenvalue, ascending.
+  VectorX eigenvalues() const { return tridiagonal_eigenvalues(d_, e_); }
   // The pencil's vectors of its p lowest eigenvalues (n×p, ΦᵀMΦ = I to
   // rounding), or an empty matrix when dstemr fails (the caller then takes
   // every vector by lapack_pairs).
   MatrixX lowest_vectors(int p) const {
     if (p <= 0) return MatrixX(n_, 0);
-    VectorX d = d_, e = e_, w(n_);
-    MatrixX Z(n_, p);
-    const int il = 1, iu = p;
-    const double vl = 0, vu = 0;
-    int found = 0, tryrac = 1, info = 0, lwork = -1, liwork = -1, isize = 0;
+    MatrixX Z = tridiagonal_lowest(d_, e_, p);
+    if (Z.cols() != p) return {};
+    int info = 0, lwork = -1;
     double size = 0;
-    std::vector<int> isuppz(static_cast<std::size_t>(2 * p));
-    dstemr_("V", "I", &n_, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n_, &p,
-            isuppz.data(), &tryrac, &size, &lwork, &isize, &liwork, &info, 1, 1);
-    if (info != 0) return {};
-    lwork = std::max(1, static_cast<int>(size));
-    liwork = std::max(1, isize);
-    std::vector<double> work(static_cast<std::size_t>(lwork));
-    std::vector<int> iwork(static_cast<std::size_t>(liwork));
-    dstemr_("V", "I", &n_, d.data(), e.data(), &vl, &vu, &il, &iu, &found, w.data(), Z.data(), &n_, &p,
-            isuppz.data(), &tryrac, work.data(), &lwork, iwork.data(), &liwork, &info, 1, 1);
-    if (info != 0 || found != p) return {};
-    lwork = -1;
+    std::vector<double> work;
     dormtr_("L", "L", "N", &n_, &p, A_.data(), &n_, tau_.data(), Z.data(), &n_, &size, &lwork, &info, 1, 1, 1);
     lwork = std::max(1, static_cast<int>(size));
     work.assign(static_cast<std::size_t>(lwork), 0.0);
@@ -677,16 +785,44 @@ bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
-                            const SparseMatrix& K_rounding_form) {
+                            const SparseMatrix& K_rounding_form, const PointMassChain* chain) {
   const Eigen::Index n = M.rows();
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda_all;
   MatrixX Phi;
+  // A point-mass chain (PointMassChain): the analysis's products with M and
+  // M⁻¹ by its structure; where K is also diagonal, the pairs from the
+  // tridiagonal C = U⁻¹KU⁻ᵀ (dsterf, dstemr) and Φ = U⁻ᵀY, all O(n²), in
+  // place of dsygst and divide and conquer (n³), where LAPACK solves (from
+  // lapack_threshold coordinates, or asked for); not with --dense-solver
+  // eigen, which asks for Eigen's own solver throughout.
+  std::optional<ChainMass> chain_mass;
+  if (chain != nullptr && solver != DenseSolver::eigen && chain->lever.size() == n && chain->mass.size() == n &&
+      chain->lever.allFinite() && (chain->lever.array() != 0).all() && chain->mass.allFinite() &&
+      (chain->mass.array() > 0).all())
+    chain_mass.emplace(*chain);
+  VectorX chain_d, chain_e;  // C's diagonal and subdiagonal, where the pairs come from it
+  bool chain_solve = chain_mass.has_value() && lapack;  // LAPACK: not loaded for a small scene
+  for (Eigen::Index j = 0; j < n && chain_solve; ++j)
+    for (Eigen::Index i = 0; i < n && chain_solve; ++i) chain_solve = i == j || K(i, j) == 0;
+  if (chain_solve) chain_mass->tridiagonal(K.diagonal(), chain_d, chain_e);
   // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
   // analyzed below (TridiagonalPencil: no divide and conquer over all n
   // vectors, no back-transformation of them).
   std::optional<TridiagonalPencil> reduced;
-  if (lapack && wanted >= 0 && wanted < n) {
+  if (chain_solve) {
+    if (wanted >= 0 && wanted < n) {
+      lambda_all = tridiagonal_eigenvalues(chain_d, chain_e);
+    } else {
+      Phi = tridiagonal_lowest(chain_d, chain_e, static_cast<int>(n), &lambda_all);
+      if (Phi.cols() == n) {
+        chain_mass->solve_transposed(Phi);
+      } else {  // dstemr failed: the dense solver
+        chain_solve = false;
+        lapack_pairs(K, mass, lambda_all, Phi);
+      }
+    }
+  } else if (lapack && wanted >= 0 && wanted < n) {
     reduced.emplace(K, mass);
     lambda_all = reduced->eigenvalues();
   } else if (lapack) {
@@ -729,6 +865,14 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       lapack_pairs(K, mass, lambda_all, Phi);
       reduced.reset();
     }
+  } else if (chain_solve && Phi.cols() == 0 && prefix > 0) {
+    Phi = tridiagonal_lowest(chain_d, chain_e, static_cast<int>(prefix));
+    if (Phi.cols() == prefix) {
+      chain_mass->solve_transposed(Phi);
+    } else {  // dstemr failed: every pair by the dense solver
+      chain_solve = false;
+      lapack_pairs(K, mass, lambda_all, Phi);
+    }
   }
   if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
   // The analysis of the computed pairs (Φ, λ_all): residuals, bounds,
@@ -738,8 +882,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
   // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
   // the residual bound's worst case of rounding.
-  const bool diagonal_factor = diagonal_lower(mass.matrixLLT());
+  const bool diagonal_factor = !chain_mass && diagonal_lower(mass.matrixLLT());
   const double inverse_norm = [&] {
+    if (chain_mass) return chain_mass->inverse_norm();  // of U⁻¹ (M = UUᵀ)
     if (diagonal_factor) return mass.matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
     const MatrixX inverse = lower_inverse(mass.matrixLLT()).cwiseAbs();
     return std::sqrt(inverse.colwise().sum().maxCoeff() * inverse.rowwise().sum().maxCoeff());
@@ -750,7 +895,20 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // given; else 4ε|K|); D: the measured error of differences.
   const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
   const bool given = K_error.rows() == n && K_error.cols() == n;
-  const Operand K_op(K), M_op(M);
+  const Operand K_op(K), M_op = chain_mass ? Operand(M, *chain_mass) : Operand(M);
+  // The residuals in the standard form: L⁻¹R, or U⁻¹R for a chain (either
+  // way ‖·‖ is the M⁻¹-norm of R).
+  auto to_standard = [&](MatrixX& B) {
+    if (chain_mass) chain_mass->solve(B);
+    else solve_lower(mass.matrixLLT(), B);  // its lower triangle is L
+  };
+  // The rounding of a residual's entries: (n + 2)ε(|K||φ| + |λ||M||φ|) with
+  // dense products (Higham, §3.5); a chain's product with M is two running
+  // sums of up to n terms each and three scalings, (2n + 3)ε|M||φ|.
+  const double nn = static_cast<double>(chain_mass ? 2 * n + 3 : n + 2);
+  // The entries' relative error of M: 4ε, and for a chain the mismatch of its
+  // structure against M as assembled (its products stand for M).
+  const double rM = 4 * eps + (chain_mass ? chain->mismatch : 0.0);
   std::optional<Operand> E_op, D_op;  // E: none where it is 4ε|K| (products with |K|, scaled)
   if (given && !differences) E_op.emplace(K_error);
   if (given && differences) E_op.emplace(MatrixX((K_error - K_systematic_error).cwiseMax(0.0)));
@@ -829,8 +987,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       absKM_dot(j) = absPhi.col(j).dot(rounding.col(j));
       rows(j) = absPhi.col(j).cwiseProduct(rounding.col(j)).stableNorm();
     }
-    solve_lower(mass.matrixLLT(), R);  // its lower triangle is L
-    solve_lower(mass.matrixLLT(), rounding);
+    to_standard(R);
+    to_standard(rounding);
 
     // Per mode, the linear residual bound δ (rigorous for the matrices as
     // formed) and its typical-size counterpart (see the header comment), then
@@ -841,7 +999,6 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // bound and typical are indexed by all modes: the cheap estimate stands for
     // the modes not analyzed.
     VectorX bound = cheap.size() == n ? cheap : VectorX(VectorX::Zero(n)), typical = bound, quotient_rounding(m);
-    const double nn = static_cast<double>(n + 2);
     for (Eigen::Index i = 0; i < m; ++i) {
       const Eigen::Index j = analyzed[static_cast<std::size_t>(i)];
       const double norm = std::sqrt(phiMphi(i));
@@ -949,7 +1106,12 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
 
     ModalResult result;
     const char* reduction = diagonal_factor ? "M diagonal, L⁻¹KL⁻ᵀ by scaling" : "Cholesky of M, dsygst";
-    result.solver = reduced ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
+    result.solver = chain_solve
+                        ? std::string("dense symmetric-definite (LAPACK: point-mass chain, M = UUᵀ with U⁻¹ "
+                                      "bidiagonal, tridiagonal U⁻¹KU⁻ᵀ, ") +
+                              (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors by MRRR dstemr)"
+                                                 : "every pair by MRRR dstemr)")
+                    : reduced ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
                                   ", tridiagonal reduction, every eigenvalue by dsterf, the lowest modes' vectors by "
                                   "MRRR dstemr)"
                    : lapack ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
@@ -971,7 +1133,6 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       const double x2 = Phi.col(i).squaredNorm();
       // Rigorous for the matrices as formed, to first order in ε; and typical.
       const double residual_bound = with_gap(bound, nn * quotient_rounding(i), i);
-      const double rM = 4 * eps;
       const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
       // The kind is decided with the worst case of the data's rounding, first
       // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a

@@ -610,6 +610,30 @@ std::vector<int> absolute_angle_parents(const System& s, Workspace& w, const Vec
 // at a loss ratio of 10, or a ball's spin from a ball above at these
 // margins: estimates 1e7 below the error).
 void keep_favourable_links(const System& s, const MatrixX& M, const MatrixX& K, std::vector<int>& parents);
+// A point-mass chain in absolute angles (docs/design.md, "Point-mass
+// chains"): a chain of parallel hinges, body j (coordinate j) carrying its
+// whole mass m_j as a point at the hinge of body j + 1 (the last anywhere
+// on its line), every link on one line at q (hanging or standing straight).
+// Its kinetic energy is ½Σ_b m_b (Σ_{j≤b} l_j θ̇_j)², l_j the signed length
+// of link j along that line, so M = D_l Ĵᵀ D_m Ĵ D_l (Ĵ the unit lower
+// triangle of ones: n × n, dense) = UUᵀ with U = D_l Ĵᵀ D_m^½ upper
+// triangular, whose inverse is upper bidiagonal: products with M and M⁻¹,
+// and the reduction of a diagonal K to the tridiagonal U⁻¹KU⁻ᵀ, cost O(n)
+// per vector, formed from l and m without cancellation.
+struct PointMassChain {
+  VectorX lever;         // n: l_j, signed, m (nonzero)
+  VectorX mass;          // n: m_j, kg (positive)
+  double mismatch = 0;   // max over i ≤ j of |M_ij − l_i l_j Σ_{b≥j} m_b| / |l_i l_j Σ_{b≥j} m_b| (M as assembled)
+  bool empty() const { return lever.size() == 0; }
+};
+// The structure of M (n×n, in the absolute angles of `parents`) where the
+// scene is such a chain: every body a one-coordinate joint whose coordinate
+// is measured from its parent's (parents[j] = j − 1), every mass positive,
+// and M equal to D_l Ĵᵀ D_m Ĵ D_l entrywise within 1e-11 relative (l from
+// M's diagonal and m, a sign from M's first row); else empty. Any other
+// scene (rods, offset or rotating masses, a bent chain, a tree) fails the
+// entrywise test, which is what decides.
+PointMassChain point_mass_chain(const System& s, const MatrixX& M, const std::vector<int>& parents);
 struct AbsoluteAngleModel {
   std::vector<int> parent;  // n: as absolute_angle_parents; empty: no change of basis
   MatrixX M;                // TᵀMT (n×n)
@@ -618,6 +642,7 @@ struct AbsoluteAngleModel {
   VectorX inertia_scale;    // n: as inertia_scale, for θ
   MatrixX D;                // TᵀDT (n×n) when the scene has dampers (linearize fills it), else empty
   MatrixX D_rounding;       // entrywise bound of D's rounding: 4ε|T|ᵀ|D_q||T| (n×n, or empty)
+  PointMassChain chain;     // M's structure where it is a point-mass chain's, else empty
   bool empty() const { return parent.empty(); }
 };
 // M, ∇∇V and their companions assembled in θ (trees only: no map; the
