@@ -1707,15 +1707,21 @@ PointMassChain point_mass_chain(const System& s, const MatrixX& M, const std::ve
     if (s.joint_size(b) != 1 || s.first_coordinate(b) != b || bodies[static_cast<std::size_t>(b)].parent != b - 1 ||
         parents[static_cast<std::size_t>(b)] != b - 1 || !(bodies[static_cast<std::size_t>(b)].mass > 0))
       return {};
-  // μ_j = Σ_{b≥j} m_b (positive terms: relative error at most (n − j)ε).
+  // μ_j = Σ_{b≥j} m_b, summed with compensation (Neumaier): positive terms,
+  // so within 2ε(1 + nε) of the exact sum that ChainMass's running sums
+  // stand for, where plain summation would leave (n − j)ε (12ε measured on
+  // graded masses at n = 2000).
   PointMassChain c;
   c.mass.resize(n);
   VectorX below(n);
-  double sum = 0;
+  double sum = 0, carried = 0;
   for (int j = n - 1; j >= 0; --j) {
-    c.mass(j) = bodies[static_cast<std::size_t>(j)].mass;
-    sum += c.mass(j);
-    below(j) = sum;
+    const double m = bodies[static_cast<std::size_t>(j)].mass;
+    c.mass(j) = m;
+    const double next = sum + m;
+    carried += sum >= m ? (sum - next) + m : (m - next) + sum;
+    sum = next;
+    below(j) = sum + carried;
   }
   // M_jj = l_j² μ_j, M_0j = l_0 l_j μ_j: |l_j| from the diagonal, its sign
   // from the first row (l_0 > 0: the chain's direction is a convention).

@@ -157,12 +157,6 @@ bool small_product(int m, int n, int k) {
   return static_cast<double>(m) * static_cast<double>(n) * static_cast<double>(k) < 128.0 * 128.0 * 128.0;
 }
 
-// A matrix the analysis multiplies by, in the form decided once for all its
-// products (both analyses): sparse where mostly_zero, with |A| made beside A
-// once, else dense, |A| made for each product that asks for it and freed. Deciding per product had scanned and converted a 1000-link chain's
-// diagonal K, |K| and E (n² entries each, twice over with the refinement)
-// for longer than the sparse products took. It refers to the matrix it is
-// given, or owns one made for it; neither copied nor moved.
 // M = D_l Ĵᵀ D_m Ĵ D_l of a point-mass chain (PointMassChain, in the
 // units of the pencil solved): products with M, |M| and U⁻¹, U⁻ᵀ (M = UUᵀ,
 // U = D_l Ĵᵀ D_m^½) in O(n) per column, and the tridiagonal U⁻¹KU⁻ᵀ of a
@@ -240,6 +234,12 @@ class ChainMass {
   VectorX lever_, mass_, root_;
 };
 
+// A matrix the analysis multiplies by, in the form decided once for all its
+// products (both analyses): sparse where mostly_zero, with |A| made beside A
+// once, else dense, |A| made for each product that asks for it and freed. Deciding per product had scanned and converted a 1000-link chain's
+// diagonal K, |K| and E (n² entries each, twice over with the refinement)
+// for longer than the sparse products took. It refers to the matrix it is
+// given, or owns one made for it; neither copied nor moved.
 class Operand {
  public:
   explicit Operand(const MatrixX& A) : dense_(&A) { decide(); }
@@ -906,9 +906,29 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // dense products (Higham, §3.5); a chain's product with M is two running
   // sums of up to n terms each and three scalings, (2n + 3)ε|M||φ|.
   const double nn = static_cast<double>(chain_mass ? 2 * n + 3 : n + 2);
-  // The entries' relative error of M: 4ε, and for a chain the mismatch of its
-  // structure against M as assembled (its products stand for M).
-  const double rM = 4 * eps + (chain_mass ? chain->mismatch : 0.0);
+  // The rounding of the Rayleigh quotient φᵀKφ/φᵀMφ: as nn, and for a chain
+  // the dot product φᵀ(Mφ) adds nε to the product's (2n + 1)ε. (The dense
+  // path's n + 2 leaves out its dot product's nε likewise: not changed here.)
+  const double nq = static_cast<double>(chain_mass ? 3 * n + 3 : n + 2);
+  // The entries' relative error of M as assembled: 4ε. A chain's products
+  // stand for M̃ = D_l Ĵᵀ D_m Ĵ D_l, which differs from M entrywise by its
+  // mismatch (PointMassChain) as measured, and at worst by that and the
+  // comparison's own rounding against the exact l_i l_j μ_j (μ_j summed with
+  // compensation, 2ε; the two products, 2ε; the difference, ε: 6ε in all
+  // added). Up to the rounding that assembling M's entries leaves (sums of
+  // up to n products: 4(n + 4)ε, far above the ≤ 6e-16 measured on
+  // generated chains), the mismatch is of that kind: it counts as M's own
+  // rounding does, measured in the typical term (rM) and with the 6ε in the
+  // worst case (rM_worst, which decides the kinds). Above it (up to the
+  // 1e-11 the structure allows: a chain bent by 1e-6 rad, small rotational
+  // inertias) it is one smooth pattern, not independent roundings, so its
+  // effect, (mismatch + 6ε)·|λ||φ|ᵀ|M||φ|, counts at its worst, with the
+  // systematic part.
+  const double chain_mismatch = chain_mass ? chain->mismatch : 0.0, comparison = chain_mass ? 6 * eps : 0.0;
+  const bool rounding_mismatch = chain_mismatch <= 4 * (static_cast<double>(n) + 4) * eps;
+  const double rM = 4 * eps + (rounding_mismatch ? chain_mismatch : 0.0);
+  const double rM_worst = rM + (rounding_mismatch ? comparison : 0.0);
+  const double mismatch = rounding_mismatch ? 0.0 : chain_mismatch + comparison;
   std::optional<Operand> E_op, D_op;  // E: none where it is 4ε|K| (products with |K|, scaled)
   if (given && !differences) E_op.emplace(K_error);
   if (given && differences) E_op.emplace(MatrixX((K_error - K_systematic_error).cwiseMax(0.0)));
@@ -1132,8 +1152,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       }
       const double x2 = Phi.col(i).squaredNorm();
       // Rigorous for the matrices as formed, to first order in ε; and typical.
-      const double residual_bound = with_gap(bound, nn * quotient_rounding(i), i);
-      const double difference_bound = differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0;
+      const double residual_bound = with_gap(bound, nq * quotient_rounding(i), i);
+      // The systematic part (Mode::systematic_error): the measured error of
+      // differences, |φ|ᵀD|φ|, and a chain's mismatch (above).
+      const double difference_bound = (differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0) +
+                                      mismatch * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i));
       // The kind is decided with the worst case of the data's rounding, first
       // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
       // mode is zero when |λ| is within it: a group's bound never turns a zero
@@ -1150,8 +1173,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       // called rounding-level λ of −9e-15 s "divergent": it has no share of
       // the positions' rounding), else |φ|ᵀE|φ|.
       const double data_rounding = form ? structured(i) : absPhi.col(i).dot(EabsPhi.col(i));
-      const double data_bound = data_rounding + rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) + difference_bound;
-      const double decision = with_gap(typical, std::sqrt(nn) * quotient_rounding(i), i) + data_bound;
+      const double data_bound = data_rounding + rM_worst * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) + difference_bound;
+      const double decision = with_gap(typical, std::sqrt(nq) * quotient_rounding(i), i) + data_bound;
       const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
       const double entries =
           std::min(absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm(), structured(i)) / phi2 +
