@@ -15,7 +15,9 @@
 //     |λ − λ_true| ≤ ‖L⁻¹ r‖₂ / ‖Lᵀ x‖₂, to which the rounding of forming r
 //     in floating point ((n + 2)ε(|K||x| + |λ||M||x|) componentwise, through
 //     L⁻¹) and of λ itself (ε|λ|) are added: Mode::residual_bound, rigorous
-//     for the matrices as formed (to first order in ε). The estimate takes
+//     for the matrices as formed (to first order in ε; for a hanging
+//     point-mass chain, Sturm counts bracket λ more narrowly and without
+//     that proviso: ChainMass::certify). The estimate takes
 //     the rounding of r at its typical size, √(n + 2)ε instead of the worst
 //     case (n + 2)ε: rounding errors of a sum of n terms grow as √n unless
 //     they conspire. Where M is ill-conditioned this term dominates (a
@@ -228,6 +230,74 @@ class ChainMass {
       d(i) = (own + next) / mass_(i);
       if (i + 1 < n) e(i) = -next / root_(i) / root_(i + 1);
     }
+  }
+
+  // Rigorous brackets of the pencil's eigenvalues by Sturm counts, where
+  // every k_i > 0 (a hanging chain under gravity): C = U⁻¹KU⁻ᵀ = BBᵀ with
+  // B = U⁻¹K^½ upper bidiagonal, and BᵀB = LDLᵀ with d_i = k_i/(l_i² m_i)
+  // and e_i = l_i²d_i = k_{i+1}/(l_{i+1}² m_i) (L unit lower bidiagonal).
+  // below(τ) counts the negative pivots of LDLᵀ − τI by the recurrence of
+  // LAPACK's dlaneg (p_i = d_i + s_i, s_{i+1} = e_i(s_i/p_i) − τ), in long
+  // double. Its rounding is that of exact arithmetic on d_i perturbed by
+  // one rounding and e_i by three (each rounding absorbed into the next
+  // pivot, signs kept), and forming d and e takes three more each: d_i and
+  // e_i within 6ε relative (ε of long double), B's entries within 3ε, so
+  // the count is exact for a bidiagonal whose entries differ from B's by a
+  // factor within 1 ± η, η = 4ε with a margin. Such a B̃ is D₁BD₂ (D₁, D₂
+  // diagonal, products of at most 2n − 1 of those factors), so its singular
+  // values lie within (1 − η)^{∓(2n − 1)} of B's (Demmel and Kahan, SIAM J.
+  // Sci. Stat. Comput. 11, 1990): the eigenvalues within a factor 1 ± ρ,
+  // ρ = 1.01·2(2n − 1)η (the 1.01 for the higher orders while ρ ≤ 0.01).
+  // For mode i, the (i + 1)-th lowest, with computed λ: if at most i
+  // eigenvalues lie below λ(1 − δ) and at least i + 1 below λ(1 + δ), as
+  // counted, the exact one lies in [λ(1 − δ)/(1 + ρ), λ(1 + δ)(1 + ρ)]; δ
+  // from 4ε of double up by factors of 4 while the radius stays below
+  // limit(i). The radius per mode, ∞ where none narrower was verified. Each
+  // count is O(n): O(n) counts per mode at most, a few in practice.
+  VectorX certify(const VectorX& k, const VectorX& lambda, const VectorX& limit) const {
+    using Wide = long double;
+    const Eigen::Index n = size(), m = lambda.size();
+    VectorX radius = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    if (k.size() != n || !(k.array() > 0).all() || !k.allFinite()) return radius;
+    const Wide eta = 4 * std::numeric_limits<Wide>::epsilon();
+    const Wide rho = 1.01L * 2 * static_cast<Wide>(2 * n - 1) * eta;
+    if (!(rho <= 0.01L)) return radius;
+    std::vector<Wide> d(static_cast<std::size_t>(n)), e(static_cast<std::size_t>(n), 0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto u = static_cast<std::size_t>(i);
+      d[u] = static_cast<Wide>(k(i)) / (static_cast<Wide>(lever_(i)) * lever_(i) * mass_(i));
+      if (i + 1 < n) e[u] = static_cast<Wide>(k(i + 1)) / (static_cast<Wide>(lever_(i + 1)) * lever_(i + 1) * mass_(i));
+    }
+    // The count below τ, or −1 where a pivot is zero or not finite.
+    auto below = [&](Wide tau) -> Eigen::Index {
+      Wide t = -tau;
+      Eigen::Index count = 0;
+      for (std::size_t i = 0; i < d.size(); ++i) {
+        const Wide pivot = d[i] + t;
+        if (!(pivot != 0) || !std::isfinite(pivot)) return -1;
+        count += pivot < 0 ? 1 : 0;
+        t = e[i] * (t / pivot) - tau;
+      }
+      return count;
+    };
+    const Wide up = 1 + 8 * std::numeric_limits<Wide>::epsilon();  // the radius's own rounding
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const Wide l = lambda(i);
+      if (!(l > 0) || !std::isfinite(lambda(i))) continue;
+      for (Wide delta = 4 * static_cast<Wide>(std::numeric_limits<double>::epsilon()); delta <= 0.25L; delta *= 4) {
+        const Wide lo = l * (1 - delta), hi = l * (1 + delta);
+        const Wide r = std::max(l - lo / (1 + rho), hi * (1 + rho) - l) * up;
+        const double r_double = std::nextafter(static_cast<double>(r), std::numeric_limits<double>::infinity());
+        if (!(r_double < limit(i))) break;
+        const Eigen::Index a = below(lo), b = below(hi);
+        if (a < 0 || b < 0) break;
+        if (a <= i && b >= i + 1) {
+          radius(i) = r_double;
+          break;
+        }
+      }
+    }
+    return radius;
   }
 
  private:
@@ -802,9 +872,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       (chain->mass.array() > 0).all())
     chain_mass.emplace(*chain);
   VectorX chain_d, chain_e;  // C's diagonal and subdiagonal, where the pairs come from it
-  bool chain_solve = chain_mass.has_value() && lapack;  // LAPACK: not loaded for a small scene
-  for (Eigen::Index j = 0; j < n && chain_solve; ++j)
-    for (Eigen::Index i = 0; i < n && chain_solve; ++i) chain_solve = i == j || K(i, j) == 0;
+  bool diagonal_K = chain_mass.has_value();  // a chain's K diagonal: C tridiagonal (and certify below)
+  for (Eigen::Index j = 0; j < n && diagonal_K; ++j)
+    for (Eigen::Index i = 0; i < n && diagonal_K; ++i) diagonal_K = i == j || K(i, j) == 0;
+  bool chain_solve = diagonal_K && lapack;  // LAPACK: not loaded for a small scene
   if (chain_solve) chain_mass->tridiagonal(K.diagonal(), chain_d, chain_e);
   // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
   // analyzed below (TridiagonalPencil: no divide and conquer over all n
@@ -1137,6 +1208,19 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
                    : lapack ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
                                   ", divide and conquer dsyevd)"
                             : std::string("dense symmetric-definite (Eigen: Cholesky of M, L⁻¹KL⁻ᵀ, self-adjoint QR)");
+    // A hanging point-mass chain's eigenvalues bracketed by Sturm counts
+    // (ChainMass::certify): rigorous for the pencil as formed, and free of
+    // the worst case of the products' rounding, which makes the residual
+    // bound of a chain's high modes up to 1e8 × its true error.
+    VectorX certified;
+    if (diagonal_K) {
+      VectorX limit(m), analyzed_lambda(m);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        limit(i) = with_gap(bound, nq * quotient_rounding(i), i);
+        analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
+      }
+      certified = chain_mass->certify(K.diagonal(), analyzed_lambda, limit);
+    }
     double worst_relative_residual = 0;
     Eigen::Index worst = 0;
     for (Eigen::Index j = 0, i = 0; j < n; ++j) {
@@ -1151,8 +1235,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
         continue;
       }
       const double x2 = Phi.col(i).squaredNorm();
-      // Rigorous for the matrices as formed, to first order in ε; and typical.
-      const double residual_bound = with_gap(bound, nq * quotient_rounding(i), i);
+      // Rigorous for the matrices as formed, to first order in ε (a chain's
+      // certified bracket: without that proviso); and typical.
+      const double residual_bound =
+          std::min(with_gap(bound, nq * quotient_rounding(i), i),
+                   certified.size() == m ? certified(i) : std::numeric_limits<double>::infinity());
       // The systematic part (Mode::systematic_error): the measured error of
       // differences, |φ|ᵀD|φ|, and a chain's mismatch (above).
       const double difference_bound = (differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0) +
