@@ -235,7 +235,8 @@ class ChainMass {
   // Rigorous brackets of the pencil's eigenvalues by Sturm counts, where
   // every k_i > 0 (a hanging chain under gravity): C = U⁻¹KU⁻ᵀ = BBᵀ with
   // B = U⁻¹K^½ upper bidiagonal, and BᵀB = LDLᵀ with d_i = k_i/(l_i² m_i)
-  // and e_i = l_i²d_i = k_{i+1}/(l_{i+1}² m_i) (L unit lower bidiagonal).
+  // and e_i = L_{i+1,i}² d_i = k_{i+1}/(l_{i+1}² m_i) (L unit lower
+  // bidiagonal; l the signed lengths as elsewhere).
   // below(τ) counts the negative pivots of LDLᵀ − τI by the recurrence of
   // LAPACK's dlaneg (p_i = d_i + s_i, s_{i+1} = e_i(s_i/p_i) − τ), in long
   // double. Its rounding is that of exact arithmetic on d_i perturbed by
@@ -253,11 +254,14 @@ class ChainMass {
   // counted, the exact one lies in [λ(1 − δ)/(1 + ρ), λ(1 + δ)(1 + ρ)]; δ
   // from 4ε of double up by factors of 4 while the radius stays below
   // limit(i). The radius per mode, ∞ where none narrower was verified. Each
-  // count is O(n): O(n) counts per mode at most, a few in practice.
+  // count is O(n): at most 50 counts per mode (δ takes at most 25 values),
+  // two in practice. The analysis needs a long double of 64 bits with
+  // IEEE rounding (x86's); elsewhere no bracket is claimed.
   VectorX certify(const VectorX& k, const VectorX& lambda, const VectorX& limit) const {
     using Wide = long double;
     const Eigen::Index n = size(), m = lambda.size();
     VectorX radius = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    if constexpr (std::numeric_limits<Wide>::digits < 64 || !std::numeric_limits<Wide>::is_iec559) return radius;
     if (k.size() != n || !(k.array() > 0).all() || !k.allFinite()) return radius;
     const Wide eta = 4 * std::numeric_limits<Wide>::epsilon();
     const Wide rho = 1.01L * 2 * static_cast<Wide>(2 * n - 1) * eta;
@@ -280,7 +284,10 @@ class ChainMass {
       }
       return count;
     };
-    const Wide up = 1 + 8 * std::numeric_limits<Wide>::epsilon();  // the radius's own rounding
+    // The rounding of the radius (lo/(1 + ρ) and the products: a few ε of
+    // long double relative to λ) is covered by η's margin (8 units of
+    // rounding taken where the counts need 3); `up` covers the last steps.
+    const Wide up = 1 + 8 * std::numeric_limits<Wide>::epsilon();
     for (Eigen::Index i = 0; i < m; ++i) {
       const Wide l = lambda(i);
       if (!(l > 0) || !std::isfinite(lambda(i))) continue;
