@@ -1219,14 +1219,14 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // (ChainMass::certify): rigorous for the pencil as formed, and free of
     // the worst case of the products' rounding, which makes the residual
     // bound of a chain's high modes up to 1e8 × its true error.
-    VectorX certified;
+    // residual_bounds: rigorous for the matrices as formed, to first order
+    // in ε (a chain's certified bracket: without that proviso).
+    VectorX residual_bounds(m);
+    for (Eigen::Index i = 0; i < m; ++i) residual_bounds(i) = with_gap(bound, nq * quotient_rounding(i), i);
     if (diagonal_K) {
-      VectorX limit(m), analyzed_lambda(m);
-      for (Eigen::Index i = 0; i < m; ++i) {
-        limit(i) = with_gap(bound, nq * quotient_rounding(i), i);
-        analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
-      }
-      certified = chain_mass->certify(K.diagonal(), analyzed_lambda, limit);
+      VectorX analyzed_lambda(m);
+      for (Eigen::Index i = 0; i < m; ++i) analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
+      residual_bounds = residual_bounds.cwiseMin(chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds));
     }
     double worst_relative_residual = 0;
     Eigen::Index worst = 0;
@@ -1242,11 +1242,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
         continue;
       }
       const double x2 = Phi.col(i).squaredNorm();
-      // Rigorous for the matrices as formed, to first order in ε (a chain's
-      // certified bracket: without that proviso); and typical.
-      const double residual_bound =
-          std::min(with_gap(bound, nq * quotient_rounding(i), i),
-                   certified.size() == m ? certified(i) : std::numeric_limits<double>::infinity());
+      const double residual_bound = residual_bounds(i);
       // The systematic part (Mode::systematic_error): the measured error of
       // differences, |φ|ᵀD|φ|, and a chain's mismatch (above).
       const double difference_bound = (differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0) +
