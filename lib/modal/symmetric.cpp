@@ -66,7 +66,10 @@
 // (tests/test_tree.cpp, TreeModes.DenseChainEstimatesAreTypicalNotWorstCase).
 // What is left there is the typical size of the products' rounding itself
 // (√n ε‖x∘(|M||x|)‖₂ |λ|): the partial sums of an oscillating mode cancel,
-// and no bound that ignores them is tighter.
+// and no bound that ignores them is tighter. A hanging point-mass chain
+// (K diagonal and positive, M of the chain's structure) has a narrower
+// estimate from that structure and its Sturm counts (chain_estimate, in
+// the analysis below).
 #include "detail.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -252,15 +255,21 @@ class ChainMass {
   // For mode i, the (i + 1)-th lowest, with computed λ: if at most i
   // eigenvalues lie below λ(1 − δ) and at least i + 1 below λ(1 + δ), as
   // counted, the exact one lies in [λ(1 − δ)/(1 + ρ), λ(1 + δ)(1 + ρ)]; δ
-  // from 4ε of double up by factors of 4 while the radius stays below
-  // limit(i). The radius per mode, ∞ where none narrower was verified. Each
-  // count is O(n): at most 50 counts per mode (δ takes at most 25 values),
-  // two in practice. The analysis needs a long double of 64 bits with
-  // IEEE rounding (x86's); elsewhere no bracket is claimed.
-  VectorX certify(const VectorX& k, const VectorX& lambda, const VectorX& limit) const {
+  // from ε of double up by factors of 4 while the radius stays below
+  // limit(i). The radius per mode, ∞ where none narrower was verified; in
+  // `spread` (where given), δ|λ| of the same bracket, the half width that
+  // the counts themselves resolved (without ρ, the worst case of their
+  // rounding, which is 4nε of long double, 4ε of double at n = 1000: their
+  // rounding errors are independent, so at their typical size some √n
+  // times smaller), for the error estimate. Each count is O(n): at most 52
+  // counts per mode (δ takes at most 26 values), two to four in practice.
+  // The analysis needs a long double of 64 bits with IEEE rounding (x86's);
+  // elsewhere no bracket is claimed.
+  VectorX certify(const VectorX& k, const VectorX& lambda, const VectorX& limit, VectorX* spread = nullptr) const {
     using Wide = long double;
     const Eigen::Index n = size(), m = lambda.size();
     VectorX radius = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    if (spread != nullptr) *spread = radius;
     if constexpr (std::numeric_limits<Wide>::digits < 64 || !std::numeric_limits<Wide>::is_iec559) return radius;
     if (k.size() != n || !(k.array() > 0).all() || !k.allFinite()) return radius;
     const Wide eta = 4 * std::numeric_limits<Wide>::epsilon();
@@ -291,7 +300,7 @@ class ChainMass {
     for (Eigen::Index i = 0; i < m; ++i) {
       const Wide l = lambda(i);
       if (!(l > 0) || !std::isfinite(lambda(i))) continue;
-      for (Wide delta = 4 * static_cast<Wide>(std::numeric_limits<double>::epsilon()); delta <= 0.25L; delta *= 4) {
+      for (Wide delta = std::numeric_limits<double>::epsilon(); delta <= 0.25L; delta *= 4) {
         const Wide lo = l * (1 - delta), hi = l * (1 + delta);
         const Wide r = std::max(l - lo / (1 + rho), hi * (1 + rho) - l) * up;
         const double r_double = std::nextafter(static_cast<double>(r), std::numeric_limits<double>::infinity());
@@ -300,6 +309,7 @@ class ChainMass {
         if (a < 0 || b < 0) break;
         if (a <= i && b >= i + 1) {
           radius(i) = r_double;
+          if (spread != nullptr) (*spread)(i) = static_cast<double>(delta * l);
           break;
         }
       }
@@ -1223,10 +1233,39 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // in ε (a chain's certified bracket: without that proviso).
     VectorX residual_bounds(m);
     for (Eigen::Index i = 0; i < m; ++i) residual_bounds(i) = with_gap(bound, nq * quotient_rounding(i), i);
+    // The estimate of a bracketed mode (chain_estimate; ∞ where none): the
+    // counts' half width δ|λ| for the solver's part, and the data's part
+    // from the chain's structure. With K diagonal and M = D_l Ĵᵀ D_m Ĵ D_l,
+    // the data enter as relative errors of the k_j and the lengths l_j (the
+    // masses are the scene's own): to first order δλ = Σ_j φ_j² k_j (δk_j/k_j
+    // − 2δl_j/l_j) / φᵀMφ, a mean of the entries' relative errors weighted by
+    // φ_j² k_j (of sum λφᵀMφ), not a sum over |M|'s entries, which is up to
+    // n² × φᵀMφ on a chain's high modes (what made these estimates up to
+    // 2.6e6 × the error). Each relative error is taken at its typical size,
+    // about a quarter of its bound: E_jj/4 for k_j (E: K_error, 4ε Σ|terms|,
+    // eight units of rounding for an entry of a few operations, which with
+    // compensated subtree sums, sum_subtrees, is measured within 1.5ε), and
+    // for l_j = (M_jj/μ_j)^½ half of M_jj's typical ε and of the
+    // rounding-level mismatch, which measures how far M's other entries
+    // disagree with the lengths so found (within 0.83ε measured where the
+    // scene's M is written out, point_mass_chain_mass; the mismatch is then
+    // 1–2ε). The mean, not a root mean square: equal links round alike, and
+    // their errors do not average out.
+    VectorX chain_estimate = VectorX::Constant(m, std::numeric_limits<double>::infinity());
     if (diagonal_K) {
-      VectorX analyzed_lambda(m);
+      VectorX analyzed_lambda(m), spread;
       for (Eigen::Index i = 0; i < m; ++i) analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
-      residual_bounds = residual_bounds.cwiseMin(chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds));
+      residual_bounds =
+          residual_bounds.cwiseMin(chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds, &spread));
+      const VectorX k_error =
+          !given ? VectorX(4 * eps * K.diagonal().cwiseAbs())
+          : differences ? VectorX((K_error.diagonal() - K_systematic_error.diagonal()).cwiseMax(0.0))
+                        : VectorX(K_error.diagonal());
+      const double length_error = 0.5 * (eps + (rounding_mismatch ? chain_mismatch : 0.0));
+      const VectorX weight = 0.25 * k_error + 2 * length_error * K.diagonal().cwiseAbs();
+      for (Eigen::Index i = 0; i < m; ++i)
+        if (std::isfinite(spread(i)))
+          chain_estimate(i) = spread(i) + Phi.col(i).cwiseAbs2().dot(weight) / phiMphi(i);
     }
     double worst_relative_residual = 0;
     Eigen::Index worst = 0;
@@ -1281,7 +1320,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       // Where that typical size (doubled) exceeds the decision's value, as it
       // may for a few coordinates, the smaller of the two.
       const double error = zero ? std::max(decision, std::abs(l))
-                                : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
+                           : std::isfinite(chain_estimate(i))
+                               ? chain_estimate(i) + difference_bound
+                               : std::min(decision, with_gap(typical, quotient, i, clustered(i)) + difference_bound);
       // The solver's share of the estimate against what the data and the
       // quotient's rounding alone justify.
       const double solver_part = with_gap(typical, 0.0, i, clustered(i)) - eps * std::abs(l);
