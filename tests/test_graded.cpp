@@ -1758,6 +1758,31 @@ TEST(PointMassChains, TheStructureIsFoundWhereItHoldsAndNowhereElse) {
   std::printf("point-mass chains: worst mismatch %.1e\n", worst);
 }
 
+// A point-mass chain's M written out from the kinematics, not from the
+// bodies' frames: a body's orientation may be off orthogonal by up to the
+// 1e-12 System accepts, and then its world length differs from the one in
+// its frame by that much. Every ω² within its estimate (a few ε) of the
+// long double reference of the scene's own kinematics (which shares nothing
+// with the written-out M), the off-orthogonal body at each place in turn.
+TEST(PointMassChains, TheWrittenOutMassMatrixIsTheKinematicsOwn) {
+  const std::vector<double> masses{1.0, 2.0, 0.5}, lengths{1.0, 0.7, 1.3};
+  for (std::size_t pick = 0; pick < masses.size(); ++pick) {
+    SystemDescription d = point_mass_chain_scene(masses, lengths);
+    d.bodies[pick].orientation = Vec3(1 + 3e-13, 1, 1 + 3e-13).asDiagonal();
+    const System s(d);
+    const VectorX q = VectorX::Zero(s.size());
+    const LinearModel model = linearize(s, q);
+    ASSERT_FALSE(model.absolute.chain.empty()) << "body " << pick;
+    const ModalResult r = solve_modes(model);
+    const std::vector<LD> reference = reference_omega2(s, q);
+    ASSERT_EQ(r.modes.size(), reference.size());
+    for (std::size_t k = 0; k < reference.size(); ++k)
+      EXPECT_LE(std::abs(static_cast<LD>(r.modes[k].omega2) - reference[k]), r.modes[k].error_estimate)
+          << "body " << pick << ", mode " << k + 1 << ": " << r.modes[k].omega2 << " against "
+          << static_cast<double>(reference[k]);
+  }
+}
+
 // Long graded point-mass chains on the default path (LAPACK from 150
 // coordinates: the tridiagonal U⁻¹KU⁻ᵀ and MRRR), every mode against the
 // __float128 reference: 150–320 links, masses and lengths log-uniform over
@@ -1778,7 +1803,8 @@ TEST(PointMassChains, TheStructureIsFoundWhereItHoldsAndNowhereElse) {
 TEST(PointMassChains, LongGradedChainsMatchTheQuadPrecisionReference) {
   constexpr double eps = std::numeric_limits<double>::epsilon();
   std::mt19937_64 rng(3017);
-  double loosest_estimate = 0, loosest_bound = 0, worst_error = 0, worst_data = 0, worst_M = 0, worst_K = 0;
+  double loosest_estimate = 0, loosest_bound = 0, worst_error = 0, worst_data = 0, worst_M = 0, worst_K = 0,
+         worst_K_relative = 0;
   for (int trial = 0; trial < 5; ++trial) {
     const int links = std::uniform_int_distribution<int>(150, 320)(rng);
     std::vector<double> masses, lengths;
@@ -1806,6 +1832,15 @@ TEST(PointMassChains, LongGradedChainsMatchTheQuadPrecisionReference) {
         const double dk = static_cast<double>(k_difference < 0 ? -k_difference : k_difference);
         worst_K = std::max(worst_K, dk / static_cast<double>(k));
         EXPECT_LE(dk, model.absolute.K_magnitude(e, e)) << "trial " << trial << ": K_" << j << j;
+        // In relative angles K_jj = g Σ_{b≥j} m_b (l_j + … + l_b): the subtree
+        // sums P (the offsets' products carried too), within K_error.
+        __float128 relative = 0, reach = 0;
+        for (std::size_t b = j; b < below.size(); ++b) relative += static_cast<__float128>(masses[b]) * (reach += lengths[b]);
+        relative *= static_cast<__float128>(9.81);
+        const __float128 r_difference = static_cast<__float128>(model.K(e, e)) - relative;
+        const double dr = static_cast<double>(r_difference < 0 ? -r_difference : r_difference);
+        worst_K_relative = std::max(worst_K_relative, dr / static_cast<double>(relative));
+        EXPECT_LE(dr, model.K_error(e, e)) << "trial " << trial << ": K_" << j << j << " in relative angles";
         for (std::size_t i = 0; i <= j; ++i) {
           const __float128 exact = static_cast<__float128>(lengths[i]) * lengths[j] * below[j];
           const __float128 m_difference =
@@ -1843,8 +1878,9 @@ TEST(PointMassChains, LongGradedChainsMatchTheQuadPrecisionReference) {
   }
   std::printf("long point-mass chains: worst relative error %.1e, estimate / error up to %.1e, bound / error of the "
               "pencil as formed up to %.1e; that pencil's eigenvalues within %.1e relative of the exact ones, M's "
-              "entries within %.2f ε, K's diagonal within %.2f ε\n",
-              worst_error, loosest_estimate, loosest_bound, worst_data, worst_M / eps, worst_K / eps);
+              "entries within %.2f ε, K's diagonal within %.2f ε (in relative angles %.2f ε)\n",
+              worst_error, loosest_estimate, loosest_bound, worst_data, worst_M / eps, worst_K / eps,
+              worst_K_relative / eps);
   // The tridiagonal form's accuracy (measured 1.0e-15): a solve that lost it
   // (the dense path in these angles, or a wrong transformation) stays within
   // the estimates above, but not within this.

@@ -471,10 +471,11 @@ template <class A, class B> void add_compensated(A& a, const B& b, A& carried) {
 // equal terms add up alike) in K_jj = g l_j Σ_{b≥j} m_b, above the
 // 4ε Σ|terms| that K_magnitude stands for (LinearModel::K_error). Each
 // sum's rounding errors travel up the tree beside it (carried, added to a
-// parent's with the child's sum) and are added once the loop is done; a
-// child's sums where they are used (the offset's products, the regions)
-// are taken with its errors added, so each is the exact sum of its terms
-// rounded about once and what is left is the terms' own rounding.
+// parent's with the child's sum; the child's sum and the offset's product
+// added as two terms) and are added once the loop is done; a child's sums
+// where they are used (the offset's products, the regions) are taken with
+// its errors added, so each is the exact sum of its terms rounded about
+// once and what is left is the terms' own rounding.
 template <class R>
 void sum_subtrees(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bool second_order,
                   const std::vector<char>* held) {
@@ -507,10 +508,12 @@ void sum_subtrees(const System& s, const TreeState<R>& st, SubtreeSums<R>& c, bo
       }
       add_compensated(c.F[pp], c.F[b], c.carried_F[pp]);
       c.carried_F[pp] += c.carried_F[b];
-      add_compensated(c.tau[pp], model::V3<R>(c.tau[b] + d.cross(F)), c.carried_tau[pp]);
+      add_compensated(c.tau[pp], c.tau[b], c.carried_tau[pp]);
+      add_compensated(c.tau[pp], model::V3<R>(d.cross(F)), c.carried_tau[pp]);
       c.carried_tau[pp] += c.carried_tau[b];
       if (second_order) {
-        add_compensated(c.P[pp], model::M3<R>(c.P[b] + shifted), c.carried_P[pp]);
+        add_compensated(c.P[pp], c.P[b], c.carried_P[pp]);
+        add_compensated(c.P[pp], shifted, c.carried_P[pp]);
         c.carried_P[pp] += c.carried_P[b];
       }
     } else {
@@ -1719,12 +1722,17 @@ VectorX suffix_masses(const VectorX& mass) {
 // a hinge parallel to its parent's (held, all of them), no rotational
 // inertia and no armature, each centre of mass exactly at the child's joint
 // (com_b == origin_{b+1}, both in b's frame), and the chain straight at q
-// (the levers' parts across the axis, a × R_b com_b in the world, parallel
-// to sin² ≤ ε/16, so that the entries' factor cos(θ_i − θ_j) is ±1 to
-// within ε/16). Then M_ij = l_i l_j μ_max(i,j) exactly, l_b = |a_b × com_b|
-// signed by the lever's direction against body 0's, and formed so each
-// entry is within three roundings and μ's (suffix_masses) of the scene's
-// own M, where the tree's assembly (composite inertias, plainly summed)
+// (the levers' parts across the axis, ω_b × R_b com_b in the world,
+// parallel to sin² ≤ ε/16, so that the entries' factor cos(θ_i − θ_j) is
+// ±1 to within ε/16). Then M_ij = l_i l_j μ_max(i,j) exactly, l_b =
+// |ω_b × R_b com_b| (in the world, as the scene's kinematics make it: a
+// body's orientation need be orthogonal only to 1e-12, and the body frame's
+// lengths would then differ from the world's) signed by the lever's
+// direction against body 0's, and formed so each entry is within three
+// roundings and μ's (suffix_masses) of the M of the scene's kinematics
+// (R_b com_b exact where the orientations are the identity and q = 0, a
+// few roundings per level else), where the tree's assembly (composite
+// inertias, plainly summed)
 // left up to 18ε on a chain of 300 equal links: the pencil such a chain
 // solves (ChainMass, with l from M's diagonal) then carries the scene's
 // lengths to a few ε. Returns whether it applied; M is left as it was if not.
@@ -1742,7 +1750,7 @@ bool point_mass_chain_mass(const System& s, const TreeState<double>& st, const s
       return false;
     const auto u = static_cast<std::size_t>(b);
     const Vec3 across = st.omega[u].cross(st.rotation[u] * body.com);
-    const double size = body.axis.cross(body.com).norm();
+    const double size = across.norm();
     if (!(size > 0) || !std::isfinite(size)) return false;
     if (b == 0) {
       first = across;

@@ -259,7 +259,7 @@ class ChainMass {
   // limit(i). The radius per mode, ∞ where none narrower was verified; in
   // `spread` (where given), δ|λ| of the same bracket, the half width that
   // the counts themselves resolved (without ρ, the worst case of their
-  // rounding, which is 4nε of long double, 4ε of double at n = 1000: their
+  // rounding, about 16nε of long double, 8ε of double at n = 1000: their
   // rounding errors are independent, so at their typical size some √n
   // times smaller), for the error estimate. Each count is O(n): at most 52
   // counts per mode (δ takes at most 26 values), two to four in practice.
@@ -1247,9 +1247,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // compensated subtree sums, sum_subtrees, is measured within 1.5ε), and
     // for l_j = (M_jj/μ_j)^½ half of M_jj's typical ε and of the
     // rounding-level mismatch, which measures how far M's other entries
-    // disagree with the lengths so found (within 0.83ε measured where the
-    // scene's M is written out, point_mass_chain_mass; the mismatch is then
-    // 1–2ε). The mean, not a root mean square: equal links round alike, and
+    // disagree with the lengths so found (the lengths within 0.83ε
+    // measured where the scene's M is written out, point_mass_chain_mass;
+    // the mismatch is then 1–2ε). The mean, not a root mean square: equal links round alike, and
     // their errors do not average out.
     VectorX chain_estimate = VectorX::Constant(m, std::numeric_limits<double>::infinity());
     if (diagonal_K) {
