@@ -438,7 +438,7 @@ if not QUICK or "--out=" in " ".join(sys.argv):
         "estimate/true 22 … 740 → 3 … 6; N = 100 20 … 3.2e4 → 2.6 … 5.5; N = 300 7.3 … 1.9e4 → 2 … 6 (bounds",
         "under: 246 → 0; worst error 7.4e-15 → 6.5e-16); N = 1000 39 … 2.6e6 → 1.7 … 6; graded chains",
         "21 … 1.5e7 → 2.4 … 7.4. The chain of 2000 links with `--modes 20` goes to the sparse path, which",
-        "has none of this (estimates 45 … 1.5e3 ×, bounds to 6.8e8 ×).",
+        "has none of this (estimates 21 … 1.9e3 ×, bounds to 6.9e8 ×).",
         "",
         "## A spring's terms in the data's rounding (3e7cdfe and the commit after 44f7b66, 2026-11-28)",
         "",
