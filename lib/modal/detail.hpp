@@ -16,13 +16,53 @@
 #include <Eigen/Cholesky>
 
 #include <complex>
+#include <exception>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace modal::detail {
 
 using Cholesky = Eigen::LLT<MatrixX>;
+
+// M's Cholesky factor, formed on first use (by the function given, which
+// also tests M's definiteness: factor_mass) or given formed. A point-mass
+// chain's path (solve_symmetric) needs none unless MRRR fails: its M = UUᵀ
+// with U⁻¹ bidiagonal is positive definite by its structure, and the dense
+// factor (n³/3 flops, OpenBLAS's threads) was an eighth of a 1000-link
+// chain's eigen phase.
+class MassFactor {
+ public:
+  explicit MassFactor(std::function<Cholesky()> make) : make_(std::move(make)) {}
+  explicit MassFactor(Cholesky formed) : formed_(std::move(formed)) {}
+  const Cholesky& operator()() const {
+    if (failure_) std::rethrow_exception(failure_);
+    if (!formed_) formed_ = make_();
+    return *formed_;
+  }
+  // Whether the factor can be formed (M definite to factor_mass's test). The
+  // failure (SingularMassMatrix) is kept and thrown where the factor is
+  // then asked for: a chain's path answers without it, where M's
+  // definiteness is its structure's, not the normwise test's.
+  bool definite() const {
+    if (formed_) return true;
+    if (failure_) return false;
+    try {
+      formed_ = make_();
+      return true;
+    } catch (const SingularMassMatrix&) {
+      failure_ = std::current_exception();
+      return false;
+    }
+  }
+
+ private:
+  std::function<Cholesky()> make_;
+  mutable std::optional<Cholesky> formed_;
+  mutable std::exception_ptr failure_;
+};
 
 // A lower bound μ > 0 on the smallest eigenvalue of D^{-1/2}MD^{-1/2} for the
 // tree's M (`diagonal` = diag M = D, tree_diagonal(p, 0, 1); `mass` M's
@@ -71,6 +111,8 @@ bool scales_exactly(const MatrixX& A, const VectorX& s);
 // An upper bound of the smallest eigenvalue of the SPD matrix factored in
 // `llt` (n×n), by a few steps of inverse iteration (mass.cpp).
 double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n);
+// The same with M⁻¹ applied in place by `solve` (x ← M⁻¹x).
+double smallest_eigenvalue_bound(const std::function<void(VectorX&)>& solve, Eigen::Index n);
 
 // "the combination 0.71·upper.rx − 0.71·upper.rz" for a unit vector v over
 // the coordinates `names` (components below a tenth of the largest left out,
@@ -83,7 +125,8 @@ std::vector<std::string> names_or_default(const std::vector<std::string>& names,
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
                      const std::vector<int>& absolute = {});
 
-// K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M.
+// K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M (formed
+// where the path needs it).
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's
 // entries (LinearModel::K_error). Fills modes (ascending λ), morse_index,
 // zero_modes, solver, notes (not the cluster notes: add_cluster_notes, once
@@ -102,7 +145,7 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // units of M as given), within its mismatch of M: the products with M and
 // M⁻¹ of the analysis then cost O(n) per vector, and where K is diagonal
 // every pair comes from the tridiagonal U⁻¹KU⁻ᵀ (MRRR) in O(n²).
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error = {},
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
                             Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),
                             const PointMassChain* chain = nullptr);

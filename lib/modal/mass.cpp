@@ -131,6 +131,10 @@ std::string describe_combination(VectorX v, const std::vector<std::string>& name
 // that matters here (λ_min near rounding level, the others not) makes a few
 // steps enough for 1/ρ to reach λ_min within a small factor.
 double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n) {
+  return smallest_eigenvalue_bound([&llt](VectorX& x) { x = llt.solve(x); }, n);
+}
+
+double smallest_eigenvalue_bound(const std::function<void(VectorX&)>& solve, Eigen::Index n) {
   VectorX x(n);
   // A start with components along every direction of interest: no simple
   // pattern (all ones, alternating signs) that a null vector such as
@@ -139,7 +143,8 @@ double smallest_eigenvalue_bound(const Cholesky& llt, Eigen::Index n) {
   x.normalize();
   double rho = 0;
   for (int it = 0; it < 8; ++it) {
-    VectorX y = llt.solve(x);
+    VectorX y = x;
+    solve(y);
     rho = x.dot(y);
     const double norm = y.norm();
     if (!(norm > 0) || !std::isfinite(norm)) return 0;  // M⁻¹ blew up: singular

@@ -268,7 +268,6 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   } else if (Cs.size() == 0) {
     Cs.setZero(n, n);  // the first-order solver's C (follower loads alone)
   }
-  const detail::Cholesky mass = detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{});
   // A point-mass chain's structure, in the units of Ms: l_j s_j times the
   // magnitude's power of two (exact; m unchanged).
   std::optional<PointMassChain> chain;
@@ -276,9 +275,13 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
     chain = abs.chain;
     for (Eigen::Index j = 0; j < n; ++j) chain->lever(j) = std::ldexp(chain->lever(j) * scale(j), magnitude.a);
   }
+  // M's factor and definiteness test: formed here, or, for a chain, where
+  // its path needs it (detail::MassFactor).
+  auto factor = [&] { return detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{}); };
+  const detail::MassFactor mass = chain ? detail::MassFactor(factor) : detail::MassFactor(factor());
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
                                                options.modes, rounding_form, chain ? &*chain : nullptr)
-                     : detail::solve_first_order(Ms, Ks, Cs, mass, K_error, K_systematic, G_error, C_rounding,
+                     : detail::solve_first_order(Ms, Ks, Cs, mass(), K_error, K_systematic, G_error, C_rounding,
                                                  rounding_form);
   detail::restore_magnitudes(result, magnitude, symmetric);
   // Classify with every mode, then keep the lowest ones asked for (the

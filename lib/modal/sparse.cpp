@@ -1008,7 +1008,7 @@ ModalResult solve_dense_fallback(const SparseMatrix& K, const SparseMatrix& M, I
                                  const Units& units) {
   const Index n = K.rows();
   const MatrixX Md = MatrixX(M), Kd = MatrixX(K);
-  const detail::Cholesky mass = detail::factor_mass(Md, coordinate_names(options, n), scale);
+  const detail::MassFactor mass(detail::factor_mass(Md, coordinate_names(options, n), scale));
   // K_error as solve_modes takes it: the rounding (4ε per term) and the systematic part.
   MatrixX K_error;
   if (term_sizes.rows() == n) {

@@ -85,6 +85,7 @@
 #include <numeric>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 // LAPACK (Debian's liblapack3 interface; OpenBLAS's implementation where it is
@@ -255,8 +256,9 @@ class ChainMass {
   // For mode i, the (i + 1)-th lowest, with computed λ: if at most i
   // eigenvalues lie below λ(1 − δ) and at least i + 1 below λ(1 + δ), as
   // counted, the exact one lies in [λ(1 − δ)/(1 + ρ), λ(1 + δ)(1 + ρ)]; δ
-  // from ε of double up by factors of 4 while the radius stays below
-  // limit(i). The radius per mode, ∞ where none narrower was verified; in
+  // from ε of double up by factors of 4 to the first bracket the counts
+  // verify (without `spread`, only while the radius stays below limit(i)).
+  // The radius per mode where it is below limit(i), else ∞; in
   // `spread` (where given), δ|λ| of the same bracket, the half width that
   // the counts themselves resolved (without ρ, the worst case of their
   // rounding, about 16nε of long double, 8ε of double at n = 1000: their
@@ -281,17 +283,22 @@ class ChainMass {
       d[u] = static_cast<Wide>(k(i)) / (static_cast<Wide>(lever_(i)) * lever_(i) * mass_(i));
       if (i + 1 < n) e[u] = static_cast<Wide>(k(i + 1)) / (static_cast<Wide>(lever_(i + 1)) * lever_(i + 1) * mass_(i));
     }
-    // The count below τ, or −1 where a pivot is zero or not finite.
-    auto below = [&](Wide tau) -> Eigen::Index {
-      Wide t = -tau;
-      Eigen::Index count = 0;
+    // The counts below τ₁ and τ₂, or −1 where a pivot is zero or not
+    // finite: the two recurrences run side by side (each step's division
+    // waits on the one before, so two chains in one loop take about the
+    // time of one).
+    auto below = [&](Wide tau1, Wide tau2) -> std::pair<Eigen::Index, Eigen::Index> {
+      Wide t1 = -tau1, t2 = -tau2;
+      Eigen::Index count1 = 0, count2 = 0;
       for (std::size_t i = 0; i < d.size(); ++i) {
-        const Wide pivot = d[i] + t;
-        if (!(pivot != 0) || !std::isfinite(pivot)) return -1;
-        count += pivot < 0 ? 1 : 0;
-        t = e[i] * (t / pivot) - tau;
+        const Wide pivot1 = d[i] + t1, pivot2 = d[i] + t2;
+        if (!(pivot1 != 0) || !std::isfinite(pivot1) || !(pivot2 != 0) || !std::isfinite(pivot2)) return {-1, -1};
+        count1 += pivot1 < 0 ? 1 : 0;
+        count2 += pivot2 < 0 ? 1 : 0;
+        t1 = e[i] * (t1 / pivot1) - tau1;
+        t2 = e[i] * (t2 / pivot2) - tau2;
       }
-      return count;
+      return {count1, count2};
     };
     // The rounding of the radius (lo/(1 + ρ) and the products: a few ε of
     // long double relative to λ) is covered by η's margin (8 units of
@@ -304,11 +311,12 @@ class ChainMass {
         const Wide lo = l * (1 - delta), hi = l * (1 + delta);
         const Wide r = std::max(l - lo / (1 + rho), hi * (1 + rho) - l) * up;
         const double r_double = std::nextafter(static_cast<double>(r), std::numeric_limits<double>::infinity());
-        if (!(r_double < limit(i))) break;
-        const Eigen::Index a = below(lo), b = below(hi);
+        const bool narrower = r_double < limit(i);
+        if (!narrower && spread == nullptr) break;
+        const auto [a, b] = below(lo, hi);
         if (a < 0 || b < 0) break;
         if (a <= i && b >= i + 1) {
-          radius(i) = r_double;
+          if (narrower) radius(i) = r_double;
           if (spread != nullptr) (*spread)(i) = static_cast<double>(delta * l);
           break;
         }
@@ -870,7 +878,7 @@ bool refine_unresolved(const MatrixX& M, const MatrixX& K, const Eigen::SparseMa
 
 bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
-ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& mass, const MatrixX& K_error,
+ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
                             const SparseMatrix& K_rounding_form, const PointMassChain* chain) {
   const Eigen::Index n = M.rows();
@@ -892,7 +900,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   bool diagonal_K = chain_mass.has_value();  // a chain's K diagonal: C tridiagonal (and certify below)
   for (Eigen::Index j = 0; j < n && diagonal_K; ++j)
     for (Eigen::Index i = 0; i < n && diagonal_K; ++i) diagonal_K = i == j || K(i, j) == 0;
-  bool chain_solve = diagonal_K && lapack;  // LAPACK: not loaded for a small scene
+  // LAPACK: not loaded for a small scene, unless M's dense factor fails
+  // (a light chain with a heavy tip: M scaled to a unit diagonal is then near
+  // a matrix of ones, and singular to the normwise test, while its structure
+  // makes it definite).
+  bool chain_solve = diagonal_K && (lapack || !mass.definite());
   if (chain_solve) chain_mass->tridiagonal(K.diagonal(), chain_d, chain_e);
   // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
   // analyzed below (TridiagonalPencil: no divide and conquer over all n
@@ -907,16 +919,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
         chain_mass->solve_transposed(Phi);
       } else {  // dstemr failed: the dense solver
         chain_solve = false;
-        lapack_pairs(K, mass, lambda_all, Phi);
+        lapack_pairs(K, mass(), lambda_all, Phi);
       }
     }
   } else if (lapack && wanted >= 0 && wanted < n) {
-    reduced.emplace(K, mass);
+    reduced.emplace(K, mass());
     lambda_all = reduced->eigenvalues();
   } else if (lapack) {
-    lapack_pairs(K, mass, lambda_all, Phi);
+    lapack_pairs(K, mass(), lambda_all, Phi);
   } else {
-    eigen_pairs(K, mass, lambda_all, Phi);
+    eigen_pairs(K, mass(), lambda_all, Phi);
   }
 
   // The modes analyzed below (residuals, rounding, data terms: O(n²) each, so
@@ -934,7 +946,17 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   VectorX cheap;
   Eigen::Index prefix = n;
   if (wanted >= 0 && wanted < n) {
-    const double lambda_min = smallest_eigenvalue_bound(mass, n);
+    // (a chain's by its structure: U⁻ᵀU⁻¹ in O(n), no dense factor)
+    const double lambda_min =
+        chain_mass ? smallest_eigenvalue_bound(
+                         [&](VectorX& x) {
+                           MatrixX y = x;
+                           chain_mass->solve(y);
+                           chain_mass->solve_transposed(y);
+                           x = y.col(0);
+                         },
+                         n)
+                   : smallest_eigenvalue_bound(mass(), n);
     const double normK = K.norm(), normM = M.norm();
     cheap.resize(n);
     Eigen::Index needed = wanted;
@@ -950,7 +972,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   if (reduced) {
     Phi = reduced->lowest_vectors(static_cast<int>(prefix));
     if (Phi.cols() != prefix) {  // dstemr failed: every pair by divide and conquer
-      lapack_pairs(K, mass, lambda_all, Phi);
+      lapack_pairs(K, mass(), lambda_all, Phi);
       reduced.reset();
     }
   } else if (chain_solve && Phi.cols() == 0 && prefix > 0) {
@@ -959,7 +981,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       chain_mass->solve_transposed(Phi);
     } else {  // dstemr failed: every pair by the dense solver
       chain_solve = false;
-      lapack_pairs(K, mass, lambda_all, Phi);
+      lapack_pairs(K, mass(), lambda_all, Phi);
     }
   }
   if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
@@ -970,11 +992,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
   // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
   // the residual bound's worst case of rounding.
-  const bool diagonal_factor = !chain_mass && diagonal_lower(mass.matrixLLT());
+  const bool diagonal_factor = !chain_mass && diagonal_lower(mass().matrixLLT());
   const double inverse_norm = [&] {
     if (chain_mass) return chain_mass->inverse_norm();  // of U⁻¹ (M = UUᵀ)
-    if (diagonal_factor) return mass.matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
-    const MatrixX inverse = lower_inverse(mass.matrixLLT()).cwiseAbs();
+    if (diagonal_factor) return mass().matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
+    const MatrixX inverse = lower_inverse(mass().matrixLLT()).cwiseAbs();
     return std::sqrt(inverse.colwise().sum().maxCoeff() * inverse.rowwise().sum().maxCoeff());
   }();
   // The analysis's matrices, each in the form of its products (Operand),
@@ -988,7 +1010,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   // way ‖·‖ is the M⁻¹-norm of R).
   auto to_standard = [&](MatrixX& B) {
     if (chain_mass) chain_mass->solve(B);
-    else solve_lower(mass.matrixLLT(), B);  // its lower triangle is L
+    else solve_lower(mass().matrixLLT(), B);  // its lower triangle is L
   };
   // The rounding of a residual's entries: (n + 2)ε(|K||φ| + |λ||M||φ|) with
   // dense products (Higham, §3.5); a chain's product with M is two running
@@ -1017,6 +1039,20 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
   const double rM = 4 * eps + (rounding_mismatch ? chain_mismatch : 0.0);
   const double rM_worst = rM + (rounding_mismatch ? comparison : 0.0);
   const double mismatch = rounding_mismatch ? 0.0 : chain_mismatch + comparison;
+  // What a chain's products stand for has no entrywise rounding of M: its
+  // data are the lengths (and the scene's own masses), and a relative error
+  // δ_j of l_j moves φᵀM̃φ by 2 Σ_j δ_j φ_j (M̃φ)_j, so λ by at most
+  // 2 max|δ| |λ| Σ_j |φ_j (M̃φ)_j| / φᵀMφ to first order: M's share of the
+  // data's rounding in that form (not |λ||φ|ᵀ|M||φ|, which the cancelling
+  // signs of a chain's high modes make up to 1e20 × larger: a light chain
+  // with a heavy tip had its vibrations called "zero"). The lengths'
+  // relative error: typically half of ε and of the rounding-level mismatch,
+  // which measures how far M's other entries disagree with the lengths
+  // (the lengths within 0.83ε measured where the scene's M is written out,
+  // point_mass_chain_mass; the mismatch is then 1–2ε); at worst 2ε, the
+  // mismatch and the comparison's rounding.
+  const double length_error = 0.5 * (eps + (rounding_mismatch ? chain_mismatch : 0.0));
+  const double length_worst = 2 * eps + (rounding_mismatch ? chain_mismatch + comparison : 0.0);
   std::optional<Operand> E_op, D_op;  // E: none where it is 4ε|K| (products with |K|, scaled)
   if (given && !differences) E_op.emplace(K_error);
   if (given && differences) E_op.emplace(MatrixX((K_error - K_systematic_error).cwiseMax(0.0)));
@@ -1036,6 +1072,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     MatrixX R = K_op.product(Phi);  // KΦ, then the residuals KΦ − MΦΛ
     VectorX phiMphi(m);           // φᵀMφ = ‖Lᵀφ‖² per column
     VectorX sums(m), diagonal_terms(m);  // for the typical rounding of the quotient, below
+    VectorX mass_terms(m);               // Σ_i |φ_i (Mφ)_i|
     // The pencil projected on neighbouring vectors, for the close pairs and
     // clusters below (groups of at most `group` consecutive modes), taken
     // while KΦ and MΦ are at hand: band(w, j) = ½(φ_jᵀKφ_{j+w} + φ_{j+w}ᵀKφ_j),
@@ -1064,8 +1101,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       }
       lambda = rq;
       for (Eigen::Index j = 0; j < m; ++j) {
+        mass_terms(j) = Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
         sums(j) = Phi.col(j).cwiseProduct(R.col(j)).cwiseAbs().sum() +  // Σ|φ_i (Kφ)_i| + |λ| Σ|φ_i (Mφ)_i|
-                  std::abs(lambda(j)) * Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
+                  std::abs(lambda(j)) * mass_terms(j);
         diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
       }
       for (Eigen::Index j = 0; j < m; ++j)
@@ -1245,23 +1283,21 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
     // about a quarter of its bound: E_jj/4 for k_j (E: K_error, 4ε Σ|terms|,
     // eight units of rounding for an entry of a few operations, which with
     // compensated subtree sums, sum_subtrees, is measured within 1.5ε), and
-    // for l_j = (M_jj/μ_j)^½ half of M_jj's typical ε and of the
-    // rounding-level mismatch, which measures how far M's other entries
-    // disagree with the lengths so found (the lengths within 0.83ε
-    // measured where the scene's M is written out, point_mass_chain_mass;
-    // the mismatch is then 1–2ε). The mean, not a root mean square: equal links round alike, and
-    // their errors do not average out.
-    VectorX chain_estimate = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    // for the lengths length_error (above). The mean, not a root mean
+    // square: equal links round alike, and their errors do not average out.
+    // certified: the counts' rigorous radius where it is below the residual
+    // bound (∞ elsewhere), which also stands for the solver's part where the
+    // kind is decided.
+    VectorX chain_estimate = VectorX::Constant(m, std::numeric_limits<double>::infinity()), certified = chain_estimate;
     if (diagonal_K) {
       VectorX analyzed_lambda(m), spread;
       for (Eigen::Index i = 0; i < m; ++i) analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
-      residual_bounds =
-          residual_bounds.cwiseMin(chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds, &spread));
+      certified = chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds, &spread);
+      residual_bounds = residual_bounds.cwiseMin(certified);
       const VectorX k_error =
           !given ? VectorX(4 * eps * K.diagonal().cwiseAbs())
           : differences ? VectorX((K_error.diagonal() - K_systematic_error.diagonal()).cwiseMax(0.0))
                         : VectorX(K_error.diagonal());
-      const double length_error = 0.5 * (eps + (rounding_mismatch ? chain_mismatch : 0.0));
       const VectorX weight = 0.25 * k_error + 2 * length_error * K.diagonal().cwiseAbs();
       for (Eigen::Index i = 0; i < m; ++i)
         if (std::isfinite(spread(i)))
@@ -1302,12 +1338,21 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const Cholesky& 
       // called rounding-level λ of −9e-15 s "divergent": it has no share of
       // the positions' rounding), else |φ|ᵀE|φ|.
       const double data_rounding = form ? structured(i) : absPhi.col(i).dot(EabsPhi.col(i));
-      const double data_bound = data_rounding + rM_worst * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i)) + difference_bound;
-      const double decision = with_gap(typical, std::sqrt(nq) * quotient_rounding(i), i) + data_bound;
+      const double mass_rounding = chain_mass ? 2 * length_worst * std::abs(l) * mass_terms(i)
+                                              : rM_worst * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i));
+      const double data_bound = data_rounding + mass_rounding + difference_bound;
+      // (A certified bracket's radius is rigorous: where it is narrower, it
+      // stands for the residual's part. A light chain with a heavy tip has
+      // residuals whose rounding is 1e20 × its eigenvalues' error.)
+      const double decision =
+          std::min(with_gap(typical, std::sqrt(nq) * quotient_rounding(i), i), certified(i)) + data_bound;
       const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
       const double entries =
           std::min(absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm(), structured(i)) / phi2 +
-          rM * std::abs(l) * std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).stableNorm(), diagonal_terms(i)) / phi2;
+          (chain_mass ? 2 * length_error * std::abs(l) * mass_terms(i)
+                      : rM * std::abs(l) *
+                            std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).stableNorm(), diagonal_terms(i))) /
+              phi2;
       const double quotient = typical_quotient_rounding(static_cast<double>(n), static_cast<double>(n),
                                                         rows(i) / phi2, sums(i) / phi2, entries);
       // A mode is zero where |λ| is within the decision's value, or below

@@ -48,17 +48,23 @@ struct Mode {
                               // (rad²/s²) for symmetric problems, of s (rad/s) otherwise;
                               // covers the solver and the rounding (or differences) of M and K
   // Symmetric problems: the residual bound ‖Kφ − λMφ‖_{M⁻¹} (rad²/s²), rigorous
-  // for the matrices as formed: an eigenvalue of (K, M) lies within it of
-  // omega2 (Parlett, thm 4.5.1, in the M-inner product). It bounds what the
+  // for the matrices as formed: an eigenvalue of the pencil solved lies
+  // within it of omega2 (Parlett, thm 4.5.1, in the M-inner product; for a
+  // hanging point-mass chain, Sturm counts where they bracket it more
+  // narrowly). The pencil solved is (K, M) of the LinearModel, or, for a
+  // chain of parallel hinges, the congruent one in absolute angles
+  // (LinearModel::absolute), whose rounding differs. It bounds what the
   // eigen-solver left, not the errors of K and M. error_estimate covers both
   // but takes rounding at its typical size: with an ill-conditioned M it can
   // be far below this worst-case bound.
   // NaN for first-order problems (no such bound for non-normal matrices).
   double residual_bound = std::numeric_limits<double>::quiet_NaN();
   // The part of error_estimate (same units) that comes from systematic errors
-  // of K rather than from rounding and the eigen-solver: an equilibrium
-  // accepted at a loose tolerance (K changes on the way to the exact one) and
-  // derivatives by differences; 0 when there are none. Two eigenvalues whose
+  // of the data rather than from rounding and the eigen-solver: of K (an
+  // equilibrium accepted at a loose tolerance, where K changes on the way to
+  // the exact one; derivatives by differences), of C where it is measured
+  // (first-order problems), and a point-mass chain's departure from its
+  // structure above rounding (M); 0 when there are none. Two eigenvalues whose
   // estimates overlap only through this part are distinct eigenvalues of the
   // matrices as formed (their shapes are unique), known no better than it.
   double systematic_error = 0;
