@@ -32,14 +32,13 @@ using Cholesky = Eigen::LLT<MatrixX>;
 // chain's path (solve_symmetric) needs none unless MRRR fails: its M = UUᵀ
 // with U⁻¹ bidiagonal is positive definite by its structure, and the dense
 // factor (n³/3 flops, OpenBLAS's threads) was an eighth of a 1000-link
-// chain's eigen phase.
+// chain's eigen phase. Not for use from several threads at once.
 class MassFactor {
  public:
   explicit MassFactor(std::function<Cholesky()> make) : make_(std::move(make)) {}
   explicit MassFactor(Cholesky formed) : formed_(std::move(formed)) {}
   const Cholesky& operator()() const {
-    if (failure_) std::rethrow_exception(failure_);
-    if (!formed_) formed_ = make_();
+    if (!definite()) std::rethrow_exception(failure_);
     return *formed_;
   }
   // Whether the factor can be formed (M definite to factor_mass's test). The

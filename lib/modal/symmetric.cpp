@@ -1027,17 +1027,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // compensation, 2ε; the two products, 2ε; the difference, ε: 6ε in all
   // added). Up to the rounding that assembling M's entries leaves (sums of
   // up to n products: 4(n + 4)ε, far above the ≤ 6e-16 measured on
-  // generated chains), the mismatch is of that kind: it counts as M's own
-  // rounding does, measured in the typical term (rM) and with the 6ε in the
-  // worst case (rM_worst, which decides the kinds). Above it (up to the
+  // generated chains), the mismatch is of that kind: it counts in the
+  // lengths' relative error (length_error, typical; length_worst with the
+  // 6ε, which decides the kinds; below). Above it (up to the
   // 1e-11 the structure allows: a chain bent by 1e-6 rad, small rotational
   // inertias) it is one smooth pattern, not independent roundings, so its
   // effect, (mismatch + 6ε)·|λ||φ|ᵀ|M||φ|, counts at its worst, with the
   // systematic part.
   const double chain_mismatch = chain_mass ? chain->mismatch : 0.0, comparison = chain_mass ? 6 * eps : 0.0;
   const bool rounding_mismatch = chain_mismatch <= 4 * (static_cast<double>(n) + 4) * eps;
-  const double rM = 4 * eps + (rounding_mismatch ? chain_mismatch : 0.0);
-  const double rM_worst = rM + (rounding_mismatch ? comparison : 0.0);
+  const double rM = 4 * eps;  // M's entries' rounding where no chain stands for M
   const double mismatch = rounding_mismatch ? 0.0 : chain_mismatch + comparison;
   // What a chain's products stand for has no entrywise rounding of M: its
   // data are the lengths (and the scene's own masses), and a relative error
@@ -1323,8 +1322,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       const double difference_bound = (differences ? absPhi.col(i).dot(DabsPhi.col(i)) : 0.0) +
                                       mismatch * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i));
       // The kind is decided with the worst case of the data's rounding, first
-      // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ|, and the single-mode residual part (a
-      // mode is zero when |λ| is within it: a group's bound never turns a zero
+      // order, |φ|ᵀE|φ| + 4ε|λ||φ|ᵀ|M||φ| (a chain's M: through its lengths,
+      // mass_rounding), and the single-mode residual part or a chain's
+      // certified radius where narrower (a mode is zero when |λ| is within
+      // it: a group's bound never turns a zero
       // mode of a free body into a vibration); the estimate of a mode that is
       // not zero takes the quotient's and the entries' rounding at their
       // typical size (typical_quotient_rounding, as the sparse path), the
@@ -1339,7 +1340,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       // the positions' rounding), else |φ|ᵀE|φ|.
       const double data_rounding = form ? structured(i) : absPhi.col(i).dot(EabsPhi.col(i));
       const double mass_rounding = chain_mass ? 2 * length_worst * std::abs(l) * mass_terms(i)
-                                              : rM_worst * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i));
+                                              : rM * std::abs(l) * absPhi.col(i).dot(absMPhi.col(i));
       const double data_bound = data_rounding + mass_rounding + difference_bound;
       // (A certified bracket's radius is rigorous: where it is narrower, it
       // stands for the residual's part. A light chain with a heavy tip has
