@@ -660,6 +660,16 @@ template <class Add>
 void tree_hessian(const System& s, const TreeState<double>& st, const KinematicsCache& c, const VectorX& q, Add&& add,
                   const std::vector<char>* held = nullptr) {
   const auto& bodies = s.bodies();
+  // With `held`, per body the first body on its path up (itself included)
+  // that is not held: the walk up below skips a run of held links in one
+  // step, so that a chain of held hinges costs O(n), not O(n²).
+  std::vector<int> unheld;
+  if (held) {
+    unheld.resize(bodies.size());
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      unheld[b] = (*held)[b] && bodies[b].parent >= 0 ? unheld[static_cast<std::size_t>(bodies[b].parent)]
+                                                      : static_cast<int>(b);
+  }
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     const Body& body = bodies[b];
     const int k0 = s.first_coordinate(static_cast<int>(b));
@@ -698,11 +708,13 @@ void tree_hessian(const System& s, const TreeState<double>& st, const Kinematics
         if (rot_k && is_rotation_vector(body, j - k0)) continue;  // handled below
         pair(j);
       }
-      for (int a = body.parent, from = static_cast<int>(b); a >= 0;
-           from = a, a = bodies[static_cast<std::size_t>(a)].parent) {
-        if (held && (*held)[static_cast<std::size_t>(from)]) continue;
+      // Each ancestor a, entered from its child `from` on the path, unless
+      // `from` is held.
+      for (int from = held ? unheld[b] : static_cast<int>(b); bodies[static_cast<std::size_t>(from)].parent >= 0;) {
+        const int a = bodies[static_cast<std::size_t>(from)].parent;
         const int a0 = s.first_coordinate(a);
         for (int j = a0; j < a0 + s.joint_size(a); ++j) pair(j);
+        from = held ? unheld[static_cast<std::size_t>(a)] : a;
       }
     }
     if (r0 >= 0) {
@@ -1717,6 +1729,41 @@ VectorX suffix_masses(const VectorX& mass) {
   return below;
 }
 
+// The proof of point_mass_chain_mass below (all of it but writing M) and
+// the chain's signed lengths l_b and masses m_b (n each); false, the two
+// unspecified, where the bodies do not prove a chain. With `held` null, all
+// but the hinges' being held (the caller's to check).
+bool chain_levers(const System& s, const TreeState<double>& st, const std::vector<char>* held, VectorX& lever,
+                  VectorX& mass) {
+  const int n = s.size();
+  const auto& bodies = s.bodies();
+  if (s.is_map() || n < 2 || static_cast<int>(bodies.size()) != n) return false;
+  lever.resize(n);
+  mass.resize(n);
+  Vec3 first = Vec3::Zero();
+  for (int b = 0; b < n; ++b) {
+    const Body& body = bodies[static_cast<std::size_t>(b)];
+    if (body.joint != JointType::hinge || s.joint_size(b) != 1 || s.first_coordinate(b) != b || body.parent != b - 1 ||
+        (b > 0 && held && !(*held)[static_cast<std::size_t>(b)]) || !(body.mass > 0) || !body.inertia.isZero(0.0) ||
+        body.armature != 0 || (b + 1 < n && body.com != bodies[static_cast<std::size_t>(b) + 1].origin))
+      return false;
+    const auto u = static_cast<std::size_t>(b);
+    const Vec3 across = st.omega[u].cross(st.rotation[u] * body.com);
+    const double size = across.norm();
+    if (!(size > 0) || !std::isfinite(size)) return false;
+    if (b == 0) {
+      first = across;
+      lever(b) = size;
+    } else {
+      const double sine2 = across.cross(first).squaredNorm(), scale = across.squaredNorm() * first.squaredNorm();
+      if (!(sine2 <= std::numeric_limits<double>::epsilon() / 16 * scale)) return false;
+      lever(b) = across.dot(first) < 0 ? -size : size;
+    }
+    mass(b) = body.mass;
+  }
+  return true;
+}
+
 // M in absolute angles written out where the bodies themselves prove the
 // scene a point-mass chain (PointMassChain): body b the child of b − 1 with
 // a hinge parallel to its parent's (held, all of them), no rotational
@@ -1738,30 +1785,8 @@ VectorX suffix_masses(const VectorX& mass) {
 // lengths to a few ε. Returns whether it applied; M is left as it was if not.
 bool point_mass_chain_mass(const System& s, const TreeState<double>& st, const std::vector<char>& held, MatrixX& M) {
   const int n = s.size();
-  const auto& bodies = s.bodies();
-  if (s.is_map() || n < 2 || static_cast<int>(bodies.size()) != n || M.rows() != n || M.cols() != n) return false;
-  VectorX lever(n), mass(n);
-  Vec3 first = Vec3::Zero();
-  for (int b = 0; b < n; ++b) {
-    const Body& body = bodies[static_cast<std::size_t>(b)];
-    if (body.joint != JointType::hinge || s.joint_size(b) != 1 || s.first_coordinate(b) != b || body.parent != b - 1 ||
-        (b > 0 && !held[static_cast<std::size_t>(b)]) || !(body.mass > 0) || !body.inertia.isZero(0.0) ||
-        body.armature != 0 || (b + 1 < n && body.com != bodies[static_cast<std::size_t>(b) + 1].origin))
-      return false;
-    const auto u = static_cast<std::size_t>(b);
-    const Vec3 across = st.omega[u].cross(st.rotation[u] * body.com);
-    const double size = across.norm();
-    if (!(size > 0) || !std::isfinite(size)) return false;
-    if (b == 0) {
-      first = across;
-      lever(b) = size;
-    } else {
-      const double sine2 = across.cross(first).squaredNorm(), scale = across.squaredNorm() * first.squaredNorm();
-      if (!(sine2 <= std::numeric_limits<double>::epsilon() / 16 * scale)) return false;
-      lever(b) = across.dot(first) < 0 ? -size : size;
-    }
-    mass(b) = body.mass;
-  }
+  VectorX lever, mass;
+  if (M.rows() != n || M.cols() != n || !chain_levers(s, st, &held, lever, mass)) return false;
   const VectorX below = suffix_masses(mass);
   for (int j = 0; j < n; ++j)
     for (int i = 0; i <= j; ++i) M(i, j) = M(j, i) = lever(i) * lever(j) * below(j);
@@ -1878,6 +1903,45 @@ std::optional<std::string> tree_pencil_unsupported(const System& s) {
   return std::nullopt;
 }
 
+namespace {
+
+// TreePencil::chain and its K: where the bodies prove a point-mass chain of
+// parallel hinges (chain_levers) and ∇∇V in its absolute angles has no
+// entry off the diagonal (no joint springs), O(n) in all (tree_hessian skips
+// the held links' runs).
+void fill_absolute_chain(const System& s, Workspace& w, const VectorX& q, TreePencil& p) {
+  const int n = s.size();
+  if (s.is_map() || n < 2 || static_cast<int>(s.bodies().size()) != n) return;
+  // (tree_pencil runs at every matrix-free Newton step: the bodies' own
+  // test first, which any other tree fails at once.)
+  PointMassChain chain;
+  if (!chain_levers(s, kinematics(s, w, q), nullptr, chain.lever, chain.mass)) return;
+  const std::vector<int> parents = absolute_angle_parents(s, w, q);
+  std::vector<char> held(s.bodies().size(), 0);
+  for (std::size_t b = 0; b < held.size(); ++b) {
+    held[b] = is_held(s, parents, b) ? 1 : 0;
+    if (b > 0 && !held[b]) return;
+  }
+  VectorX K = VectorX::Zero(n), terms = VectorX::Zero(n);
+  bool diagonal = true;
+  assemble_potential_hessian(
+      s, w, q,
+      [&](int j, int k, double v) {
+        if (j == k) K(j) += v;
+        else if (v != 0) diagonal = false;
+      },
+      &held);
+  if (!diagonal) return;
+  assemble_potential_hessian(
+      s, w, q, [&](int j, int k, double v) { if (j == k) terms(j) += std::abs(v); }, &held,
+      SpringBlocks::term_sizes);
+  p.chain = std::move(chain);
+  p.chain_K = std::move(K);
+  p.chain_K_terms = std::move(terms);
+}
+
+}  // namespace
+
 TreePencil tree_pencil(const System& s, Workspace& w, const VectorX& q) {
   if (const auto why = tree_pencil_unsupported(s)) throw std::invalid_argument("tree_pencil: " + *why);
   const TreeState<double>& st = kinematics(s, w, q);
@@ -1918,6 +1982,7 @@ TreePencil tree_pencil(const System& s, Workspace& w, const VectorX& q) {
     p.K_diagonal[k] = body.stiffness;
     p.M_diagonal[k] = body.armature;  // a·(|ω|² + |u|²) = a for a hinge or slide
   }
+  fill_absolute_chain(s, w, q, p);
   return p;
 }
 

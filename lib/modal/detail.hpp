@@ -213,6 +213,21 @@ double typical_quotient_rounding(double width, double n, double rows, double sum
 // the largest |eigenvalue|.
 void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes);
 
+// Shapes solved in the absolute angles θ of parallel hinges to the model's
+// coordinates, q_c = θ_c − θ_parent(c) (parent: per coordinate, −1 where
+// it is its own), signed again (modes.cpp).
+void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes);
+
+// A hanging point-mass chain's lowest `wanted` modes (all where wanted ≤ 0
+// or ≥ n) from its O(n) data in absolute angles (TreePencil::chain, chain_K,
+// chain_K_terms): the singular values of the bidiagonal U⁻¹K^½, Sturm-count brackets as
+// residual bounds, the chain's estimates, shapes in relative angles
+// (q_j = θ_j − θ_{j−1}). O(n·wanted). Nothing where the chain's path cannot
+// answer rigorously (some K_jj ≤ 0, over- or underflow, a bracket not
+// verified): the caller then solves otherwise (symmetric.cpp).
+std::optional<ModalResult> solve_chain_modes(const PointMassChain& chain, const VectorX& K, const VectorX& K_terms,
+                                             Eigen::Index wanted);
+
 // Index of the largest-|component| entry of v; among entries equal to the
 // largest within a relative 1e-12 (ties broken by rounding), the first.
 Eigen::Index dominant_index(const Eigen::VectorXcd& v);

@@ -75,22 +75,6 @@ void unscale_shapes(const VectorX& scale, bool real, std::vector<Mode>& modes) {
   }
 }
 
-// Shapes solved in the absolute angles θ of parallel hinges (LinearModel::
-// absolute) to the model's coordinates: φ_q = T φ_θ, q_c = θ_c − θ_parent(c)
-// (M-normalization carries over: φ_qᵀMφ_q = φ_θᵀ(TᵀMT)φ_θ), real shapes
-// signed again so that their largest component is positive.
-void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes) {
-  for (Mode& m : modes) {
-    if (m.shape.size() != static_cast<Eigen::Index>(parent.size())) continue;
-    const Eigen::VectorXcd theta = m.shape;
-    for (std::size_t c = 0; c < parent.size(); ++c)
-      if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
-    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
-    if (real && top.real() < 0) m.shape = -m.shape;
-    if (!real && top != std::complex<double>(0)) m.shape /= top;  // largest component 1, as solve_first_order's
-  }
-}
-
 // Constrained models: shapes from the manifold's coordinates to all
 // coordinates (N φ; M-normalization carries over since NᵀMN is the reduced M),
 // real shapes signed again so that their largest component is positive.
@@ -294,7 +278,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
   unscale_shapes(scale, symmetric, result.modes);
-  if (absolute) absolute_to_relative(abs.parent, symmetric, result.modes);
+  if (absolute) detail::absolute_to_relative(abs.parent, symmetric, result.modes);
   map_shapes_back(model, symmetric, result.modes);
   copy_constraints(model, result);
   return result;
@@ -310,6 +294,22 @@ const char* to_string(DenseSolver s) {
 }
 
 namespace detail {
+
+// Shapes solved in the absolute angles θ of parallel hinges (LinearModel::
+// absolute) to the model's coordinates: φ_q = T φ_θ, q_c = θ_c − θ_parent(c)
+// (M-normalization carries over: φ_qᵀMφ_q = φ_θᵀ(TᵀMT)φ_θ), real shapes
+// signed again so that their largest component is positive.
+void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes) {
+  for (Mode& m : modes) {
+    if (m.shape.size() != static_cast<Eigen::Index>(parent.size())) continue;
+    const Eigen::VectorXcd theta = m.shape;
+    for (std::size_t c = 0; c < parent.size(); ++c)
+      if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
+    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
+    if (real && top.real() < 0) m.shape = -m.shape;
+    if (!real && top != std::complex<double>(0)) m.shape /= top;  // largest component 1, as solve_first_order's
+  }
+}
 
 Mode make_mode(std::complex<double> s, double error, ModeKind kind) {
   Mode m;

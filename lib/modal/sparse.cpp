@@ -2348,6 +2348,12 @@ ModalResult solve_tree_modes(TreePencil p, const SparseModalOptions& options) {
       throw NumericalError("solve_tree_modes: the pencil has a non-finite entry (body " + std::to_string(b + 1) +
                            "): the problem cannot be solved");
   const Index k = std::min<Index>(options.modes, n);
+  // A hanging point-mass chain (TreePencil::chain): its lowest modes from the
+  // O(n) data in absolute angles, exact where the general path's relative
+  // angles lose digits (cond M ≈ n⁴ there); below the spectrum only.
+  if (!p.chain.empty() && !options.shift)
+    if (std::optional<ModalResult> chain = detail::solve_chain_modes(p.chain, p.chain_K, p.chain_K_terms, k))
+      return std::move(*chain);
   if (n <= dense_limit || k >= n - 1) {  // small: the matrices themselves, as solve_sparse_modes does
     MatrixX K(n, n), M(n, n);
     for (Index j = 0; j < n; ++j) {

@@ -897,6 +897,14 @@ struct TreePencil {
   VectorX K_diagonal;           // n: joint springs added to K_kk (N·m/rad or N/m)
   VectorX M_diagonal;           // n: armatures added to M_kk (kg·m² or kg)
   int depth = 0;                // most bodies on one path (the recursions' length)
+  // Where the bodies prove a hanging point-mass chain of parallel hinges (as
+  // absolute_angle_model's PointMassChain: mismatch 0, the lengths taken
+  // from the kinematics) and ∇∇V in its absolute angles θ (q_j = θ_j −
+  // θ_{j−1}) is diagonal: M = D_l Ĵᵀ D_m Ĵ D_l and K's diagonal there, the
+  // O(n) data that solve_tree_modes solves exactly; else all three empty.
+  PointMassChain chain;
+  VectorX chain_K;        // n: K_jj in θ (N·m/rad)
+  VectorX chain_K_terms;  // n: Σ|terms| of each K_jj (its rounding is within 4ε of it)
   int size() const { return static_cast<int>(K_diagonal.size()); }
 };
 // The pencil at q. Throws std::invalid_argument when tree_pencil_unsupported(s).

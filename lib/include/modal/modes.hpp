@@ -200,7 +200,12 @@ ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, con
 // are formed and solve_sparse_modes answers). The rounding part of each
 // estimate is 4ε(1 + 2√depth)(|φ|ᵀ|K||φ| + |λ||φ|ᵀ|M||φ|), |·| the
 // magnitude recursion (tree_product), for sums along paths of `depth`
-// bodies. Throws as solve_sparse_modes.
+// bodies. A hanging point-mass chain (TreePencil::chain, no shift given) is
+// solved in its absolute angles instead, from O(n) data: the lowest k modes
+// from the singular values of the bidiagonal U⁻¹K^½ (LAPACK dbdsvdx), each
+// bracketed by Sturm counts (residual_bound) and estimated from the chain's
+// data (docs/design.md "Point-mass chains"), O(nk). Throws as
+// solve_sparse_modes.
 ModalResult solve_tree_modes(TreePencil pencil, const SparseModalOptions& options = {});
 
 // One mode of the symmetric pencil (quotient_mode's, and the tree path's):
