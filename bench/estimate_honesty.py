@@ -570,7 +570,7 @@ if not QUICK or "--out=" in " ".join(sys.argv):
         "",
         "## The matrix-free path's chains in absolute angles (2026-11-30)",
         "",
-        "The chain of 2000 links with `--modes 20` (the matrix-free path, the default from 1000 links) is now",
+        "The chain of 2000 links with `--modes 20` (the matrix-free path, the default above 1000 links) is now",
         "solved from the chain's O(n) data in absolute angles (docs/design.md, \"Point-mass chains\"): the",
         "smallest singular values of the bidiagonal U⁻¹K^½ by LAPACK dbdsvdx, each refined and bracketed by",
         "Sturm counts. Its row: worst relative error 4.0e-12 → 1.1e-16, estimate/true 21 … 1.9e3 → 3 … 3,",

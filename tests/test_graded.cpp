@@ -2085,20 +2085,20 @@ TEST(PointMassChains, LightChainsWithAHeavyTipAreAnsweredNotCalledSingular) {
   EXPECT_EQ(refused, 24);
 }
 
-// The matrix-free path (solve_tree_modes, the default from 1000 links) on
+// The matrix-free path (solve_tree_modes, the default above 1000 links) on
 // point-mass chains: in relative angles cond M grows as n⁴ and its Lanczos
 // solve had errors to 4e-12 relative at 2000 links with estimates 21 …
 // 1.9e3 × and bounds to 6.9e8 × them. The pencil now carries the chain's
-// O(n) data in absolute angles (TreePencil::chain), solved by MRRR on the
-// tridiagonal and bracketed by Sturm counts. Generated chains, 2 … 2500
+// O(n) data in absolute angles (TreePencil::chain): the singular values of
+// the bidiagonal U⁻¹K^½ (dbdsvdx), refined and bracketed by Sturm counts. Generated chains, 2 … 2500
 // links: graded over 1e-4 … 1e4 (masses and lengths), uniform, links of
 // 1/n, light links (1e-20 … 1e-8) with a heavy tip; the lowest 1 … 20
 // modes. Each against the __float128 reference of the scene (masses and
 // lengths alone, bidiagonal_chain_reference): every ω² within its estimate,
 // the estimate within 10 × the error floored at ε (issue 15's target), the
 // bound within the distance to the pencil as formed and at most 100 × it;
-// the shapes, in relative angles, M-normalized with a residual at rounding
-// level through the tree's own products. Where the chain's path does not
+// the shapes, in relative angles, M-normalized with a small residual in the
+// scene's own pencil (__float128). Where the chain's path does not
 // apply (joint springs: K not diagonal; turned over: K_jj < 0) the general
 // path answers.
 TEST(PointMassChains, TheMatrixFreePathSolvesThemInAbsoluteAngles) {
@@ -2168,10 +2168,11 @@ TEST(PointMassChains, TheMatrixFreePathSolvesThemInAbsoluteAngles) {
       // q_i) and checked against the scene's pencil in __float128: θᵀMθ = 1,
       // and Kθ − λMθ small against the size of its terms, |K||θ| + λ|M||θ|
       // (M = D_l Ĵᵀ D_m Ĵ D_l: prefix and suffix sums). Measured up to
-      // 1.0e-7, on light links where the shape's relative angles, rounded,
-      // carry ε of a neighbour's swing (the dense path's shapes, by another
-      // solver, measure up to 7.4e-8 on the same chains); a wrong sign or
-      // scale would be O(1). The tree's own products in relative angles
+      // 1.0e-7, on light links with a heavy tip, where a vector's error
+      // along a lower mode (ε‖B‖/gap) is magnified by the ratio of the
+      // singular values in φ (the dense path's shapes, by another solver,
+      // measure up to 7.4e-8 on the same chains); a wrong sign or scale
+      // would be O(1). The tree's own products in relative angles
       // lose too many digits on these gradings to tell.
       {
         std::vector<__float128> theta(n), Mtheta(n), Mabs(n);

@@ -240,15 +240,49 @@ class ChainMass {
     }
   }
 
+  // A value τ with exactly p eigenvalues below it as counted (0 < p < n,
+  // k_i > 0 all), none within a factor 1 ± 1e-6 of it: the p-th and
+  // (p + 1)-th lowest located by the counts of certify on a log scale (from
+  // the trace down by 2¹⁶⁰⁰⁰) to 1e-3 relative, τ the geometric mean of the
+  // first's upper end and the second's lower end. A count accurate to far
+  // better than 1e-6 (dbdsvdx's, of the singular values, included: O(n)ε
+  // at worst) finds the same p below. Nothing where those two lie within
+  // 1e-5 of each other, or no count is possible.
+  std::optional<double> separating_value(const VectorX& k, Eigen::Index p) const {
+    using Wide = long double;
+    if constexpr (std::numeric_limits<Wide>::max_exponent < 16384) return std::nullopt;
+    if (p <= 0 || p >= size() || k.size() != size() || !(k.array() > 0).all() || !k.allFinite()) return std::nullopt;
+    const SturmCounts below(k, lever_, mass_);
+    Wide trace = 0;
+    for (std::size_t i = 0; i < below.d.size(); ++i) trace += below.d[i] + below.e[i];
+    if (!(trace > 0) || !std::isfinite(trace)) return std::nullopt;
+    // [lo_r, hi_r) brackets the r-th lowest (r = p, p + 1): fewer than r
+    // below lo_r, at least r below hi_r.
+    Wide lo[2] = {std::ldexp(trace, -16000), std::ldexp(trace, -16000)}, hi[2] = {2 * trace, 2 * trace};
+    for (int step = 0; step < 200 && (hi[0] > lo[0] * 1.001L || hi[1] > lo[1] * 1.001L); ++step) {
+      const Wide mid0 = std::sqrt(lo[0]) * std::sqrt(hi[0]), mid1 = std::sqrt(lo[1]) * std::sqrt(hi[1]);
+      const auto [a, b] = below(mid0, mid1);
+      if (a < 0 || b < 0) return std::nullopt;
+      (a >= p ? hi[0] : lo[0]) = mid0;
+      (b >= p + 1 ? hi[1] : lo[1]) = mid1;
+    }
+    if (!(lo[1] >= hi[0] * (1 + 1e-5L))) return std::nullopt;
+    const Wide tau = std::sqrt(hi[0]) * std::sqrt(lo[1]), margin = 1 + 1e-6L;
+    const auto [a, b] = below(tau / margin, tau * margin);
+    if (a != p || b != p) return std::nullopt;
+    return static_cast<double>(tau);
+  }
+
   // Each λ_i (i-th lowest, as computed; k_i > 0 all) moved to the middle
   // of a bracket [lo, hi] of the (i + 1)-th lowest eigenvalue that the
-  // Sturm counts of certify (below) verify, halved until hi − lo ≤ ε|λ|/4
-  // (ε of double): the counts' rounding, some √n ε of long double
-  // typically, is then below double's. Bisection from the first bracket
-  // λ(1 ± δ) verified (δ from ε up by factors of 4): at most 30 steps,
-  // some 10 where λ came within 64ε (singular values by bisection on the
-  // Golub–Kahan form of a 2000-link chain: 16–64ε, the worst case of their
-  // counts being O(n)ε). λ_i unchanged where no bracket is verified.
+  // Sturm counts of certify (below) verify, cut to a third per step (two
+  // counts) until hi − lo ≤ ε|λ|/4 (ε of double): the counts' rounding,
+  // some √n ε of long double typically, is then below double's. From the
+  // first bracket λ(1 ± δ) verified (δ from ε up by factors of 4): at most
+  // 34 steps, some 6 where λ came within 64ε (singular values by bisection
+  // on the Golub–Kahan form of a 2000-link chain: 16–64ε, the worst case
+  // of their counts being O(n)ε). λ_i unchanged where no bracket is
+  // verified.
   void refine(const VectorX& k, VectorX& lambda) const {
     using Wide = long double;
     if constexpr (std::numeric_limits<Wide>::digits < 64 || !std::numeric_limits<Wide>::is_iec559) return;
@@ -606,20 +640,24 @@ MatrixX tridiagonal_lowest(VectorX d, VectorX e, int p, VectorX* values = nullpt
 // matrix with diagonal d and superdiagonal e (n each, e's last entry
 // unused), and their right singular vectors (n×p, unit columns), by LAPACK
 // dbdsvdx (bisection on the Golub–Kahan tridiagonal, which keeps the
-// relative accuracy a bidiagonal defines, and inverse iteration); false
-// where it fails.
-bool bidiagonal_lowest(VectorX d, VectorX e, int p, VectorX& sigma, MatrixX& right) {
+// relative accuracy a bidiagonal defines, and inverse iteration): all n
+// where p = n, else those below `below` (exactly p of them, as the caller
+// has counted: RANGE 'V'; its RANGE 'I' widens the interval by 2n·ulp·σ_max
+// on both sides, finds more than asked where the next singular value lies
+// that close, and then drops the smallest, while writing a column of Z for
+// each found); false where it fails or finds another number.
+bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma, MatrixX& right) {
   const int n = static_cast<int>(d.size());
-  if (p <= 0 || p > n) return false;
-  const int il = n - p + 1, iu = n, ldz = 2 * n;  // dbdsvdx's indices count from the largest
-  const double vl = 0, vu = 0;
+  if (p <= 0 || p > n || (p < n && !(below > 0 && std::isfinite(below)))) return false;
+  const int il = 0, iu = 0, ldz = 2 * n;
+  const double vl = 0, vu = p < n ? below : 0;
   int found = 0, info = 0;
   VectorX s(n);
-  MatrixX Z(ldz, p + 1);
+  MatrixX Z(ldz, std::min(n, p + 1) + 1);  // NS + 1 columns at least (one spare)
   std::vector<double> work(static_cast<std::size_t>(14) * static_cast<std::size_t>(n));
   std::vector<int> iwork(static_cast<std::size_t>(12) * static_cast<std::size_t>(n));
-  dbdsvdx_("U", "V", "I", &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, s.data(), Z.data(), &ldz,
-           work.data(), iwork.data(), &info, 1, 1, 1);
+  dbdsvdx_("U", "V", p < n ? "V" : "A", &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, s.data(), Z.data(),
+           &ldz, work.data(), iwork.data(), &info, 1, 1, 1);
   if (info != 0 || found != p) return false;
   // Returned from the largest down: reversed, with their vectors.
   sigma.resize(p);
@@ -1523,24 +1561,47 @@ std::optional<ModalResult> solve_chain_modes(const PointMassChain& chain, const 
   // diagonal spans 21 decades there). So the lowest σ of B by bisection on
   // its Golub–Kahan form and their right vectors v by inverse iteration
   // (LAPACK dbdsvdx), λ = σ², and φ = σK^{-½}v (Kφ = λMφ with u = Uᵀφ,
-  // Bᵀu = σv), formed entry by entry without cancellation: φᵀMφ = ‖u‖² = 1.
+  // Bᵀu = σv), formed entry by entry without cancellation (U⁻ᵀy cancels):
+  // φᵀMφ = ‖u‖² = 1 for exact vectors. A computed v errs along a lower
+  // mode j by about ε‖B‖/gap, which φ magnifies by σ_i/σ_j: on chains
+  // with light links of 1e-20 … 1e-8 of a heavy tip's mass φᵀMφ − 1 and
+  // the shapes' residual reach 1e-7 (the dense path's shapes likewise).
   VectorX diagonal(n), upper = VectorX::Zero(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const double root_m = std::sqrt(chain.mass(i));
     diagonal(i) = std::sqrt(K(i)) / (chain.lever(i) * root_m);
     if (i + 1 < n) upper(i) = -std::sqrt(K(i + 1)) / (chain.lever(i + 1) * root_m);
   }
-  if (!diagonal.allFinite() || !upper.allFinite() || !(diagonal.array() != 0).all()) return std::nullopt;
+  // (Every entry a normal number: neither over- nor underflowed.)
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!std::isnormal(diagonal(i)) || (i + 1 < n && !std::isnormal(upper(i)))) return std::nullopt;
+  // The lowest as the counts separate them from the rest: p, or up to 16
+  // more where the next lies within 1e-5 of the last (all where that
+  // reaches n); the analysis then returns the lowest p.
+  const ChainMass U(chain);
+  std::optional<double> separation;
+  Eigen::Index solved = p;
+  for (; solved < n && solved <= p + 16; ++solved)
+    if ((separation = U.separating_value(K, solved))) break;
+  if (solved > p + 16) return std::nullopt;
   VectorX sigma;
   MatrixX V;
-  if (!bidiagonal_lowest(diagonal, upper, static_cast<int>(p), sigma, V)) return std::nullopt;
+  if (!bidiagonal_lowest(diagonal, upper, static_cast<int>(solved), separation ? std::sqrt(*separation) : 0.0,
+                         sigma, V))
+    return std::nullopt;
+  sigma.conservativeResize(p);
+  V.conservativeResize(Eigen::NoChange, p);
   VectorX lambda = sigma.cwiseAbs2();
   if (!lambda.allFinite() || !(lambda.array() > 0).all()) return std::nullopt;
   // λ refined by the Sturm counts to ε/4 (ChainMass::refine), which then
   // bracket each as the eigenvalue of its rank (none missed below the
-  // highest returned); rigorous for the pencil as formed.
-  const ChainMass U(chain);
+  // highest returned); rigorous for the pencil as formed. A value that
+  // moved by more than the bisection's O(n)ε would no longer be its
+  // vector's: the general path then answers.
+  const VectorX computed = lambda;
   U.refine(K, lambda);
+  for (Eigen::Index i = 0; i < p; ++i)
+    if (!(std::abs(lambda(i) - computed(i)) <= 1e3 * static_cast<double>(n) * eps * computed(i))) return std::nullopt;
   VectorX spread;
   const VectorX radius =
       U.certify(K, lambda, VectorX::Constant(p, std::numeric_limits<double>::infinity()), &spread);

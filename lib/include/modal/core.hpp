@@ -897,11 +897,12 @@ struct TreePencil {
   VectorX K_diagonal;           // n: joint springs added to K_kk (N·m/rad or N/m)
   VectorX M_diagonal;           // n: armatures added to M_kk (kg·m² or kg)
   int depth = 0;                // most bodies on one path (the recursions' length)
-  // Where the bodies prove a hanging point-mass chain of parallel hinges (as
-  // absolute_angle_model's PointMassChain: mismatch 0, the lengths taken
-  // from the kinematics) and ∇∇V in its absolute angles θ (q_j = θ_j −
-  // θ_{j−1}) is diagonal: M = D_l Ĵᵀ D_m Ĵ D_l and K's diagonal there, the
-  // O(n) data that solve_tree_modes solves exactly; else all three empty.
+  // Where the bodies prove a straight point-mass chain of parallel hinges,
+  // hanging or standing (as absolute_angle_model's PointMassChain:
+  // mismatch 0, the lengths taken from the kinematics) and ∇∇V in its
+  // absolute angles θ (q_j = θ_j − θ_{j−1}) is diagonal: M = D_l Ĵᵀ D_m Ĵ
+  // D_l and K's diagonal there, the O(n) data from which solve_tree_modes
+  // solves a hanging one (every K_jj > 0) to rounding; else all three empty.
   PointMassChain chain;
   VectorX chain_K;        // n: K_jj in θ (N·m/rad)
   VectorX chain_K_terms;  // n: Σ|terms| of each K_jj (its rounding is within 4ε of it)
