@@ -44,12 +44,13 @@ import subprocess
 import sys
 import tempfile
 
-MPIRUN = ["mpirun", "--quiet", "--allow-run-as-root", "--oversubscribe", "-np"]
+import mpi_launch
+
 TIMEOUT = 240
 
 
 def run(cmd):
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
+    return mpi_launch.run(cmd, TIMEOUT)
 
 
 def read_csv(path):
@@ -73,7 +74,7 @@ def compare_sweep(modal, np_, scene, options):
         if r.returncode != 0:
             sys.exit("FAIL: serial sweep: %d %s" % (r.returncode, r.stderr))
         serial_text = r.stdout
-        r = run(MPIRUN + [np_, modal, "sweep", scene, "--backend", "petsc", "--csv", petsc] + options)
+        r = run(mpi_launch.MPIRUN + [np_, modal, "sweep", scene, "--backend", "petsc", "--csv", petsc] + options)
         print(r.stdout)
         print(r.stderr)
         if r.returncode != 0:
@@ -117,7 +118,7 @@ def main():
         return
     if args[0] == "--refused":
         # a command the backend refuses: exit status 2 and one message line, nothing on stdout
-        r = run(MPIRUN + [np_, modal] + args[1:])
+        r = run(mpi_launch.MPIRUN + [np_, modal] + args[1:])
         print(r.stderr)
         lines = [l for l in r.stderr.splitlines() if l.strip()]
         if r.returncode != 2 or len(lines) != 1 or r.stdout.strip():
@@ -127,7 +128,7 @@ def main():
     if args[0] == "--fails":
         status, scene, options = int(args[1]), args[2], args[3:]
         try:
-            r = run(MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc"] + options)
+            r = run(mpi_launch.MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc"] + options)
         except subprocess.TimeoutExpired:
             sys.exit("FAIL: the ranks did not end within %d s (a hang)" % TIMEOUT)
         lines = [l for l in r.stderr.splitlines() if l.strip()]
@@ -159,7 +160,7 @@ def main():
         r = run([modal, "analyze", scene, "--solver", "sparse", "--json", serial_json] + options)
         if r.returncode not in (0,):
             sys.exit("FAIL: serial run: %d %s" % (r.returncode, r.stderr))
-        r = run(MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc", "--json", petsc_json, "--timing"] + options)
+        r = run(mpi_launch.MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc", "--json", petsc_json, "--timing"] + options)
         print(r.stderr)
         if r.returncode != 0:
             sys.exit("FAIL: petsc run: %d %s" % (r.returncode, r.stderr))

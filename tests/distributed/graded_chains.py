@@ -40,14 +40,14 @@ import json
 import math
 import os
 import random
-import subprocess
 import sys
 import tempfile
+
+import mpi_launch
 
 from decimal import Decimal as D
 
 decimal.getcontext().prec = 60
-MPIRUN = ["mpirun", "--quiet", "--allow-run-as-root", "--oversubscribe", "-np"]
 WANTED = 10
 
 
@@ -150,8 +150,8 @@ def main():
             with open(scene, "w") as f:
                 f.write(toml(*data))
             command = ([modal, "analyze", scene, "--solver", "sparse", "--json", out] if np_ == "0" else
-                       MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc", "--json", out])
-            r = subprocess.run(command, capture_output=True, text=True, timeout=240)
+                       mpi_launch.MPIRUN + [np_, modal, "analyze", scene, "--backend", "petsc", "--json", out])
+            r = mpi_launch.run(command, 240)
             what = "chain %d (%d particles, seed %d)" % (trial, particles, seed)
             if r.returncode != 0:
                 failures.append("%s: exit %d: %s" % (what, r.returncode, r.stderr.strip()))

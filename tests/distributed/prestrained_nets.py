@@ -51,14 +51,14 @@ import json
 import math
 import os
 import random
-import subprocess
 import sys
 import tempfile
+
+import mpi_launch
 
 from decimal import Decimal as D, getcontext
 
 getcontext().prec = 40
-MPIRUN = ["mpirun", "--quiet", "--allow-run-as-root", "--oversubscribe", "-np"]
 WANTED = 10
 K_SPRING, MASS = 1000, D("0.002")
 EPS = 2.0 ** -52
@@ -184,8 +184,8 @@ def main():
                 f.write(text)
             options = ["--modes", str(wanted), "--json", out]
             command = ([modal, "analyze", path, "--solver", "sparse"] + options if np_ == "0" else
-                       MPIRUN + [np_, modal, "analyze", path, "--backend", "petsc"] + options)
-            r = subprocess.run(command, capture_output=True, text=True, timeout=240)
+                       mpi_launch.MPIRUN + [np_, modal, "analyze", path, "--backend", "petsc"] + options)
+            r = mpi_launch.run(command, 240)
             what = "%s, seed %d)" % (label, seed) if not mixed else "trial %d: %s (seed %d)" % (trial, label, seed)
             if r.returncode != 0:
                 failures.append("%s: exit %d: %s" % (what, r.returncode, r.stderr.strip()))
