@@ -143,7 +143,8 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // `chain` (or null): M's point-mass chain structure (PointMassChain, in the
 // units of M as given), within its mismatch of M: the products with M and
 // M⁻¹ of the analysis then cost O(n) per vector, and where K is diagonal
-// every pair comes from the tridiagonal U⁻¹KU⁻ᵀ (MRRR) in O(n²).
+// every pair comes from the tridiagonal U⁻¹KU⁻ᵀ (MRRR) in O(n²), and where
+// the chain hangs (every K_jj > 0) the lowest from the bidiagonal U⁻¹K^½.
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
                             Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),

@@ -239,6 +239,28 @@ class ChainMass {
       if (i + 1 < n) e(i) = -next / root_(i) / root_(i + 1);
     }
   }
+  // The upper bidiagonal B = U⁻¹K^½ (C = U⁻¹KU⁻ᵀ = BBᵀ) for the diagonal k
+  // > 0 of K: diagonal d and superdiagonal e (n, the last entry 0), B_ii =
+  // √k_i/(l_i√m_i) and B_{i,i+1} = −√k_{i+1}/(l_{i+1}√m_i), each formed
+  // from the data in a few roundings. Its entries define its singular
+  // values to high relative accuracy (Demmel and Kahan 1990), C's entries do
+  // not define C's small eigenvalues so (MRRR on C was off by up to 25 % on
+  // the lowest modes of a 2500-link chain graded over 1e-4 … 1e4, where C's
+  // diagonal spans 21 decades, and dstemr failed outright on one of 1051
+  // links, lengths sorted over 1e-4 … 1e4). False where an entry is not a
+  // normal number (under- or overflowed) or a k_i is not positive.
+  bool bidiagonal(const VectorX& k, VectorX& d, VectorX& e) const {
+    const Eigen::Index n = size();
+    d.resize(n);
+    e.setZero(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!(k(i) > 0)) return false;
+      d(i) = std::sqrt(k(i)) / (lever_(i) * root_(i));
+      if (i + 1 < n) e(i) = -std::sqrt(k(i + 1)) / (lever_(i + 1) * root_(i));
+      if (!std::isnormal(d(i)) || (i + 1 < n && !std::isnormal(e(i)))) return false;
+    }
+    return true;
+  }
 
   // A value τ with exactly p eigenvalues below it as counted (0 < p < n,
   // k_i > 0 all), none within a factor 1 ± 1e-6 of it: the p-th and
@@ -646,29 +668,70 @@ MatrixX tridiagonal_lowest(VectorX d, VectorX e, int p, VectorX* values = nullpt
 // on both sides, finds more than asked where the next singular value lies
 // that close, and then drops the smallest, while writing a column of Z for
 // each found); false where it fails or finds another number.
-bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma, MatrixX& right) {
+// With `right` null, the values alone (JOBZ 'N': bisection only).
+bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma, MatrixX* right) {
   const int n = static_cast<int>(d.size());
   if (p <= 0 || p > n || (p < n && !(below > 0 && std::isfinite(below)))) return false;
-  const int il = 0, iu = 0, ldz = 2 * n;
+  const int il = 0, iu = 0, ldz = right != nullptr ? 2 * n : 1;
   const double vl = 0, vu = p < n ? below : 0;
   int found = 0, info = 0;
   VectorX s(n);
-  MatrixX Z(ldz, std::min(n, p + 1) + 1);  // NS + 1 columns at least (one spare)
+  MatrixX Z(ldz, right != nullptr ? std::min(n, p + 1) + 1 : 1);  // NS + 1 columns at least (one spare)
   std::vector<double> work(static_cast<std::size_t>(14) * static_cast<std::size_t>(n));
   std::vector<int> iwork(static_cast<std::size_t>(12) * static_cast<std::size_t>(n));
-  dbdsvdx_("U", "V", p < n ? "V" : "A", &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, s.data(), Z.data(),
-           &ldz, work.data(), iwork.data(), &info, 1, 1, 1);
+  dbdsvdx_("U", right != nullptr ? "V" : "N", p < n ? "V" : "A", &n, d.data(), e.data(), &vl, &vu, &il, &iu,
+           &found, s.data(), Z.data(), &ldz, work.data(), iwork.data(), &info, 1, 1, 1);
   if (info != 0 || found != p) return false;
   // Returned from the largest down: reversed, with their vectors.
   sigma.resize(p);
-  right.resize(n, p);
+  if (right != nullptr) right->resize(n, p);
   for (int j = 0; j < p; ++j) {
     sigma(j) = s(p - 1 - j);
-    right.col(j) = Z.col(p - 1 - j).segment(n, n);
+    if (right != nullptr) right->col(j) = Z.col(p - 1 - j).segment(n, n);
   }
   for (int j = 0; j + 1 < p; ++j)
     if (!(sigma(j) <= sigma(j + 1))) return false;
-  return sigma.allFinite() && right.allFinite();
+  return sigma.allFinite() && (right == nullptr || right->allFinite());
+}
+
+// The p lowest singular values σ (ascending) of a hanging chain's
+// bidiagonal B = U⁻¹K^½ (ChainMass::bidiagonal: k the diagonal of K, every
+// entry positive) and their right vectors V (n×p, unit columns), asked of
+// bidiagonal_lowest by value: below a τ that the chain's long double Sturm
+// counts place between λ_p and λ_{p+1} (ChainMass::separating_value), or,
+// where those two lie within 1e-5 of each other, between λ_q and λ_{q+1}
+// for the first q ≤ p + 16 where they do not (the extra ones dropped).
+// False where B is not formed, no such q exists or dbdsvdx fails.
+bool chain_lowest_singular(const ChainMass& U, const VectorX& k, Eigen::Index p, VectorX& sigma, MatrixX& V) {
+  const Eigen::Index n = U.size();
+  VectorX diagonal, upper;
+  if (p <= 0 || p > n || !U.bidiagonal(k, diagonal, upper)) return false;
+  std::optional<double> separation;
+  Eigen::Index solved = p;
+  for (; solved < n && solved <= p + 16; ++solved)
+    if ((separation = U.separating_value(k, solved))) break;
+  if (solved > p + 16) return false;
+  if (!bidiagonal_lowest(diagonal, upper, static_cast<int>(solved), separation ? std::sqrt(*separation) : 0.0,
+                         sigma, &V))
+    return false;
+  sigma.conservativeResize(p);
+  V.conservativeResize(Eigen::NoChange, p);
+  return true;
+}
+
+// The pencil's vectors of a hanging chain from B's right vectors v: φ =
+// σK^{-½}v (Kφ = λMφ with u = Uᵀφ, Bᵀu = σv), formed entry by entry
+// without cancellation (U⁻ᵀy cancels); φᵀMφ = ‖u‖² = 1 for exact vectors
+// of unit norm. A computed v errs along a lower mode j by about
+// ε‖B‖/gap, which φ magnifies by σ_i/σ_j: on chains with light links of
+// 1e-20 … 1e-8 of a heavy tip's mass φᵀMφ − 1 and the shapes' residual
+// reach 1e-7.
+MatrixX chain_shapes(const VectorX& k, const VectorX& sigma, const MatrixX& V) {
+  MatrixX Phi(V.rows(), V.cols());
+  const VectorX root_k = k.cwiseSqrt();
+  for (Eigen::Index i = 0; i < V.cols(); ++i)
+    Phi.col(i) = (sigma(i) / V.col(i).norm()) * V.col(i).cwiseQuotient(root_k);
+  return Phi;
 }
 
 // K φ = λ M φ reduced to a symmetric tridiagonal matrix T = QᵀCQ,
@@ -1012,7 +1075,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   MatrixX Phi;
   // A point-mass chain (PointMassChain): the analysis's products with M and
   // M⁻¹ by its structure; where K is also diagonal, the pairs from the
-  // tridiagonal C = U⁻¹KU⁻ᵀ (dsterf, dstemr) and Φ = U⁻ᵀY, all O(n²), in
+  // tridiagonal C = U⁻¹KU⁻ᵀ (dsterf, dstemr) and Φ = U⁻ᵀY, or from the
+  // bidiagonal B = U⁻¹K^½ where the chain hangs (below), all O(n²), in
   // place of dsygst and divide and conquer (n³), where LAPACK solves (from
   // lapack_threshold coordinates, or asked for); not with --dense-solver
   // eigen, which asks for Eigen's own solver throughout.
@@ -1031,6 +1095,47 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // makes it definite).
   bool chain_solve = diagonal_K && (lapack || !mass.definite());
   if (chain_solve) chain_mass->tridiagonal(K.diagonal(), chain_d, chain_e);
+  // A hanging chain (every K_jj > 0) also has the bidiagonal B = U⁻¹K^½
+  // (C = BBᵀ; ChainMass::bidiagonal), whose entries define its singular
+  // values to high relative accuracy where C's entries do not define C's
+  // small eigenvalues so.
+  const bool hanging = chain_solve && (K.diagonal().array() > 0).all();
+  bool from_bidiagonal = false;  // whether B's vectors answered (the solver's name, below)
+  // The pencil's vectors of the p lowest modes by the chain's structure (and
+  // with `values` their eigenvalues), empty where every way fails:
+  // - p < n (the modes analyzed with `wanted`): from B's lowest singular
+  //   values and right vectors (chain_lowest_singular, chain_shapes) where
+  //   the chain hangs, else, or where that fails, from C by MRRR (dstemr,
+  //   Φ = U⁻ᵀY);
+  // - p = n: from C by MRRR first, since B's vectors all at once cost O(n³)
+  //   (dbdsvdx's inverse iteration reorthogonalizes the low singular
+  //   values as one cluster: 1.8 s on a 1000-link chain, 21 s on 2000,
+  //   against MRRR's 0.26 and 1.0 s); B where dstemr fails (it did on a
+  //   1051-link chain, lengths sorted over 1e-4 … 1e4, and Cholesky and
+  //   dsygst then lost the lowest eigenvalues to 2e-4 relative). The
+  //   analysis below replaces either's λ by the vectors' Rayleigh quotients.
+  auto chain_vectors = [&](Eigen::Index p, VectorX* values) -> MatrixX {
+    auto from_b = [&]() -> MatrixX {
+      VectorX sigma;
+      MatrixX V;
+      if (!hanging || !chain_lowest_singular(*chain_mass, K.diagonal(), p, sigma, V)) return {};
+      if (values != nullptr) *values = sigma.cwiseAbs2();
+      return chain_shapes(K.diagonal(), sigma, V);
+    };
+    auto from_c = [&]() -> MatrixX {
+      MatrixX Y = tridiagonal_lowest(chain_d, chain_e, static_cast<int>(p), values);
+      if (Y.cols() == p) chain_mass->solve_transposed(Y);
+      return Y;
+    };
+    const bool b_first = p < n;
+    MatrixX Phi_p = b_first ? from_b() : from_c();
+    from_bidiagonal = b_first && Phi_p.cols() == p;
+    if (Phi_p.cols() != p) {
+      Phi_p = b_first ? from_c() : from_b();
+      from_bidiagonal = !b_first && Phi_p.cols() == p;
+    }
+    return Phi_p;
+  };
   // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
   // analyzed below (TridiagonalPencil: no divide and conquer over all n
   // vectors, no back-transformation of them).
@@ -1039,10 +1144,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     if (wanted >= 0 && wanted < n) {
       lambda_all = tridiagonal_eigenvalues(chain_d, chain_e);
     } else {
-      Phi = tridiagonal_lowest(chain_d, chain_e, static_cast<int>(n), &lambda_all);
-      if (Phi.cols() == n) {
-        chain_mass->solve_transposed(Phi);
-      } else {  // dstemr failed: the dense solver
+      Phi = chain_vectors(n, &lambda_all);
+      if (Phi.cols() != n) {  // every way failed: the dense solver
         chain_solve = false;
         lapack_pairs(K, mass(), lambda_all, Phi);
       }
@@ -1101,10 +1204,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       reduced.reset();
     }
   } else if (chain_solve && Phi.cols() == 0 && prefix > 0) {
-    Phi = tridiagonal_lowest(chain_d, chain_e, static_cast<int>(prefix));
-    if (Phi.cols() == prefix) {
-      chain_mass->solve_transposed(Phi);
-    } else {  // dstemr failed: every pair by the dense solver
+    Phi = chain_vectors(prefix, nullptr);
+    if (Phi.cols() != prefix) {  // both failed: every pair by the dense solver
       chain_solve = false;
       lapack_pairs(K, mass(), lambda_all, Phi);
     }
@@ -1376,7 +1477,14 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
 
     ModalResult result;
     const char* reduction = diagonal_factor ? "M diagonal, L⁻¹KL⁻ᵀ by scaling" : "Cholesky of M, dsygst";
-    result.solver = chain_solve
+    result.solver = chain_solve && from_bidiagonal
+                        ? std::string("dense symmetric-definite (LAPACK: point-mass chain, M = UUᵀ with U⁻¹ "
+                                      "bidiagonal, tridiagonal U⁻¹KU⁻ᵀ = BBᵀ, ") +
+                              (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors from the "
+                                                   "singular values of the bidiagonal B = U⁻¹K^½ by dbdsvdx)"
+                                                 : "every pair from the singular values of the bidiagonal B = "
+                                                   "U⁻¹K^½ by dbdsvdx, MRRR dstemr having failed)")
+                    : chain_solve
                         ? std::string("dense symmetric-definite (LAPACK: point-mass chain, M = UUᵀ with U⁻¹ "
                                       "bidiagonal, tridiagonal U⁻¹KU⁻ᵀ, ") +
                               (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors by MRRR dstemr)"
@@ -1536,6 +1644,33 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   };
   ModalResult result = analyze();
   const auto analyzed_count = static_cast<Eigen::Index>(analyzed.size());
+  // A hanging chain's pairs from C by MRRR (every pair: the fast way) are
+  // accurate normwise only: on a chain whose lengths rise over 1e-4 … 1e4
+  // their quotients erred by up to 5e-8 relative (within their estimates),
+  // where the data define each ω² to a few ε. The lowest modes up to the
+  // last whose estimate exceeds 64ε|λ| (a few ε is the data's share) are
+  // then solved again from B (chain_lowest_singular), within a budget of
+  // p²n ≤ 2e8 (dbdsvdx reorthogonalizes them as one cluster), and analyzed
+  // again.
+  if (hanging && !from_bidiagonal) {
+    Eigen::Index p = 0;
+    for (Eigen::Index i = 0; i < analyzed_count; ++i) {
+      const Mode& mode = result.modes[static_cast<std::size_t>(i)];
+      if (!(mode.error_estimate <= 64 * eps * std::abs(mode.omega2))) p = i + 1;
+    }
+    VectorX sigma;
+    MatrixX V;
+    if (p > 0 && static_cast<double>(p) * static_cast<double>(p) * static_cast<double>(n) <= 2e8 &&
+        chain_lowest_singular(*chain_mass, K.diagonal(), p, sigma, V)) {
+      Phi.leftCols(p) = chain_shapes(K.diagonal(), sigma, V);
+      result = analyze();
+      if (!result.solver.empty() && result.solver.back() == ')')
+        result.solver.insert(result.solver.size() - 1,
+                             "; the lowest " + std::to_string(p) +
+                                 " modes' vectors again from the singular values of the bidiagonal B = U⁻¹K^½ by "
+                                 "dbdsvdx");
+    }
+  }
   VectorX lambda(analyzed_count), estimate(analyzed_count);  // of the analyzed modes, a prefix of result.modes
   for (Eigen::Index i = 0; i < analyzed_count; ++i) {
     lambda(i) = result.modes[static_cast<std::size_t>(i)].omega2;
@@ -1553,44 +1688,15 @@ std::optional<ModalResult> solve_chain_modes(const PointMassChain& chain, const 
       !(K.array() > 0).all() || !K_terms.allFinite() || !chain.lever.allFinite() ||
       !(chain.lever.array() != 0).all() || !chain.mass.allFinite() || !(chain.mass.array() > 0).all())
     return std::nullopt;
-  // C = U⁻¹KU⁻ᵀ = BBᵀ with B = U⁻¹K^½ upper bidiagonal, B_ii = √k_i/(l_i√m_i)
-  // and B_{i,i+1} = −√k_{i+1}/(l_{i+1}√m_i). Its entries define its singular
-  // values to high relative accuracy (Demmel and Kahan 1990), C's entries
-  // do not: MRRR on C, as the dense path solves it, was off by up to 25 %
-  // on the lowest modes of a 2500-link chain graded over 1e-4 … 1e4 (C's
-  // diagonal spans 21 decades there). So the lowest σ of B by bisection on
-  // its Golub–Kahan form and their right vectors v by inverse iteration
-  // (LAPACK dbdsvdx), λ = σ², and φ = σK^{-½}v (Kφ = λMφ with u = Uᵀφ,
-  // Bᵀu = σv), formed entry by entry without cancellation (U⁻ᵀy cancels):
-  // φᵀMφ = ‖u‖² = 1 for exact vectors. A computed v errs along a lower
-  // mode j by about ε‖B‖/gap, which φ magnifies by σ_i/σ_j: on chains
-  // with light links of 1e-20 … 1e-8 of a heavy tip's mass φᵀMφ − 1 and
-  // the shapes' residual reach 1e-7 (the dense path's shapes likewise).
-  VectorX diagonal(n), upper = VectorX::Zero(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double root_m = std::sqrt(chain.mass(i));
-    diagonal(i) = std::sqrt(K(i)) / (chain.lever(i) * root_m);
-    if (i + 1 < n) upper(i) = -std::sqrt(K(i + 1)) / (chain.lever(i + 1) * root_m);
-  }
-  // (Every entry a normal number: neither over- nor underflowed.)
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!std::isnormal(diagonal(i)) || (i + 1 < n && !std::isnormal(upper(i)))) return std::nullopt;
-  // The lowest as the counts separate them from the rest: p, or up to 16
-  // more where the next lies within 1e-5 of the last (all where that
-  // reaches n); the analysis then returns the lowest p.
+  // The lowest σ of the bidiagonal B = U⁻¹K^½ (ChainMass::bidiagonal: its
+  // entries define them to high relative accuracy, C = BBᵀ's do not) by
+  // bisection on its Golub–Kahan form and their right vectors v by inverse
+  // iteration (LAPACK dbdsvdx; chain_lowest_singular), λ = σ², and φ =
+  // σK^{-½}v (chain_shapes).
   const ChainMass U(chain);
-  std::optional<double> separation;
-  Eigen::Index solved = p;
-  for (; solved < n && solved <= p + 16; ++solved)
-    if ((separation = U.separating_value(K, solved))) break;
-  if (solved > p + 16) return std::nullopt;
   VectorX sigma;
   MatrixX V;
-  if (!bidiagonal_lowest(diagonal, upper, static_cast<int>(solved), separation ? std::sqrt(*separation) : 0.0,
-                         sigma, V))
-    return std::nullopt;
-  sigma.conservativeResize(p);
-  V.conservativeResize(Eigen::NoChange, p);
+  if (!chain_lowest_singular(U, K, p, sigma, V)) return std::nullopt;
   VectorX lambda = sigma.cwiseAbs2();
   if (!lambda.allFinite() || !(lambda.array() > 0).all()) return std::nullopt;
   // λ refined by the Sturm counts to ε/4 (ChainMass::refine), which then
@@ -1629,10 +1735,10 @@ std::optional<ModalResult> solve_chain_modes(const PointMassChain& chain, const 
     mode.omega2 = l;
     mode.residual_bound = radius(i);
     mode.systematic_error = 0;
-    const VectorX phi = std::sqrt(l / v2) * V.col(i).cwiseQuotient(K.cwiseSqrt());
-    mode.shape = phi.cast<std::complex<double>>();
     result.modes.push_back(std::move(mode));
   }
+  const MatrixX Phi = chain_shapes(K, lambda.cwiseSqrt(), V);
+  for (Eigen::Index i = 0; i < p; ++i) result.modes[static_cast<std::size_t>(i)].shape = Phi.col(i).cast<std::complex<double>>();
   absolute_to_relative(parent, true, result.modes);
   result.stability = Stability::stable;
   if (p < n)
