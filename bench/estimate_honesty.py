@@ -421,7 +421,7 @@ if not QUICK or "--out=" in " ".join(sys.argv):
         "its point-mass path solves), so there a bound of the pencil as formed may fall below the data's own",
         "rounding: the one mode under in each of three graded chains is within 16 % of its true error.",
         "`PointMassChains.LongGradedChainsMatchTheQuadPrecisionReference` checks the bounds of its own",
-        "generated chains (150–320 links graded over 1e-2 … 1e2, and uniform ones) against the pencil as",
+        "generated chains (150–320 links graded over 1e-4 … 1e4 or 1e-2 … 1e2, and uniform ones) against the pencil as",
         "formed (__float128): all hold, within 6.5 ×.",
         "",
         "## Point-mass chains: the data written out, estimates from the chain's structure (2026-11-30)",

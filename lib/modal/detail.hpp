@@ -29,10 +29,11 @@ using Cholesky = Eigen::LLT<MatrixX>;
 
 // M's Cholesky factor, formed on first use (by the function given, which
 // also tests M's definiteness: factor_mass) or given formed. A point-mass
-// chain's path (solve_symmetric) needs none unless MRRR fails: its M = UUᵀ
-// with U⁻¹ bidiagonal is positive definite by its structure, and the dense
-// factor (n³/3 flops, OpenBLAS's threads) was an eighth of a 1000-link
-// chain's eigen phase. Not for use from several threads at once.
+// chain's path (solve_symmetric) needs none unless MRRR and its bidiagonal
+// solve fail: its M = UUᵀ with U⁻¹ bidiagonal is positive definite by its
+// structure, and the dense factor (n³/3 flops, OpenBLAS's threads) was an
+// eighth of a 1000-link chain's eigen phase. Not for use from several
+// threads at once.
 class MassFactor {
  public:
   explicit MassFactor(std::function<Cholesky()> make) : make_(std::move(make)) {}

@@ -668,30 +668,31 @@ MatrixX tridiagonal_lowest(VectorX d, VectorX e, int p, VectorX* values = nullpt
 // on both sides, finds more than asked where the next singular value lies
 // that close, and then drops the smallest, while writing a column of Z for
 // each found); false where it fails or finds another number.
-// With `right` null, the values alone (JOBZ 'N': bisection only).
-bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma, MatrixX* right) {
+bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma, MatrixX& right) {
   const int n = static_cast<int>(d.size());
   if (p <= 0 || p > n || (p < n && !(below > 0 && std::isfinite(below)))) return false;
-  const int il = 0, iu = 0, ldz = right != nullptr ? 2 * n : 1;
+  const int il = 0, iu = 0, ldz = 2 * n;
   const double vl = 0, vu = p < n ? below : 0;
   int found = 0, info = 0;
-  VectorX s(n);
-  MatrixX Z(ldz, right != nullptr ? std::min(n, p + 1) + 1 : 1);  // NS + 1 columns at least (one spare)
+  // S of 2n: with RANGE 'A' and a smallest singular value below dbdsvdx's
+  // absolute threshold it asks its Golub–Kahan solve for n + 1 values.
+  VectorX s(2 * n);
+  MatrixX Z(ldz, std::min(n, p + 1) + 1);  // NS + 1 columns at least (one spare)
   std::vector<double> work(static_cast<std::size_t>(14) * static_cast<std::size_t>(n));
   std::vector<int> iwork(static_cast<std::size_t>(12) * static_cast<std::size_t>(n));
-  dbdsvdx_("U", right != nullptr ? "V" : "N", p < n ? "V" : "A", &n, d.data(), e.data(), &vl, &vu, &il, &iu,
-           &found, s.data(), Z.data(), &ldz, work.data(), iwork.data(), &info, 1, 1, 1);
+  dbdsvdx_("U", "V", p < n ? "V" : "A", &n, d.data(), e.data(), &vl, &vu, &il, &iu, &found, s.data(), Z.data(),
+           &ldz, work.data(), iwork.data(), &info, 1, 1, 1);
   if (info != 0 || found != p) return false;
   // Returned from the largest down: reversed, with their vectors.
   sigma.resize(p);
-  if (right != nullptr) right->resize(n, p);
+  right.resize(n, p);
   for (int j = 0; j < p; ++j) {
     sigma(j) = s(p - 1 - j);
-    if (right != nullptr) right->col(j) = Z.col(p - 1 - j).segment(n, n);
+    right.col(j) = Z.col(p - 1 - j).segment(n, n);
   }
   for (int j = 0; j + 1 < p; ++j)
     if (!(sigma(j) <= sigma(j + 1))) return false;
-  return sigma.allFinite() && (right == nullptr || right->allFinite());
+  return sigma.allFinite() && right.allFinite();
 }
 
 // The p lowest singular values σ (ascending) of a hanging chain's
@@ -700,8 +701,9 @@ bool bidiagonal_lowest(VectorX d, VectorX e, int p, double below, VectorX& sigma
 // bidiagonal_lowest by value: below a τ that the chain's long double Sturm
 // counts place between λ_p and λ_{p+1} (ChainMass::separating_value), or,
 // where those two lie within 1e-5 of each other, between λ_q and λ_{q+1}
-// for the first q ≤ p + 16 where they do not (the extra ones dropped).
-// False where B is not formed, no such q exists or dbdsvdx fails.
+// for the first q ≤ p + 16 where they do not (the extra ones dropped;
+// every one where that reaches n). False where B is not formed, no such q
+// exists or dbdsvdx fails.
 bool chain_lowest_singular(const ChainMass& U, const VectorX& k, Eigen::Index p, VectorX& sigma, MatrixX& V) {
   const Eigen::Index n = U.size();
   VectorX diagonal, upper;
@@ -710,9 +712,9 @@ bool chain_lowest_singular(const ChainMass& U, const VectorX& k, Eigen::Index p,
   Eigen::Index solved = p;
   for (; solved < n && solved <= p + 16; ++solved)
     if ((separation = U.separating_value(k, solved))) break;
-  if (solved > p + 16) return false;
+  if (solved < n && !separation) return false;
   if (!bidiagonal_lowest(diagonal, upper, static_cast<int>(solved), separation ? std::sqrt(*separation) : 0.0,
-                         sigma, &V))
+                         sigma, V))
     return false;
   sigma.conservativeResize(p);
   V.conservativeResize(Eigen::NoChange, p);
@@ -1103,16 +1105,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   bool from_bidiagonal = false;  // whether B's vectors answered (the solver's name, below)
   // The pencil's vectors of the p lowest modes by the chain's structure (and
   // with `values` their eigenvalues), empty where every way fails:
-  // - p < n (the modes analyzed with `wanted`): from B's lowest singular
-  //   values and right vectors (chain_lowest_singular, chain_shapes) where
-  //   the chain hangs, else, or where that fails, from C by MRRR (dstemr,
-  //   Φ = U⁻ᵀY);
-  // - p = n: from C by MRRR first, since B's vectors all at once cost O(n³)
+  // - p < n (the modes analyzed with `wanted`) and p²n ≤ 2e8: from B's
+  //   lowest singular values and right vectors (chain_lowest_singular,
+  //   chain_shapes) where the chain hangs, else, or where that fails, from
+  //   C by MRRR (dstemr, Φ = U⁻ᵀY);
+  // - otherwise from C by MRRR first, since B's vectors cost O(p²n)
   //   (dbdsvdx's inverse iteration reorthogonalizes the low singular
-  //   values as one cluster: 1.8 s on a 1000-link chain, 21 s on 2000,
-  //   against MRRR's 0.26 and 1.0 s); B where dstemr fails (it did on a
-  //   1051-link chain, lengths sorted over 1e-4 … 1e4, and Cholesky and
-  //   dsygst then lost the lowest eigenvalues to 2e-4 relative). The
+  //   values as one cluster: all of a 1000-link chain's 1.8 s, of 2000
+  //   links 21 s, against MRRR's 0.27 and 1.0 s); B where dstemr fails (it
+  //   did on a 1051-link chain, lengths sorted over 1e-4 … 1e4, and
+  //   Cholesky and dsygst then lost the lowest eigenvalues to 2e-4). The
   //   analysis below replaces either's λ by the vectors' Rayleigh quotients.
   auto chain_vectors = [&](Eigen::Index p, VectorX* values) -> MatrixX {
     auto from_b = [&]() -> MatrixX {
@@ -1127,7 +1129,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       if (Y.cols() == p) chain_mass->solve_transposed(Y);
       return Y;
     };
-    const bool b_first = p < n;
+    const bool b_first = p < n && static_cast<double>(p) * static_cast<double>(p) * static_cast<double>(n) <= 2e8;
     MatrixX Phi_p = b_first ? from_b() : from_c();
     from_bidiagonal = b_first && Phi_p.cols() == p;
     if (Phi_p.cols() != p) {
@@ -1215,6 +1217,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // estimates, kinds. unresolved(i): the estimate of analyzed mode i over
   // what its data and quotient alone justify (refinement, below).
   VectorX unresolved;
+  // chain_spread(i): the half width of the Sturm-count bracket around
+  // analyzed mode i's λ (ChainMass::certify; ∞ where none was verified),
+  // for a hanging chain (below).
+  VectorX chain_spread;
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
   // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
   // the residual bound's worst case of rounding.
@@ -1525,6 +1531,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       VectorX analyzed_lambda(m), spread;
       for (Eigen::Index i = 0; i < m; ++i) analyzed_lambda(i) = lambda_all(analyzed[static_cast<std::size_t>(i)]);
       certified = chain_mass->certify(K.diagonal(), analyzed_lambda, residual_bounds, &spread);
+      chain_spread = spread;
       residual_bounds = residual_bounds.cwiseMin(certified);
       const VectorX k_error =
           !given ? VectorX(4 * eps * K.diagonal().cwiseAbs())
@@ -1648,27 +1655,44 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // accurate normwise only: on a chain whose lengths rise over 1e-4 … 1e4
   // their quotients erred by up to 5e-8 relative (within their estimates),
   // where the data define each ω² to a few ε. The lowest modes up to the
-  // last whose estimate exceeds 64ε|λ| (a few ε is the data's share) are
-  // then solved again from B (chain_lowest_singular), within a budget of
-  // p²n ≤ 2e8 (dbdsvdx reorthogonalizes them as one cluster), and analyzed
-  // again.
-  if (hanging && !from_bidiagonal) {
+  // last whose quotient the Sturm counts bracket no closer than 16ε|λ| (or
+  // not at all) are then solved again from B (chain_lowest_singular),
+  // within a budget of p²n ≤ 2e8 (dbdsvdx reorthogonalizes them as one
+  // cluster), and analyzed again; kept unless their estimates sum to more
+  // than before (B's shapes on light links are not always better).
+  Eigen::Index again = 0;  // how many were solved again (the solver's name)
+  auto name_again = [&](ModalResult& r) {
+    if (again > 0 && !r.solver.empty() && r.solver.back() == ')')
+      r.solver.insert(r.solver.size() - 1, "; the lowest " + std::to_string(again) +
+                                                " modes' vectors again from the singular values of the bidiagonal "
+                                                "B = U⁻¹K^½ by dbdsvdx");
+  };
+  if (chain_solve && hanging && !from_bidiagonal && chain_spread.size() == analyzed_count) {
     Eigen::Index p = 0;
-    for (Eigen::Index i = 0; i < analyzed_count; ++i) {
-      const Mode& mode = result.modes[static_cast<std::size_t>(i)];
-      if (!(mode.error_estimate <= 64 * eps * std::abs(mode.omega2))) p = i + 1;
-    }
+    for (Eigen::Index i = 0; i < analyzed_count; ++i)
+      if (!(chain_spread(i) <= 16 * eps * std::abs(result.modes[static_cast<std::size_t>(i)].omega2))) p = i + 1;
     VectorX sigma;
     MatrixX V;
     if (p > 0 && static_cast<double>(p) * static_cast<double>(p) * static_cast<double>(n) <= 2e8 &&
         chain_lowest_singular(*chain_mass, K.diagonal(), p, sigma, V)) {
+      auto sum = [p](const ModalResult& r) {
+        double total = 0;
+        for (Eigen::Index i = 0; i < p; ++i) total += r.modes[static_cast<std::size_t>(i)].error_estimate;
+        return total;
+      };
+      const MatrixX Phi_before = Phi;
+      const VectorX unresolved_before = unresolved, spread_before = chain_spread;
       Phi.leftCols(p) = chain_shapes(K.diagonal(), sigma, V);
-      result = analyze();
-      if (!result.solver.empty() && result.solver.back() == ')')
-        result.solver.insert(result.solver.size() - 1,
-                             "; the lowest " + std::to_string(p) +
-                                 " modes' vectors again from the singular values of the bidiagonal B = U⁻¹K^½ by "
-                                 "dbdsvdx");
+      ModalResult again_result = analyze();
+      if (sum(again_result) <= sum(result)) {
+        result = std::move(again_result);
+        again = p;
+        name_again(result);
+      } else {
+        Phi = Phi_before;
+        unresolved = unresolved_before;
+        chain_spread = spread_before;
+      }
     }
   }
   VectorX lambda(analyzed_count), estimate(analyzed_count);  // of the analyzed modes, a prefix of result.modes
@@ -1676,7 +1700,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     lambda(i) = result.modes[static_cast<std::size_t>(i)].omega2;
     estimate(i) = result.modes[static_cast<std::size_t>(i)].error_estimate;
   }
-  if (refine_unresolved(M, K, M_op.sparse(), K_op.sparse(), unresolved, lambda, estimate, Phi)) result = analyze();
+  if (refine_unresolved(M, K, M_op.sparse(), K_op.sparse(), unresolved, lambda, estimate, Phi)) {
+    result = analyze();
+    name_again(result);
+  }
   return result;
 }
 

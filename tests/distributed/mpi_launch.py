@@ -21,6 +21,7 @@ def run(command, timeout):
     runs with its own session directory base."""
     if command[:1] != ["mpirun"]:
         return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-    with tempfile.TemporaryDirectory(prefix="modal-ompi-") as base:
+    # (ignore_cleanup_errors: ranks a timeout left running may still write there)
+    with tempfile.TemporaryDirectory(prefix="modal-ompi-", ignore_cleanup_errors=True) as base:
         environment = dict(os.environ, OMPI_MCA_orte_tmpdir_base=base)
         return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=environment)
