@@ -356,6 +356,45 @@ TEST(SymmetricModes, SingularMassMatrixNamesTheCoordinate) {
   }
 }
 
+// A positive definite M whose smallest eigenvalue lies below the tolerance
+// (16ε‖M‖_F after scaling) is refused, but in words that are true: singular
+// to double precision, the direction's inertia unresolved, the tolerance
+// stated; not "no inertia", which a positive eigenvalue contradicts.
+// Generated: M = S [[1, 1 − kε], [1 − kε, 1]] S, whose eigenvalues before
+// the scaling S = diag(1, 2^e) are kε and 2 − kε exactly (1 − kε is a
+// double for these k), S's powers of two graded over 2^±40, and with
+// damping (the first-order path factors M the same way).
+TEST(SymmetricModes, ModestlyPositiveMassBelowTheToleranceIsSingularToDoublePrecision) {
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  int cases = 0;
+  for (int k : {1, 2, 5, 16})
+    for (int e : {-40, 0, 17, 40})
+      for (bool damped : {false, true}) {
+        const double c = 1 - k * eps;
+        const double s = std::ldexp(1.0, e);
+        MatrixX M = mat2(1, c * s, c * s, s * s);
+        ASSERT_GT(M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0), 0.0);  // positive definite as stored
+        LinearModel model = make_model(M, MatrixX::Identity(2, 2), {"heavy", "light"});
+        if (damped) {
+          model.D = MatrixX::Identity(2, 2);
+          model.has_damping = true;
+        }
+        try {
+          modal::solve_modes(model);
+          ADD_FAILURE() << "expected SingularMassMatrix (k " << k << ", e " << e << ")";
+        } catch (const modal::SingularMassMatrix& error) {
+          const std::string what = error.what();
+          EXPECT_NE(what.find("singular to double precision"), std::string::npos) << what;
+          EXPECT_NE(what.find("no inertia that double precision resolves"), std::string::npos) << what;
+          EXPECT_NE(what.find("at most the tolerance"), std::string::npos) << what;
+          EXPECT_EQ(what.find("negative"), std::string::npos) << what;
+          EXPECT_EQ(what.find("(eigenvalue −"), std::string::npos) << what;
+          ++cases;
+        }
+      }
+  EXPECT_EQ(cases, 32);
+}
+
 // ---------------------------------------------------------------------------
 // First-order problems.
 
