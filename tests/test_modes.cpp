@@ -386,9 +386,8 @@ TEST(SymmetricModes, ModestlyPositiveMassBelowTheToleranceIsSingularToDoublePrec
           const std::string what = error.what();
           EXPECT_NE(what.find("singular to double precision"), std::string::npos) << what;
           EXPECT_NE(what.find("no inertia that double precision resolves"), std::string::npos) << what;
-          EXPECT_NE(what.find("at most the tolerance"), std::string::npos) << what;
+          EXPECT_NE(what.find("within the tolerance 16ε‖M‖_F"), std::string::npos) << what;
           EXPECT_EQ(what.find("negative"), std::string::npos) << what;
-          EXPECT_EQ(what.find("(eigenvalue −"), std::string::npos) << what;
           ++cases;
         }
       }

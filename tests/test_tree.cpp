@@ -168,6 +168,71 @@ TEST(TreePencil, MassFloorIsALowerBoundOfTheEquilibratedMass) {
   EXPECT_GE(cases, 80);
 }
 
+// Light bodies carrying heavy ones, beyond double precision in relative
+// angles: a chain of hinges with alternating axes (no point-mass chain's
+// structure) and, at a random place, 2–4 bodies of 1e-20 … 1e-17 kg on
+// parallel hinges below which hangs a body of 1 kg. M is positive definite
+// (every body has mass off its hinge axis), but in exact arithmetic a light
+// body's pivot in the tree's LDLᵀ is its own inertia, 1e-17 or less of its
+// diagonal entry, so in rounding it can take any sign. Where the Lanczos
+// path refuses M, its words must be true: M cannot be factored in double
+// precision, named at a light body (where the inertia vanishes), not "not
+// positive definite" and not the least diagonal entry (which the
+// coordinates' scaling makes about 1 everywhere: the message named a body
+// far from the light ones before). Generated: 6 chains of 205–300 bodies.
+TEST(TreeModes, LightBodiesCarryingHeavyOnesAreRefusedInTrueWords) {
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(0, 1);
+  int refused = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    const int bodies = 205 + static_cast<int>(rng() % 96);
+    const int light = 2 + static_cast<int>(rng() % 3);
+    const int first_light = 20 + static_cast<int>(rng() % static_cast<unsigned>(bodies - light - 40));
+    SystemDescription d;
+    d.title = "light bodies carrying a heavy one";
+    d.gravity = Vec3(0, 0, -9.81);
+    std::vector<std::string> light_names;
+    for (int b = 0; b < bodies; ++b) {
+      Body body;
+      body.name = "b" + std::to_string(b);
+      body.parent = b - 1;
+      body.joint = JointType::hinge;
+      const bool is_light = b >= first_light && b < first_light + light;
+      const bool parallel = b >= first_light - 1 && b <= first_light + light;  // the segment and its ends
+      body.axis = parallel || b % 2 == 0 ? Vec3::UnitY() : Vec3::UnitX();
+      const double l = std::pow(10.0, -2 + 2 * u(rng));
+      body.origin = b == 0 ? Vec3::Zero() : Vec3(0, 0, -l);
+      body.com = Vec3(0, 0, -l);
+      body.mass = is_light ? std::pow(10.0, -20 + 3 * u(rng)) : 1.0;
+      body.rest = VectorX::Zero(1);
+      body.initial = VectorX::Zero(1);
+      if (is_light) light_names.push_back(body.name);
+      d.bodies.push_back(body);
+    }
+    const System s(d);
+    ASSERT_GT(s.size(), 200) << "the Lanczos path starts above 200 coordinates";
+    Workspace w(s);
+    const VectorX q = VectorX::Zero(s.size());
+    SparseModalOptions options;
+    options.modes = 4;
+    options.inertia_scale = inertia_scale(s, w, q);
+    for (int b = 0; b < bodies; ++b) options.coordinate_names.push_back("b" + std::to_string(b));
+    try {
+      solve_tree_modes(tree_pencil(s, w, q), options);
+    } catch (const SingularMassMatrix& e) {
+      ++refused;
+      const std::string what = e.what();
+      EXPECT_NE(what.find("cannot be factored in double precision"), std::string::npos) << what;
+      EXPECT_EQ(what.find("the mass matrix is not positive definite"), std::string::npos) << what;
+      EXPECT_TRUE(std::any_of(light_names.begin(), light_names.end(),
+                              [&](const std::string& name) { return what.find(name + " (") != std::string::npos ||
+                                                                    what.find(name + "'s") != std::string::npos; }))
+          << "trial " << trial << ", light bodies from b" << first_light << ": " << what;
+    }
+  }
+  EXPECT_GE(refused, 1) << "no generated chain reached the refusal: the test no longer tests it";
+}
+
 // The lowest modes of random trees solved through the tree (Lanczos path:
 // more than 200 coordinates) against the long double reference at the same
 // q (not an equilibrium: the dead loads make K indefinite for some, which

@@ -175,6 +175,7 @@ bool TreeFactor::factor(const TreePencil& p, double alpha, double beta, double g
   u_.assign(nb, Vec6::Zero());
   d_.setZero(p.size());
   negative_ = 0;
+  first_nonpositive_ = -1;
   std::vector<Mat6> C(nb, Mat6::Zero());
   bool ok = true;
   for (std::size_t c = nb; c-- > 0;) {
@@ -185,6 +186,7 @@ bool TreeFactor::factor(const TreePencil& p, double alpha, double beta, double g
       u_[c] = A * p.twist[c];
       const double d = p.twist[c].dot(u_[c]) + alpha * p.K_diagonal[k] + beta * p.M_diagonal[k] + gamma;
       d_[k] = d;
+      if (!(d > 0) && first_nonpositive_ < 0) first_nonpositive_ = k;
       if (!(d != 0) || !std::isfinite(d)) {
         ok = false;
         break;

@@ -104,8 +104,8 @@ bool is_diagonal(const MatrixX& A) {
     v.normalize();
     out << describe_combination(v, names)
         << (values(j) < -tolerance ? " has negative inertia" : " has no inertia that double precision resolves")
-        << " (eigenvalue " << format_number(values(j), 2) << " of largest " << format_number(largest, 3)
-        << (values(j) < -tolerance ? "" : ", at most the tolerance 16ε‖M‖_F = " + format_number(tolerance, 2))
+        << " (computed eigenvalue " << format_number(values(j), 2) << " of largest " << format_number(largest, 3)
+        << (values(j) < -tolerance ? "" : ", within the tolerance 16ε‖M‖_F = " + format_number(tolerance, 2) + " of zero")
         << (scaled ? "; M scaled by the coordinates' inertia" : "") << ")";
   }
   if (null_dimension > listed) out << "; and " << null_dimension - listed << " more such directions";

@@ -363,7 +363,7 @@ std::vector<std::string> coordinate_names(const SparseModalOptions& options, Ind
 
 [[noreturn]] void singular_mass(const SparseMatrix& M, const std::string& detail_text) {
   std::ostringstream out;
-  out << "the mass matrix is singular or not positive definite (" << detail_text << ")";
+  out << "the mass matrix is singular or not positive definite to double precision (" << detail_text << ")";
   std::vector<Index> bad;
   for (Index i = 0; i < M.rows(); ++i)
     if (!(M.coeff(i, i) > 0)) bad.push_back(i);
@@ -2281,19 +2281,46 @@ class TreeLanczosPencil {
     norms_.K1 = tree_product(p, 1.0, 0.0, ones, true).maxCoeff();
     norms_.M1 = tree_product(p, 0.0, 1.0, ones, true).maxCoeff();
     const VectorX dM = tree_diagonal(p, 0.0, 1.0);
-    if (!mass_.factor(p, 0.0, 1.0) || mass_.negative_pivots() > 0) {
-      Index worst = 0;
-      dM.minCoeff(&worst);
-      throw SingularMassMatrix("the mass matrix is not positive definite: its LDLᵀ factorization through the tree "
-                               "meets a pivot that is not positive (coordinate " + names[static_cast<std::size_t>(worst)] +
-                               " has the least inertia)");
-    }
+    if (!mass_.factor(p, 0.0, 1.0) || mass_.negative_pivots() > 0) throw mass_failure(dM, names);
     norms_.inverse_root_diagonal = dM.cwiseSqrt().cwiseInverse();
     norms_.mass_floor = detail::tree_mass_floor(p, mass_, dM);
     rounding_factor_ = 4 * eps * (1 + 2 * std::sqrt(static_cast<double>(p.depth)));
   }
   Index size() const { return p_.size(); }
   TreeShiftedFactor& factor() { return factor_; }
+  // Where M's factorization through the tree broke down, in words that are
+  // true whether M is singular, indefinite or positive definite but graded
+  // beyond double precision (a light body carrying a heavy one: in exact
+  // arithmetic its pivot is its own tiny inertia, in rounding any sign).
+  // Named: the first coordinate, leaves first, whose pivot is not positive,
+  // and where it is below √ε of its diagonal entry of M, the smallest
+  // positive pivot relative to that entry (the relative inertia left to that
+  // coordinate); not the least diagonal entry, which the coordinates'
+  // scaling makes about 1 everywhere.
+  SingularMassMatrix mass_failure(const VectorX& dM, const std::vector<std::string>& names) const {
+    const VectorX& d = mass_.pivots();
+    const int first = mass_.first_nonpositive();
+    Index least = -1;
+    for (Index k = 0; k < d.size(); ++k)
+      if (d[k] > 0 && dM[k] > 0 && (least < 0 || d[k] / dM[k] < d[least] / dM[least])) least = k;
+    std::string text =
+        "the mass matrix cannot be factored in double precision in these coordinates: its LDLᵀ factorization "
+        "through the tree (leaves first) meets a pivot that is not positive";
+    if (first >= 0)
+      text += " at coordinate " + names[static_cast<std::size_t>(first)] +
+              (dM[first] > 0 ? " (its pivot " + detail::format_number(d[first] / dM[first], 2) +
+                                   " × its diagonal entry of M)"
+                             : " (its diagonal entry of M is " + detail::format_number(dM[first], 2) + ")");
+    // Only where it lost half the digits or more (√ε of its entry): else it
+    // says nothing about where the inertia runs out.
+    if (least >= 0 && least != first && d[least] / dM[least] < std::sqrt(eps))
+      text += "; the smallest positive pivot relative to its diagonal entry is " +
+              names[static_cast<std::size_t>(least)] + "'s (" + detail::format_number(d[least] / dM[least], 2) + " ×)";
+    text += ": M is singular or not positive definite there, or positive "
+            "definite but too ill-conditioned for double precision in these coordinates (inertias graded over many "
+            "decades, e.g. light bodies carrying heavy ones)";
+    return SingularMassMatrix(text);
+  }
   TreeMassProduct& mass_op() { return mass_op_; }
   std::pair<double, double> scale_and_gershgorin() const {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);

@@ -941,6 +941,11 @@ class TreeFactor {
   // False when a pivot is exactly zero or not finite (then nothing can be solved).
   bool factor(const TreePencil& p, double alpha, double beta, double gamma = 0);
   int negative_pivots() const { return negative_; }
+  // The coordinate of the first pivot, in elimination order, that is not
+  // positive (−1 when none), and the pivots (n; those after a failed one
+  // are zero). For diagnoses: where the factorization broke down.
+  int first_nonpositive() const { return first_nonpositive_; }
+  const VectorX& pivots() const { return d_; }
   // x = H⁻¹ b (n); requires a successful factor().
   void solve(const double* b, double* x) const;
   VectorX solve(const VectorX& b) const;
@@ -950,6 +955,7 @@ class TreeFactor {
   std::vector<Vec6> u_;  // per body: U_b = A_b ξ_b (articulated A_b)
   VectorX d_;            // n pivots
   int negative_ = 0;
+  int first_nonpositive_ = -1;
   mutable std::vector<Vec6> work_;
 };
 
