@@ -360,10 +360,11 @@ TEST(SymmetricModes, SingularMassMatrixNamesTheCoordinate) {
 // (16ε‖M‖_F after scaling) is refused, but in words that are true: singular
 // to double precision, the direction's inertia unresolved, the tolerance
 // stated; not "no inertia", which a positive eigenvalue contradicts.
-// Generated: M = S [[1, 1 − kε], [1 − kε, 1]] S, whose eigenvalues before
-// the scaling S = diag(1, 2^e) are kε and 2 − kε exactly (1 − kε is a
-// double for these k), S's powers of two graded over 2^±40, and with
-// damping (the first-order path factors M the same way).
+// Generated: M = S [[1, 1 − kε], [1 − kε, 1]] S with S = diag(1, 2^e)
+// graded over 2^±40, given M's diagonal as the inertia scale, so that the
+// equilibrated M is exactly the middle matrix, whose eigenvalues are kε
+// and 2 − kε (1 − kε is a double for these k); with and without damping
+// (the first-order path factors M the same way).
 TEST(SymmetricModes, ModestlyPositiveMassBelowTheToleranceIsSingularToDoublePrecision) {
   constexpr double eps = std::numeric_limits<double>::epsilon();
   int cases = 0;
@@ -375,6 +376,7 @@ TEST(SymmetricModes, ModestlyPositiveMassBelowTheToleranceIsSingularToDoublePrec
         MatrixX M = mat2(1, c * s, c * s, s * s);
         ASSERT_GT(M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0), 0.0);  // positive definite as stored
         LinearModel model = make_model(M, MatrixX::Identity(2, 2), {"heavy", "light"});
+        model.inertia_scale = Eigen::Vector2d(1, s * s);  // M_ii: the scaling S⁻¹ undoes S
         if (damped) {
           model.D = MatrixX::Identity(2, 2);
           model.has_damping = true;

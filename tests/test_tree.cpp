@@ -179,12 +179,14 @@ TEST(TreePencil, MassFloorIsALowerBoundOfTheEquilibratedMass) {
 // precision, named at a light body (where the inertia vanishes), not "not
 // positive definite" and not the least diagonal entry (which the
 // coordinates' scaling makes about 1 everywhere: the message named a body
-// far from the light ones before). Generated: 6 chains of 205–300 bodies.
+// far from the light ones before). Generated: chains of 205–300 bodies
+// until 4 are refused (a tiny positive pivot, which rounding can give, is
+// not refused: such a chain is answered or fails otherwise), at most 60.
 TEST(TreeModes, LightBodiesCarryingHeavyOnesAreRefusedInTrueWords) {
   std::mt19937_64 rng(2026);
   std::uniform_real_distribution<double> u(0, 1);
-  int refused = 0;
-  for (int trial = 0; trial < 6; ++trial) {
+  int refused = 0, trials = 0;
+  for (int trial = 0; trial < 60 && refused < 4; ++trial, ++trials) {
     const int bodies = 205 + static_cast<int>(rng() % 96);
     const int light = 2 + static_cast<int>(rng() % 3);
     const int first_light = 20 + static_cast<int>(rng() % static_cast<unsigned>(bodies - light - 40));
@@ -228,9 +230,12 @@ TEST(TreeModes, LightBodiesCarryingHeavyOnesAreRefusedInTrueWords) {
                               [&](const std::string& name) { return what.find(name + " (") != std::string::npos ||
                                                                     what.find(name + "'s") != std::string::npos; }))
           << "trial " << trial << ", light bodies from b" << first_light << ": " << what;
+    } catch (const NumericalError&) {
+      // not refused for its mass matrix: beyond this test
     }
   }
-  EXPECT_GE(refused, 1) << "no generated chain reached the refusal: the test no longer tests it";
+  std::printf("light bodies over a heavy one: %d of %d chains refused\n", refused, trials);
+  EXPECT_EQ(refused, 4) << "too few generated chains reached the refusal: the test no longer tests it";
 }
 
 // The lowest modes of random trees solved through the tree (Lanczos path:

@@ -186,7 +186,7 @@ bool TreeFactor::factor(const TreePencil& p, double alpha, double beta, double g
       u_[c] = A * p.twist[c];
       const double d = p.twist[c].dot(u_[c]) + alpha * p.K_diagonal[k] + beta * p.M_diagonal[k] + gamma;
       d_[k] = d;
-      if (!(d > 0) && first_nonpositive_ < 0) first_nonpositive_ = k;
+      if (!(d > 0 && std::isfinite(d)) && first_nonpositive_ < 0) first_nonpositive_ = k;
       if (!(d != 0) || !std::isfinite(d)) {
         ok = false;
         break;

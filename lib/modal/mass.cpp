@@ -83,7 +83,10 @@ bool is_diagonal(const MatrixX& A) {
   const double largest = values.cwiseAbs().maxCoeff();
 
   std::ostringstream out;
-  const bool indefinite = values(0) < -tolerance;
+  // Negative beyond the eigen-solver's own error (O(nε‖M‖)): indefinite.
+  // Within it, a computed eigenvalue's sign says nothing.
+  const double solver_error = tolerance * std::max<double>(1.0, static_cast<double>(values.size()));
+  const bool indefinite = values(0) < -solver_error;
   // "Singular" only as far as double precision can tell: an eigenvalue at
   // or below the tolerance may be positive (graded inertias: a light body
   // beside a heavy one), and the message says so rather than "no inertia".
@@ -91,6 +94,16 @@ bool is_diagonal(const MatrixX& A) {
       << " at this configuration: ";
   Eigen::Index null_dimension = 1;
   while (null_dimension < values.size() && values(null_dimension) <= tolerance) ++null_dimension;
+  // Where a computed eigenvalue stands against the tolerance (the refusal
+  // also comes from a failed factorization, or an upper bound of λ_min
+  // within the tolerance while the computed eigenvalue lies above it).
+  auto standing = [&](double value) -> std::string {
+    if (std::abs(value) <= tolerance) return ", within the tolerance 16ε‖M‖_F = " + format_number(tolerance, 2) + " of zero";
+    if (value < 0)
+      return ", within the eigen-solver's error 16nε‖M‖_F = " + format_number(solver_error, 2) + " of zero";
+    return ", above the tolerance 16ε‖M‖_F = " + format_number(tolerance, 2) +
+           ", but M's Cholesky factorization failed or an upper bound of its smallest eigenvalue fell within it";
+  };
   const Eigen::Index listed = std::min<Eigen::Index>(null_dimension, 3);
   const bool scaled = scale.size() == M.rows() && (scale.array() != 1.0).any();
   for (Eigen::Index j = 0; j < listed; ++j) {
@@ -102,10 +115,11 @@ bool is_diagonal(const MatrixX& A) {
         if (absolute[c] >= 0) v(static_cast<Eigen::Index>(c)) -= theta(absolute[c]);
     }
     v.normalize();
+    const bool negative = values(j) < -solver_error;
     out << describe_combination(v, names)
-        << (values(j) < -tolerance ? " has negative inertia" : " has no inertia that double precision resolves")
+        << (negative ? " has negative inertia" : " has no inertia that double precision resolves")
         << " (computed eigenvalue " << format_number(values(j), 2) << " of largest " << format_number(largest, 3)
-        << (values(j) < -tolerance ? "" : ", within the tolerance 16ε‖M‖_F = " + format_number(tolerance, 2) + " of zero")
+        << (negative ? "" : standing(values(j)))
         << (scaled ? "; M scaled by the coordinates' inertia" : "") << ")";
   }
   if (null_dimension > listed) out << "; and " << null_dimension - listed << " more such directions";

@@ -2313,7 +2313,7 @@ class TreeLanczosPencil {
                              : " (its diagonal entry of M is " + detail::format_number(dM[first], 2) + ")");
     // Only where it lost half the digits or more (√ε of its entry): else it
     // says nothing about where the inertia runs out.
-    if (least >= 0 && least != first && d[least] / dM[least] < std::sqrt(eps))
+    if (least >= 0 && d[least] / dM[least] < std::sqrt(eps))
       text += "; the smallest positive pivot relative to its diagonal entry is " +
               names[static_cast<std::size_t>(least)] + "'s (" + detail::format_number(d[least] / dM[least], 2) + " ×)";
     text += ": M is singular or not positive definite there, or positive "

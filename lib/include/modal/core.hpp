@@ -942,7 +942,7 @@ class TreeFactor {
   bool factor(const TreePencil& p, double alpha, double beta, double gamma = 0);
   int negative_pivots() const { return negative_; }
   // The coordinate of the first pivot, in elimination order, that is not
-  // positive (−1 when none), and the pivots (n; those after a failed one
+  // positive and finite (−1 when none), and the pivots (n; those after a failed one
   // are zero). For diagnoses: where the factorization broke down.
   int first_nonpositive() const { return first_nonpositive_; }
   const VectorX& pivots() const { return d_; }
