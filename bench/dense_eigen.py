@@ -41,12 +41,14 @@ scenes = [
 rows = []
 with tempfile.TemporaryDirectory() as work:
     # The same chain of rods (uniform rods, not point masses): M is not a
-    # point-mass chain's, so it takes the general dense path; beside the
+    # point-mass chain's but UUᵀ plus a diagonal (a chain of rigid links),
+    # whose path reduces the tridiagonal pencil (dsbgst); beside the
     # point-mass chain, which the tridiagonal form takes.
     rods = os.path.join(work, "rod_chain.toml")
     with open(chain) as source, open(rods, "w") as target:
         target.write(source.read().replace('mass_model = "point"', 'mass_model = "rod"'))
     scenes.insert(1, ("chain of rods, 1000 links (default solver)", [rods, "--set", "N=1000"]))
+    scenes.insert(3, ("chain of rods, 1000 links, `--modes 10`", [rods, "--set", "N=1000", "--modes", "10"]))
     for name, args in scenes:
         out = os.path.join(work, "m")
         eig, whole, peer, subset, solver = [], [], [], [], ""

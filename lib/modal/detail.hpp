@@ -125,6 +125,24 @@ std::vector<std::string> names_or_default(const std::vector<std::string>& names,
 Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, const VectorX& scale = {},
                      const std::vector<int>& absolute = {});
 
+// M = UUᵀ + R of a planar chain of rigid links in absolute angles (docs/
+// design.md, "Chains of rigid links"): U = D_l Ĵᵀ D_μ^½ as a point-mass
+// chain's (upper triangular, U⁻¹ upper bidiagonal) and R diagonal. Each
+// link's centre of mass on the line of the hinges makes M_ij = l_i a_j for
+// i < j (semiseparable), whatever its rotational inertia, which with the
+// centre of mass's offset goes to R (negative for a uniform rod: −ml²/6).
+struct LinkChain {
+  PointMassChain generators;  // l (signed, l_0 = 1: a convention) and μ > 0 of UUᵀ; mismatch: of M's off-diagonal entries against UUᵀ's
+  VectorX remainder;          // n: R_jj = M_jj − (UUᵀ)_jj (R_00 = R_{n−1,n−1} = 0)
+};
+// M's structure as such a chain, read from its entries (n×n, n ≥ 3: l_i from
+// column n − 1, a_j from row 0, every entry above the diagonal within 1e-12
+// relative of (UUᵀ)_ij as formed from the suffix sums of μ, every μ_j =
+// a_j/l_j − a_{j+1}/l_{j+1} positive, every number finite and nonzero);
+// else nothing. Whether M is definite is not decided here (the solver's
+// factor of I + U⁻¹RU⁻ᵀ decides).
+std::optional<LinkChain> link_chain(const MatrixX& M);
+
 // K φ = λ M φ with K, M symmetric (n×n) and `mass` the factor of M (formed
 // where the path needs it).
 // `K_error` (n×n, or empty: 4ε|K|) estimates the absolute error of K's
@@ -146,10 +164,16 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
 // M⁻¹ of the analysis then cost O(n) per vector, and where K is diagonal
 // every pair comes from the tridiagonal U⁻¹KU⁻ᵀ (MRRR) in O(n²), and where
 // the chain hangs (every K_jj > 0) the lowest from the bidiagonal U⁻¹K^½.
+// `links` (or null; not with `chain`): M's structure as a chain of rigid
+// links (LinkChain), within its mismatch of M: where LAPACK solves and K is
+// diagonal, the analysis's products and solves with M by that structure in
+// O(n) per vector, and the pairs from the tridiagonal pencil
+// (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) reduced to standard form by LAPACK dsbgst (T in
+// O(n²), its transformation X in Θ(n³) of plane rotations).
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
                             Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),
-                            const PointMassChain* chain = nullptr);
+                            const PointMassChain* chain = nullptr, const LinkChain* links = nullptr);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 

@@ -259,12 +259,24 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
     chain = abs.chain;
     for (Eigen::Index j = 0; j < n; ++j) chain->lever(j) = std::ldexp(chain->lever(j) * scale(j), magnitude.a);
   }
+  // Else M's structure as a chain of rigid links (detail::LinkChain), read
+  // from its entries (O(n²), most scenes leave at the first), where its
+  // path can be taken: LAPACK solving and K diagonal.
+  std::optional<detail::LinkChain> links;
+  if (absolute && symmetric && !chain && options.dense_solver != DenseSolver::eigen &&
+      (options.dense_solver == DenseSolver::lapack || detail::lapack_wins(n))) {
+    bool diagonal = true;
+    for (Eigen::Index j = 0; j < n && diagonal; ++j)
+      for (Eigen::Index i = 0; i < n && diagonal; ++i) diagonal = i == j || Ks(i, j) == 0;
+    if (diagonal) links = detail::link_chain(Ms);
+  }
   // M's factor and definiteness test: formed here, or, for a chain, where
   // its path needs it (detail::MassFactor).
   auto factor = [&] { return detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{}); };
-  const detail::MassFactor mass = chain ? detail::MassFactor(factor) : detail::MassFactor(factor());
+  const detail::MassFactor mass = chain || links ? detail::MassFactor(factor) : detail::MassFactor(factor());
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
-                                               options.modes, rounding_form, chain ? &*chain : nullptr)
+                                               options.modes, rounding_form, chain ? &*chain : nullptr,
+                                               links ? &*links : nullptr)
                      : detail::solve_first_order(Ms, Ks, Cs, mass(), K_error, K_systematic, G_error, C_rounding,
                                                  rounding_form);
   detail::restore_magnitudes(result, magnitude, symmetric);

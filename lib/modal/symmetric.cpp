@@ -114,6 +114,11 @@ extern "C" void dbdsvdx_(const char* uplo, const char* jobz, const char* range, 
                          const double* vl, const double* vu, const int* il, const int* iu, int* ns, double* s,
                          double* z, const int* ldz, double* work, int* iwork, int* info, std::size_t uplo_length,
                          std::size_t jobz_length, std::size_t range_length);
+extern "C" void dpbstf_(const char* uplo, const int* n, const int* kd, double* ab, const int* ldab, int* info,
+                        std::size_t uplo_length);
+extern "C" void dsbgst_(const char* vect, const char* uplo, const int* n, const int* ka, const int* kb, double* ab,
+                        const int* ldab, const double* bb, const int* ldbb, double* x, const int* ldx, double* work,
+                        int* info, std::size_t vect_length, std::size_t uplo_length);
 extern "C" void dormtr_(const char* side, const char* uplo, const char* trans, const int* m, const int* n,
                         const double* a, const int* lda, const double* tau, double* c, const int* ldc, double* work,
                         const int* lwork, int* info, std::size_t side_length, std::size_t uplo_length,
@@ -441,6 +446,140 @@ class ChainMass {
   VectorX lever_, mass_, root_;
 };
 
+// M = UUᵀ + R of a chain of rigid links (LinkChain, in the units of the
+// pencil solved), UUᵀ a point-mass chain's (ChainMass) and R diagonal: with
+// B = I + U⁻¹RU⁻ᵀ = L_B L_Bᵀ (tridiagonal, L_B lower bidiagonal), M = FFᵀ
+// for F = U L_B. Products with M and |M| (≤ |UUᵀ| + |R| entrywise), F⁻¹
+// and F⁻ᵀ cost O(n) per column; and for a diagonal K the pencil (K, M) is
+// congruent to the tridiagonal pencil (C, B), C = U⁻¹KU⁻ᵀ, which LAPACK
+// dsbgst reduces to a tridiagonal standard form T = XᵀCX (XᵀBX = I, X dense:
+// T in O(n²), X's plane rotations in Θ(n³) of vector work): an eigenvector y
+// of T gives φ = U⁻ᵀXy.
+class LinkChainMass {
+ public:
+  // Nothing where B's Cholesky meets a pivot below 1e-8 of its diagonal
+  // entry (M then far from UUᵀ's definiteness: the general path decides).
+  static std::optional<LinkChainMass> make(const LinkChain& c) {
+    const Eigen::Index n = c.remainder.size();
+    if (n < 2 || c.generators.lever.size() != n || c.generators.mass.size() != n || !c.remainder.allFinite())
+      return std::nullopt;
+    LinkChainMass m(c);
+    m.chain_.tridiagonal(c.remainder, m.bd_, m.be_);
+    m.bd_.array() += 1;
+    m.ld_.resize(n);
+    m.le_.setZero(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double pivot = m.bd_(i) - (i > 0 ? m.le_(i - 1) * m.le_(i - 1) : 0.0);
+      if (!(pivot > 1e-8 * m.bd_(i)) || !std::isfinite(pivot)) return std::nullopt;
+      m.ld_(i) = std::sqrt(pivot);
+      if (i + 1 < n) m.le_(i) = m.be_(i) / m.ld_(i);
+    }
+    if (!m.be_.allFinite() || !m.le_.allFinite()) return std::nullopt;
+    return m;
+  }
+  Eigen::Index size() const { return chain_.size(); }
+  // C ← beta C + op B, op = M or |M| (its bound |UUᵀ| + |R|).
+  void multiply(const MatrixX& B, bool absolute, double beta, MatrixX& C) const {
+    chain_.multiply(B, absolute, beta, C);
+    if (absolute) C.noalias() += remainder_.cwiseAbs().asDiagonal() * B;
+    else C.noalias() += remainder_.asDiagonal() * B;
+  }
+  // B ← F⁻¹B = L_B⁻¹U⁻¹B (‖F⁻¹r‖ = ‖r‖_{M⁻¹}).
+  void solve(MatrixX& B) const {
+    chain_.solve(B);
+    const Eigen::Index n = size();
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (Eigen::Index i = 0; i < n; ++i)
+        B(i, c) = (B(i, c) - (i > 0 ? le_(i - 1) * B(i - 1, c) : 0.0)) / ld_(i);
+  }
+  // B ← F⁻ᵀB = U⁻ᵀL_B⁻ᵀB.
+  void solve_transposed(MatrixX& B) const {
+    const Eigen::Index n = size();
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (Eigen::Index i = n - 1; i >= 0; --i)
+        B(i, c) = (B(i, c) - (i + 1 < n ? le_(i) * B(i + 1, c) : 0.0)) / ld_(i);
+    chain_.solve_transposed(B);
+  }
+  // ‖|F⁻¹|‖₂ ≤ ‖|L_B⁻¹|‖₂ ‖|U⁻¹|‖₂ (|F⁻¹| ≤ |L_B⁻¹||U⁻¹| entrywise), the
+  // first ≤ (‖L_B⁻¹‖₁‖L_B⁻¹‖∞)^½, whose row and column sums are those of
+  // the comparison matrix's inverse (L_B bidiagonal: |L_B⁻¹| = ⟨L_B⟩⁻¹).
+  double inverse_norm() const { return factor_inverse_norm() * chain_.inverse_norm(); }
+
+  // The standard form of (C, B) for the diagonal k of K: T's diagonal d and
+  // subdiagonal e (n, the last entry unused) and X (n×n) by LAPACK dpbstf
+  // (B's split Cholesky factor) and dsbgst; false where either fails.
+  bool reduce(const VectorX& k, VectorX& d, VectorX& e, MatrixX& X) const {
+    const int n = static_cast<int>(size()), one = 1, two = 2;
+    VectorX cd, ce;
+    chain_.tridiagonal(k, cd, ce);
+    MatrixX ab(2, n), bb(2, n);  // upper band storage: row 0 the superdiagonal (column j: entry (j − 1, j)), row 1 the diagonal
+    ab.setZero();
+    bb.setZero();
+    for (int j = 0; j < n; ++j) {
+      ab(1, j) = cd(j);
+      bb(1, j) = bd_(j);
+      if (j > 0) {
+        ab(0, j) = ce(j - 1);
+        bb(0, j) = be_(j - 1);
+      }
+    }
+    int info = 0;
+    dpbstf_("U", &n, &one, bb.data(), &two, &info, 1);
+    if (info != 0) return false;
+    X.resize(n, n);
+    VectorX work(2 * n);
+    dsbgst_("V", "U", &n, &one, &one, ab.data(), &two, bb.data(), &two, X.data(), &n, work.data(), &info, 1, 1);
+    if (info != 0 || !ab.allFinite() || !X.allFinite()) return false;
+    d = ab.row(1).transpose();
+    e.setZero(n);
+    for (int j = 1; j < n; ++j) e(j - 1) = ab(0, j);
+    return true;
+  }
+  // ‖abs(L_B⁻¹)‖₂² ‖B‖∞ ≥ κ₂(B): the size of dsbgst's error relative to ε
+  // (its standard form's error is about ε‖C‖‖B⁻¹‖).
+  double condition() const {
+    double norm = 0;
+    for (Eigen::Index i = 0; i < size(); ++i)
+      norm = std::max(norm, std::abs(bd_(i)) + std::abs(be_(i)) + (i > 0 ? std::abs(be_(i - 1)) : 0.0));
+    const double l = factor_inverse_norm();
+    return norm * l * l;
+  }
+  // Y ← U⁻ᵀY: the pencil's vectors φ = U⁻ᵀXy from the vectors Xy of (C, B).
+  void to_coordinates(MatrixX& Y) const { chain_.solve_transposed(Y); }
+  // Whether M itself is definite where it differs from M̃ = FFᵀ by at most
+  // gap·(abs(UUᵀ) + abs(R)) entrywise: F⁻¹MF⁻ᵀ = I + F⁻¹(M − M̃)F⁻ᵀ, whose
+  // second term is at most gap ‖abs(F⁻¹)‖₂² ‖abs(UUᵀ) + abs(R)‖∞ in norm
+  // (the last a symmetric matrix's 2-norm bound); definite where that is
+  // below ½. One product with a vector of ones.
+  bool definite_within(double gap) const {
+    MatrixX ones = MatrixX::Ones(size(), 1), row_sums;
+    multiply(ones, true, 0, row_sums);
+    const double l = inverse_norm();
+    return gap * l * l * row_sums.maxCoeff() < 0.5;
+  }
+
+ private:
+  explicit LinkChainMass(const LinkChain& c) : chain_(c.generators), remainder_(c.remainder) {}
+  // ‖abs(L_B⁻¹)‖₂ ≤ (‖L_B⁻¹‖₁‖L_B⁻¹‖∞)^½.
+  double factor_inverse_norm() const {
+    const Eigen::Index n = size();
+    double x = 0, y = 0, rows = 0, columns = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      x = (1 + (i > 0 ? std::abs(le_(i - 1)) * x : 0.0)) / ld_(i);
+      rows = std::max(rows, x);
+    }
+    for (Eigen::Index i = n - 1; i >= 0; --i) {
+      y = (1 + (i + 1 < n ? std::abs(le_(i)) * y : 0.0)) / ld_(i);
+      columns = std::max(columns, y);
+    }
+    return std::sqrt(rows * columns);
+  }
+  ChainMass chain_;
+  VectorX remainder_;
+  VectorX bd_, be_;  // B = I + U⁻¹RU⁻ᵀ: diagonal and subdiagonal (the last entry 0)
+  VectorX ld_, le_;  // its Cholesky factor L_B: diagonal and subdiagonal
+};
+
 // A matrix the analysis multiplies by, in the form decided once for all its
 // products (both analyses): sparse where mostly_zero, with |A| made beside A
 // once, else dense, |A| made for each product that asks for it and freed. Deciding per product had scanned and converted a 1000-link chain's
@@ -452,6 +591,11 @@ class Operand {
   explicit Operand(const MatrixX& A) : dense_(&A) { decide(); }
   // A point-mass chain's M: products by its structure (ChainMass), never dense.
   Operand(const MatrixX& A, const ChainMass& chain) : dense_(&A), chain_(&chain) {
+    rows_ = A.rows();
+    cols_ = A.cols();
+  }
+  // A chain of rigid links' M: products by its structure (LinkChainMass).
+  Operand(const MatrixX& A, const LinkChainMass& links) : dense_(&A), links_(&links) {
     rows_ = A.rows();
     cols_ = A.cols();
   }
@@ -470,6 +614,10 @@ class Operand {
     }
     if (chain_ != nullptr) {
       chain_->multiply(B, absolute, beta, C);
+      return;
+    }
+    if (links_ != nullptr) {
+      links_->multiply(B, absolute, beta, C);
       return;
     }
     if (sparse_) {
@@ -510,6 +658,7 @@ class Operand {
   MatrixX owned_;
   const MatrixX* dense_;
   const ChainMass* chain_ = nullptr;
+  const LinkChainMass* links_ = nullptr;
   Eigen::Index rows_ = 0, cols_ = 0;
   bool sparse_ = false;
   Eigen::SparseMatrix<double> sparse_matrix_, absolute_;
@@ -1070,7 +1219,8 @@ bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
-                            const SparseMatrix& K_rounding_form, const PointMassChain* chain) {
+                            const SparseMatrix& K_rounding_form, const PointMassChain* chain,
+                            const LinkChain* links) {
   const Eigen::Index n = M.rows();
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda_all;
@@ -1138,6 +1288,35 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     }
     return Phi_p;
   };
+  // A chain of rigid links (LinkChain), where LAPACK solves and K is
+  // diagonal: the tridiagonal pencil (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) in standard
+  // form T = XᵀCX (LinkChainMass::reduce: T in O(n²), X's plane rotations
+  // in Θ(n³) of vector work), the pairs from T by MRRR
+  // (dstemr) and Φ = U⁻ᵀXY (one product, 2n²p), in place of M's Cholesky
+  // factor, dsygst and the dense tridiagonal reduction (n³ each); the
+  // analysis's products and solves with M by the structure. Where dsbgst or
+  // dstemr fails, the general path.
+  std::optional<LinkChainMass> link_mass;
+  VectorX link_d, link_e;  // T's diagonal and subdiagonal
+  MatrixX link_X;
+  if (!chain_mass && links != nullptr && lapack && links->remainder.size() == n) {
+    bool diagonal = true;
+    for (Eigen::Index j = 0; j < n && diagonal; ++j)
+      for (Eigen::Index i = 0; i < n && diagonal; ++i) diagonal = i == j || K(i, j) == 0;
+    if (diagonal) link_mass = LinkChainMass::make(*links);
+    // M̃ = FFᵀ is definite by B's factor; M, within the mismatch and the
+    // comparison's rounding of it, where definite_within says so (else the
+    // general path, whose factor and singularity test decide).
+    if (link_mass && !link_mass->definite_within(links->generators.mismatch + 6 * eps)) link_mass.reset();
+    if (link_mass && !link_mass->reduce(K.diagonal(), link_d, link_e, link_X)) link_mass.reset();
+  }
+  auto link_vectors = [&](Eigen::Index p, VectorX* values) -> MatrixX {
+    const MatrixX Y = tridiagonal_lowest(link_d, link_e, static_cast<int>(p), values);
+    if (Y.cols() != p) return {};
+    MatrixX Phi_p = Operand(link_X).product(Y);
+    link_mass->to_coordinates(Phi_p);
+    return Phi_p;
+  };
   // With `wanted`, LAPACK's path takes every eigenvalue but only the vectors
   // analyzed below (TridiagonalPencil: no divide and conquer over all n
   // vectors, no back-transformation of them).
@@ -1149,6 +1328,16 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       Phi = chain_vectors(n, &lambda_all);
       if (Phi.cols() != n) {  // every way failed: the dense solver
         chain_solve = false;
+        lapack_pairs(K, mass(), lambda_all, Phi);
+      }
+    }
+  } else if (link_mass) {
+    if (wanted >= 0 && wanted < n) {
+      lambda_all = tridiagonal_eigenvalues(link_d, link_e);
+    } else {
+      Phi = link_vectors(n, &lambda_all);
+      if (Phi.cols() != n) {  // dstemr failed: the general path
+        link_mass.reset();
         lapack_pairs(K, mass(), lambda_all, Phi);
       }
     }
@@ -1186,12 +1375,26 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
                            x = y.col(0);
                          },
                          n)
-                   : smallest_eigenvalue_bound(mass(), n);
+        : link_mass ? smallest_eigenvalue_bound(
+                          [&](VectorX& x) {
+                            MatrixX y = x;
+                            link_mass->solve(y);
+                            link_mass->solve_transposed(y);
+                            x = y.col(0);
+                          },
+                          n)
+                    : smallest_eigenvalue_bound(mass(), n);
     const double normK = K.norm(), normM = M.norm();
+    // A chain of rigid links' eigenvalues come from dsbgst's standard form,
+    // whose error is about ε‖C‖‖B⁻¹‖: nε times B's condition, and the
+    // mismatch of M̃ = FFᵀ against M with its comparison's 6ε.
+    const double relative = link_mass ? static_cast<double>(n) * eps * link_mass->condition() +
+                                            links->generators.mismatch + 6 * eps
+                                      : static_cast<double>(n) * eps;
     cheap.resize(n);
     Eigen::Index needed = wanted;
     for (Eigen::Index j = 0; j < n; ++j) {
-      cheap(j) = static_cast<double>(n) * eps * (normK + std::abs(lambda_all(j)) * normM) / lambda_min;
+      cheap(j) = relative * (normK + std::abs(lambda_all(j)) * normM) / lambda_min;
       if (!(lambda_all(j) > 100 * cheap(j))) needed = std::max(needed, j + 1);
     }
     prefix = std::min(n, needed + 1);
@@ -1211,7 +1414,14 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       chain_solve = false;
       lapack_pairs(K, mass(), lambda_all, Phi);
     }
+  } else if (link_mass && Phi.cols() == 0 && prefix > 0) {
+    Phi = link_vectors(prefix, nullptr);
+    if (Phi.cols() != prefix) {  // dstemr failed: every pair by the dense solver
+      link_mass.reset();
+      lapack_pairs(K, mass(), lambda_all, Phi);
+    }
   }
+  link_X.resize(0, 0);
   if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
   // The analysis of the computed pairs (Φ, λ_all): residuals, bounds,
   // estimates, kinds. unresolved(i): the estimate of analyzed mode i over
@@ -1224,9 +1434,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // ‖|L⁻¹|‖₂ ≤ (‖L⁻¹‖₁‖L⁻¹‖∞)^½ (the 1- and ∞-norms of |A| are A's), from L⁻¹
   // formed once (lower_inverse: n³/3 flops; max 1/l_ii where L is diagonal):
   // the residual bound's worst case of rounding.
-  const bool diagonal_factor = !chain_mass && diagonal_lower(mass().matrixLLT());
+  const bool diagonal_factor = !chain_mass && !link_mass && diagonal_lower(mass().matrixLLT());
   const double inverse_norm = [&] {
     if (chain_mass) return chain_mass->inverse_norm();  // of U⁻¹ (M = UUᵀ)
+    if (link_mass) return link_mass->inverse_norm();    // of F⁻¹ (M = FFᵀ)
     if (diagonal_factor) return mass().matrixLLT().diagonal().cwiseAbs().cwiseInverse().maxCoeff();
     const MatrixX inverse = lower_inverse(mass().matrixLLT()).cwiseAbs();
     return std::sqrt(inverse.colwise().sum().maxCoeff() * inverse.rowwise().sum().maxCoeff());
@@ -1237,21 +1448,38 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // given; else 4ε|K|); D: the measured error of differences.
   const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
   const bool given = K_error.rows() == n && K_error.cols() == n;
-  const Operand K_op(K), M_op = chain_mass ? Operand(M, *chain_mass) : Operand(M);
+  const Operand K_op(K), M_op = chain_mass  ? Operand(M, *chain_mass)
+                                : link_mass ? Operand(M, *link_mass)
+                                            : Operand(M);
   // The residuals in the standard form: L⁻¹R, or U⁻¹R for a chain (either
   // way ‖·‖ is the M⁻¹-norm of R).
   auto to_standard = [&](MatrixX& B) {
     if (chain_mass) chain_mass->solve(B);
+    else if (link_mass) link_mass->solve(B);
     else solve_lower(mass().matrixLLT(), B);  // its lower triangle is L
   };
   // The rounding of a residual's entries: (n + 2)ε(|K||φ| + |λ||M||φ|) with
   // dense products (Higham, §3.5); a chain's product with M is two running
   // sums of up to n terms each and three scalings, (2n + 3)ε|M||φ|.
-  const double nn = static_cast<double>(chain_mass ? 2 * n + 3 : n + 2);
+  // A chain of rigid links' products stand for M̃ = UUᵀ + R (LinkChainMass:
+  // the chain's running sums, then a scaled addition, within (2n + 3)ε
+  // (|UUᵀ| + |R|)|φ|, and the residual's scaling by λ and subtraction: 2n +
+  // 5; the quotient's dot product: 3n + 5), which differs from M entrywise by at most its
+  // mismatch (LinkChain) and the comparison's rounding, 6ε, times that bound
+  // of |M̃|: link_gap, added to the rounding factors nn and nq (which then
+  // cover it on |λ||M̃||φ|, and on |K||φ| too: conservative).
+  const double link_gap = link_mass ? links->generators.mismatch + 6 * eps : 0.0;
+  const double nn = (chain_mass  ? 2 * static_cast<double>(n) + 3
+                     : link_mass ? 2 * static_cast<double>(n) + 5
+                                 : static_cast<double>(n) + 2) +
+                    link_gap / eps;
   // The rounding of the Rayleigh quotient φᵀKφ/φᵀMφ: as nn, and for a chain
   // the dot product φᵀ(Mφ) adds nε to the product's (2n + 1)ε. (The dense
   // path's n + 2 leaves out its dot product's nε likewise: not changed here.)
-  const double nq = static_cast<double>(chain_mass ? 3 * n + 3 : n + 2);
+  const double nq = (chain_mass  ? 3 * static_cast<double>(n) + 3
+                     : link_mass ? 3 * static_cast<double>(n) + 5
+                                 : static_cast<double>(n) + 2) +
+                    link_gap / eps;
   // The entries' relative error of M as assembled: 4ε. A chain's products
   // stand for M̃ = D_l Ĵᵀ D_m Ĵ D_l, which differs from M entrywise by its
   // mismatch (PointMassChain) as measured, and at worst by that and the
@@ -1266,9 +1494,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // inertias) it is one smooth pattern, not independent roundings, so its
   // effect, (mismatch + 6ε)·|λ||φ|ᵀ|M||φ|, counts at its worst, with the
   // systematic part.
-  const double chain_mismatch = chain_mass ? chain->mismatch : 0.0, comparison = chain_mass ? 6 * eps : 0.0;
+  const double chain_mismatch = chain_mass ? chain->mismatch : link_mass ? links->generators.mismatch : 0.0,
+               comparison = chain_mass || link_mass ? 6 * eps : 0.0;
   const bool rounding_mismatch = chain_mismatch <= 4 * (static_cast<double>(n) + 4) * eps;
-  const double rM = 4 * eps;  // M's entries' rounding where no chain stands for M
+  // M's entries' rounding where no chain stands for M (a chain of rigid
+  // links': with its mismatch where that is of rounding's size; above, it
+  // counts at its worst in the systematic part, `mismatch`, as a chain's).
+  const double rM = 4 * eps + (link_mass && rounding_mismatch ? chain_mismatch : 0.0);
   const double mismatch = rounding_mismatch ? 0.0 : chain_mismatch + comparison;
   // What a chain's products stand for has no entrywise rounding of M: its
   // data are the lengths (and the scene's own masses), and a relative error
@@ -1288,6 +1520,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   if (given && !differences) E_op.emplace(K_error);
   if (given && differences) E_op.emplace(MatrixX((K_error - K_systematic_error).cwiseMax(0.0)));
   if (differences) D_op.emplace(K_systematic_error);
+  // M's diagonal as the rounding terms see it: a chain of rigid links'
+  // products round on abs(UUᵀ) + abs(R), whose diagonal M_jj − R_jj +
+  // abs(R_jj) exceeds M_jj where R_jj < 0.
+  const VectorX M_diagonal =
+      link_mass ? VectorX(M.diagonal() - 2 * links->remainder.cwiseMin(0.0)) : VectorX(M.diagonal());
   auto analyze = [&]() -> ModalResult {
     const auto m = static_cast<Eigen::Index>(analyzed.size());
     VectorX lambda = lambda_all(analyzed);
@@ -1335,7 +1572,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
         mass_terms(j) = Phi.col(j).cwiseProduct(MPhi.col(j)).cwiseAbs().sum();
         sums(j) = Phi.col(j).cwiseProduct(R.col(j)).cwiseAbs().sum() +  // Σ|φ_i (Kφ)_i| + |λ| Σ|φ_i (Mφ)_i|
                   std::abs(lambda(j)) * mass_terms(j);
-        diagonal_terms(j) = M.diagonal().dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
+        diagonal_terms(j) = M_diagonal.dot(Phi.col(j).cwiseAbs2());   // Σ M_ii φ_i²
       }
       for (Eigen::Index j = 0; j < m; ++j)
         for (Eigen::Index w = 0; w < group && j + w < m; ++w) {
@@ -1493,6 +1730,12 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
                     : chain_solve
                         ? std::string("dense symmetric-definite (LAPACK: point-mass chain, M = UUᵀ with U⁻¹ "
                                       "bidiagonal, tridiagonal U⁻¹KU⁻ᵀ, ") +
+                              (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors by MRRR dstemr)"
+                                                 : "every pair by MRRR dstemr)")
+                    : link_mass
+                        ? std::string("dense symmetric-definite (LAPACK: chain of rigid links, M = UUᵀ + R with U⁻¹ "
+                                      "bidiagonal and R diagonal, the tridiagonal pencil (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) to "
+                                      "standard form by dsbgst, ") +
                               (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors by MRRR dstemr)"
                                                  : "every pair by MRRR dstemr)")
                     : reduced ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
@@ -1776,6 +2019,47 @@ std::optional<ModalResult> solve_chain_modes(const PointMassChain& chain, const 
                            "positive (stable)");
   add_cluster_notes(result.modes, true, result.notes);
   return result;
+}
+
+std::optional<LinkChain> link_chain(const MatrixX& M) {
+  const Eigen::Index n = M.rows();
+  if (n < 3 || M.cols() != n) return std::nullopt;
+  // M_ij = l_i a_j (i < j), l_0 = 1: a from row 0, l from column n − 1;
+  // the two generators no entry above the diagonal fixes, a_0 and
+  // l_{n−1}, make R_00 = R_{n−1,n−1} = 0 (a point-mass chain's R is 0).
+  VectorX l(n), a(n);
+  l(0) = 1;
+  a = M.row(0).transpose();
+  for (Eigen::Index i = 1; i + 1 < n; ++i) l(i) = M(i, n - 1) / a(n - 1);
+  l(n - 1) = M(n - 1, n - 1) / a(n - 1);
+  if (!l.allFinite() || !a.allFinite() || !(l.array() != 0).all() || !(a.array() != 0).all()) return std::nullopt;
+  LinkChain c;
+  VectorX& mu = c.generators.mass;
+  mu.resize(n);
+  for (Eigen::Index j = 0; j < n; ++j) mu(j) = a(j) / l(j) - (j + 1 < n ? a(j + 1) / l(j + 1) : 0.0);
+  if (!mu.allFinite() || !(mu.array() > 0).all()) return std::nullopt;
+  // W_j = Σ_{b≥j} μ_b as ChainMass's running sums stand for it (exactly),
+  // summed with compensation (Neumaier) so that each W_j is within 2ε.
+  VectorX W(n);
+  double sum = 0, carry = 0;
+  for (Eigen::Index j = n - 1; j >= 0; --j) {
+    const double t = sum + mu(j);
+    carry += std::abs(sum) >= std::abs(mu(j)) ? (sum - t) + mu(j) : (mu(j) - t) + sum;
+    sum = t;
+    W(j) = sum + carry;
+  }
+  double& mismatch = c.generators.mismatch;
+  for (Eigen::Index j = 1; j < n; ++j)
+    for (Eigen::Index i = 0; i < j; ++i) {
+      const double model = l(i) * l(j) * W(j), departure = std::abs(M(i, j) - model) / std::abs(model);
+      if (!(departure <= 1e-12)) return std::nullopt;  // NaN included
+      mismatch = std::max(mismatch, departure);
+    }
+  c.generators.lever = l;
+  c.remainder.resize(n);
+  for (Eigen::Index j = 0; j < n; ++j) c.remainder(j) = M(j, j) - l(j) * l(j) * W(j);
+  if (!c.remainder.allFinite()) return std::nullopt;
+  return c;
 }
 
 }  // namespace modal::detail
