@@ -33,6 +33,7 @@
 #include "core/map.hpp"
 #include "core/map_eval.hpp"
 #include "core/model.hpp"
+#include "core/sums.hpp"
 #include "core/text.hpp"
 
 #include <Eigen/Cholesky>
@@ -1711,24 +1712,6 @@ void keep_favourable_links(const System& s, const MatrixX& M, const MatrixX& K, 
 
 namespace {
 
-// μ_j = Σ_{b≥j} m_b, summed with compensation (Neumaier): positive terms,
-// so within 2ε(1 + nε) of the exact sum, where plain summation would leave
-// up to (n − j)ε (12ε measured on graded masses at n = 2000, 18ε on 300
-// equal ones).
-VectorX suffix_masses(const VectorX& mass) {
-  const Eigen::Index n = mass.size();
-  VectorX below(n);
-  double sum = 0, carried = 0;
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
-    const double m = mass(j);
-    const double next = sum + m;
-    carried += sum >= m ? (sum - next) + m : (m - next) + sum;
-    sum = next;
-    below(j) = sum + carried;
-  }
-  return below;
-}
-
 // The proof of point_mass_chain_mass below (all of it but writing M) and
 // the chain's signed lengths l_b and masses m_b (n each); false, the two
 // unspecified, where the bodies do not prove a chain. With `held` null, all
@@ -1776,7 +1759,7 @@ bool chain_levers(const System& s, const TreeState<double>& st, const std::vecto
 // body's orientation need be orthogonal only to 1e-12, and the body frame's
 // lengths would then differ from the world's) signed by the lever's
 // direction against body 0's, and formed so each entry is within three
-// roundings and μ's (suffix_masses) of the M of the scene's kinematics
+// roundings and μ's (compensated_suffix_sums) of the M of the scene's kinematics
 // (R_b com_b exact where the orientations are the identity and q = 0, a
 // few roundings per level else), where the tree's assembly (composite
 // inertias, plainly summed)
@@ -1787,7 +1770,7 @@ bool point_mass_chain_mass(const System& s, const TreeState<double>& st, const s
   const int n = s.size();
   VectorX lever, mass;
   if (M.rows() != n || M.cols() != n || !chain_levers(s, st, &held, lever, mass)) return false;
-  const VectorX below = suffix_masses(mass);
+  const VectorX below = sums::compensated_suffix_sums(mass);
   for (int j = 0; j < n; ++j)
     for (int i = 0; i <= j; ++i) M(i, j) = M(j, i) = lever(i) * lever(j) * below(j);
   return true;
@@ -1872,7 +1855,7 @@ PointMassChain point_mass_chain(const System& s, const MatrixX& M, const std::ve
   PointMassChain c;
   c.mass.resize(n);
   for (int j = 0; j < n; ++j) c.mass(j) = bodies[static_cast<std::size_t>(j)].mass;
-  const VectorX below = suffix_masses(c.mass);
+  const VectorX below = sums::compensated_suffix_sums(c.mass);
   // M_jj = l_j² μ_j, M_0j = l_0 l_j μ_j: |l_j| from the diagonal, its sign
   // from the first row (l_0 > 0: the chain's direction is a convention).
   c.lever.resize(n);

@@ -176,6 +176,9 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
                             const PointMassChain* chain = nullptr, const LinkChain* links = nullptr);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
+// Whether every entry off A's diagonal is zero (O(n²), leaves at the first
+// that is not).
+bool is_diagonal(const MatrixX& A);
 
 // M q̈ + C q̇ + K q = 0 with C = D + G (all n×n, K and C unrestricted) as the 2n
 // first-order system. Fills modes (ascending ω, then σ), morse_index,

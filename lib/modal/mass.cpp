@@ -62,14 +62,6 @@ class DiagonalCholesky : public Cholesky {
   }
 };
 
-// Whether every entry off A's diagonal is zero.
-bool is_diagonal(const MatrixX& A) {
-  for (Eigen::Index j = 0; j < A.cols(); ++j)
-    for (Eigen::Index i = 0; i < A.rows(); ++i)
-      if (i != j && A(i, j) != 0) return false;
-  return true;
-}
-
 // Throws SingularMassMatrix describing every eigenvector of M whose eigenvalue
 // is at most `tolerance` (at least the smallest one), as the direction S v in
 // the original coordinates when M is scaled (`scale` = s, or empty).
@@ -276,6 +268,13 @@ Cholesky factor_mass(const MatrixX& M, const std::vector<std::string>& names, co
       (diagonal ? M.diagonal().minCoeff() : smallest_eigenvalue_bound(llt, n)) <= tolerance)
     diagnose_singular_mass(M, names, tolerance, scale, absolute);
   return llt;
+}
+
+bool is_diagonal(const MatrixX& A) {
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = 0; i < A.rows(); ++i)
+      if (i != j && A(i, j) != 0) return false;
+  return true;
 }
 
 }  // namespace modal::detail

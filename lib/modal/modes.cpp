@@ -264,12 +264,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   // path can be taken: LAPACK solving and K diagonal.
   std::optional<detail::LinkChain> links;
   if (absolute && symmetric && !chain && options.dense_solver != DenseSolver::eigen &&
-      (options.dense_solver == DenseSolver::lapack || detail::lapack_wins(n))) {
-    bool diagonal = true;
-    for (Eigen::Index j = 0; j < n && diagonal; ++j)
-      for (Eigen::Index i = 0; i < n && diagonal; ++i) diagonal = i == j || Ks(i, j) == 0;
-    if (diagonal) links = detail::link_chain(Ms);
-  }
+      (options.dense_solver == DenseSolver::lapack || detail::lapack_wins(n)) && detail::is_diagonal(Ks))
+    links = detail::link_chain(Ms);
   // M's factor and definiteness test: formed here, or, for a chain, where
   // its path needs it (detail::MassFactor).
   auto factor = [&] { return detail::factor_mass(Ms, names, scale, absolute ? abs.parent : std::vector<int>{}); };

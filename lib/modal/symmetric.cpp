@@ -72,6 +72,8 @@
 // the analysis below).
 #include "detail.hpp"
 
+#include "core/sums.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SparseCore>
@@ -1238,9 +1240,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       (chain->mass.array() > 0).all())
     chain_mass.emplace(*chain);
   VectorX chain_d, chain_e;  // C's diagonal and subdiagonal, where the pairs come from it
-  bool diagonal_K = chain_mass.has_value();  // a chain's K diagonal: C tridiagonal (and certify below)
-  for (Eigen::Index j = 0; j < n && diagonal_K; ++j)
-    for (Eigen::Index i = 0; i < n && diagonal_K; ++i) diagonal_K = i == j || K(i, j) == 0;
+  // A chain's K diagonal: C tridiagonal (and certify below); for a chain
+  // of rigid links, the tridiagonal pencil (below).
+  const bool any_chain = chain_mass.has_value() || (links != nullptr && lapack && links->remainder.size() == n);
+  const bool K_is_diagonal = any_chain && is_diagonal(K);
+  const bool diagonal_K = chain_mass.has_value() && K_is_diagonal;
   // LAPACK: not loaded for a small scene, unless M's dense factor fails
   // (a light chain with a heavy tip: M scaled to a unit diagonal is then near
   // a matrix of ones, and singular to the normwise test, while its structure
@@ -1300,10 +1304,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   VectorX link_d, link_e;  // T's diagonal and subdiagonal
   MatrixX link_X;
   if (!chain_mass && links != nullptr && lapack && links->remainder.size() == n) {
-    bool diagonal = true;
-    for (Eigen::Index j = 0; j < n && diagonal; ++j)
-      for (Eigen::Index i = 0; i < n && diagonal; ++i) diagonal = i == j || K(i, j) == 0;
-    if (diagonal) link_mass = LinkChainMass::make(*links);
+    if (K_is_diagonal) link_mass = LinkChainMass::make(*links);
     // M̃ = FFᵀ is definite by B's factor; M, within the mismatch and the
     // comparison's rounding of it, where definite_within says so (else the
     // general path, whose factor and singularity test decide).
@@ -2039,15 +2040,8 @@ std::optional<LinkChain> link_chain(const MatrixX& M) {
   for (Eigen::Index j = 0; j < n; ++j) mu(j) = a(j) / l(j) - (j + 1 < n ? a(j + 1) / l(j + 1) : 0.0);
   if (!mu.allFinite() || !(mu.array() > 0).all()) return std::nullopt;
   // W_j = Σ_{b≥j} μ_b as ChainMass's running sums stand for it (exactly),
-  // summed with compensation (Neumaier) so that each W_j is within 2ε.
-  VectorX W(n);
-  double sum = 0, carry = 0;
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
-    const double t = sum + mu(j);
-    carry += std::abs(sum) >= std::abs(mu(j)) ? (sum - t) + mu(j) : (mu(j) - t) + sum;
-    sum = t;
-    W(j) = sum + carry;
-  }
+  // summed with compensation so that each W_j is within 2ε.
+  const VectorX W = sums::compensated_suffix_sums(mu);
   double& mismatch = c.generators.mismatch;
   for (Eigen::Index j = 1; j < n; ++j)
     for (Eigen::Index i = 0; i < j; ++i) {
