@@ -222,10 +222,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
     const MatrixX D = damping_matrix(s, ws, q);
     require_finite(D, "damping matrix D", model.coordinates);
     model.D = symmetric_part(D);
-  } else {
-    model.D = MatrixX::Zero(n, n);
   }
-  model.G = MatrixX::Zero(n, n);
   model.has_gyroscopic = false;
   if (s.has_frame_coupling()) {
     MatrixX G_error;
@@ -294,9 +291,11 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
       model.K_rounding_form = MatrixX(N.transpose() * (model.K_rounding_form * N)).sparseView();
     if (model.K_systematic_error.size() > 0)
       model.K_systematic_error = absN.transpose() * model.K_systematic_error * absN;
-    model.D = symmetric_part(N.transpose() * model.D * N);
-    model.G = N.transpose() * model.G * N;
-    model.G = 0.5 * (model.G - model.G.transpose());
+    if (model.has_damping) model.D = symmetric_part(N.transpose() * model.D * N);
+    if (model.has_gyroscopic) {
+      model.G = N.transpose() * model.G * N;
+      model.G = 0.5 * (model.G - model.G.transpose());
+    }
     if (model.G_error.size() > 0) model.G_error = absN.transpose() * model.G_error * absN;
   }
   return model;

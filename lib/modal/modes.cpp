@@ -104,7 +104,7 @@ MatrixX velocity_matrix(const LinearModel& model, Eigen::Index n) {
                                   std::to_string(A.rows()) + "×" + std::to_string(A.cols()) +
                                   ", expected " + std::to_string(n) + "×" + std::to_string(n));
     require_finite(A, what);
-    if (A.isZero(0.0)) return;  // linearize's zero D and G of undamped, non-gyroscopic scenes
+    if (A.isZero(0.0)) return;  // a zero D or G given by hand
     if (C.size() == 0) C = A;
     else C += A;
   };

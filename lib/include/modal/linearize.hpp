@@ -44,8 +44,10 @@ struct LinearModel {
   std::vector<std::string> coordinates;  // names, n
   MatrixX M;                             // mass, n×n, symmetric
   MatrixX K;                             // stiffness, n×n (symmetric unless circulatory)
-  MatrixX D;                             // damping, n×n, symmetric PSD (zero when no dampers)
-  MatrixX G;                             // gyroscopic, n×n, skew (zero when absent)
+  // Empty (0×0) where the scene has none (has_damping, has_gyroscopic false):
+  // two zero n×n matrices were 16 MB of fresh pages on a 1000-link chain.
+  MatrixX D;                             // damping, n×n, symmetric PSD
+  MatrixX G;                             // gyroscopic, n×n, skew
   bool has_damping = false;
   bool has_gyroscopic = false;
   bool circulatory = false;              // K not symmetric (follower loads)
