@@ -394,7 +394,9 @@ int main(int argc, char** argv) try {
   app.fallthrough();  // --quiet after the command's name too
   app.footer(
       "Exit status: 0 success, 1 usage, 2 bad scene or input, 3 unstable under analyze --require-stable, "
-      "4 numerical failure.\n");
+      "4 numerical failure.\n"
+      "Environment: MODAL_HUGE_PAGES=1 backs the working memory with transparent huge pages (may pay on bare "
+      "metal; slower on virtual machines that hand freed memory back to their host).\n");
 
   // --- analyze ---
   SceneArgs analyze_scene;

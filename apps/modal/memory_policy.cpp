@@ -4,21 +4,25 @@
 // of MB thousands of times, and a 1000-coordinate dense one a few dozen n×n
 // matrices. With glibc's defaults each large block is a fresh mmap, faulted in
 // 4 KiB at a time on every reuse, which on a virtual machine costs
-// microseconds per page, and dense kernels on 4 KiB pages miss the TLB. The
-// policy, set when main starts (no environment variable, no second execution,
-// nothing paid by a small scene):
+// microseconds per page. The policy, set when main starts (no second
+// execution, nothing paid by a small scene):
 //
 // - glibc's malloc takes every block from its heap, none from a private mmap
 //   (M_MMAP_MAX 0), never trims it (M_TRIM_THRESHOLD −1) and grows it 64 MiB at
 //   a time (M_TOP_PAD; under an address-space limit at most 1/64 of it):
 //   freed memory is reused without page faults;
-// - each time the heap has grown, the new part is advised for transparent huge
-//   pages (madvise MADV_HUGEPAGE: a system with THP "madvise", Debian's
-//   default, then backs it with 2 MiB pages). glibc does this itself only when
-//   its glibc.malloc.hugetlb tunable is set in the environment at start; here
-//   the program's malloc, calloc and realloc call glibc's and then look at the
-//   heap's end (sbrk(0), a variable read), so the work is one comparison per
-//   call and one madvise per growth of the heap.
+// - only with MODAL_HUGE_PAGES=1 in the environment: each time the heap has
+//   grown, the new part is advised for transparent huge pages (madvise
+//   MADV_HUGEPAGE: a system with THP "madvise", Debian's default, then backs
+//   it with 2 MiB pages). The program's malloc, calloc and realloc call
+//   glibc's and then look at the heap's end (sbrk(0), a variable read): one
+//   comparison per call and one madvise per growth of the heap. Not by
+//   default: on a virtual machine whose balloon driver reports freed pages to
+//   its host (Firecracker's free page reporting), huge pages made a
+//   1000-link chain 1.6–2.0 s against 0.3–0.4 s and a 10⁵-coordinate net
+//   11.6–13.3 s against 6.1–8.6 s whenever the host had taken the pages back
+//   (seconds after another process freed them), for 15 % where it had not
+//   (docs/design.md, "Allocator").
 //
 // An allocation the system refuses many times in a row (the same size, from
 // the same thread) is a library retrying it in a loop that never ends:
@@ -29,8 +33,8 @@
 // on any lack of memory: the outputs' temporaries removed, "out of memory"
 // and exit status 4.
 //
-// With MODAL_JEMALLOC the program runs on jemalloc instead, configured the same
-// way by malloc_conf (without that guard). Under the sanitizers nothing is set.
+// With MODAL_JEMALLOC the program runs on jemalloc instead, configured by
+// malloc_conf to keep freed memory (without that guard, and without huge pages). Under the sanitizers nothing is set.
 
 #include "memory_policy.hpp"
 
@@ -55,7 +59,7 @@
 
 extern "C" {
 // Read by jemalloc when the process starts.
-const char* malloc_conf = "thp:always,metadata_thp:auto,dirty_decay_ms:-1,muzzy_decay_ms:-1";
+const char* malloc_conf = "dirty_decay_ms:-1,muzzy_decay_ms:-1";
 }
 void modal_program::set_memory_policy() {}
 
@@ -160,6 +164,8 @@ void modal_program::set_memory_policy() {
   double pad = 64 << 20;
   if (const double limit = modal::address_space_limit(); limit > 0) pad = std::min(pad, limit / 64);
   mallopt(M_TOP_PAD, static_cast<int>(pad));
+  const char* huge = std::getenv("MODAL_HUGE_PAGES");
+  if (huge == nullptr || std::strcmp(huge, "1") != 0) return;
   advised_end.store(reinterpret_cast<std::uintptr_t>(sbrk(0)));
   following.store(true);
 }
