@@ -1240,10 +1240,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       (chain->mass.array() > 0).all())
     chain_mass.emplace(*chain);
   VectorX chain_d, chain_e;  // C's diagonal and subdiagonal, where the pairs come from it
-  // A chain's K diagonal: C tridiagonal (and certify below); for a chain
-  // of rigid links, the tridiagonal pencil (below).
-  const bool any_chain = chain_mass.has_value() || (links != nullptr && lapack && links->remainder.size() == n);
-  const bool K_is_diagonal = any_chain && is_diagonal(K);
+  // A chain of rigid links (below) is tried only where no point-mass chain is.
+  const bool link_candidate = !chain_mass && links != nullptr && lapack && links->remainder.size() == n;
+  // K diagonal, scanned once: a chain's C tridiagonal (and certify below); a
+  // chain of rigid links' tridiagonal pencil (below).
+  const bool K_is_diagonal = (chain_mass || link_candidate) && is_diagonal(K);
   const bool diagonal_K = chain_mass.has_value() && K_is_diagonal;
   // LAPACK: not loaded for a small scene, unless M's dense factor fails
   // (a light chain with a heavy tip: M scaled to a unit diagonal is then near
@@ -1303,7 +1304,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   std::optional<LinkChainMass> link_mass;
   VectorX link_d, link_e;  // T's diagonal and subdiagonal
   MatrixX link_X;
-  if (!chain_mass && links != nullptr && lapack && links->remainder.size() == n) {
+  if (link_candidate) {
     if (K_is_diagonal) link_mass = LinkChainMass::make(*links);
     // M̃ = FFᵀ is definite by B's factor; M, within the mismatch and the
     // comparison's rounding of it, where definite_within says so (else the
