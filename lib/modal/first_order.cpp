@@ -26,8 +26,7 @@
 //     does not),
 //   - ε (the data's own rounding is the data term below: a floor of 2nε
 //     here as well made the estimates of the bundled damped and gyroscopic
-//     scenes up to 65 × their true errors, now 27 ×; results/
-//     estimate_honesty.md).
+//     scenes up to 65 × their true errors; results/estimate_honesty.md).
 // So estimate = η‖A‖κ. At a defective eigenvalue (modes coalescing: critical
 // damping, onset of flutter, an undamped rigid-body motion) κ is infinite and
 // the true error is of the order of the Hölder bound √(η)·‖A‖ for a Jordan
@@ -41,7 +40,7 @@
 // eigenvector; lᵀQ(s) = 0 for Q(s) = s²M + sC + K, and w yᴴz = lᵀQ'(s)x)
 // this moves s by at most
 //     |l|ᵀ(E_K + |s|E_C + |s|²E_M)|x| / |lᵀQ'(s)x|
-// to first order, added to the estimate. It is the same number for the
+// to first order; the estimate adds it at its typical size (in `terms`). It is the same number for the
 // equilibrated pencil, so graded coordinates cost nothing here; without it
 // the estimates of graded damped chains were up to 1e5 × below their true
 // errors (a chain of slides in relative coordinates: M's entries are sums of
@@ -69,7 +68,10 @@
 // becomes one pair again). Measured on generated damped chains of slides
 // (masses and stiffnesses over 1e-6 … 1e6, tests/test_graded.cpp): worst
 // relative error 6.2e4 → 3.0e-5, estimates over 1e3 × the true error
-// 108 → 2 of 454.
+// 108 → 2 of 454. Pairs whose normwise share is merely over 2ε|s| are then
+// refined too, within about the eigen-solve's cost (below): the bundled
+// damped, follower and gyroscopic scenes' estimates 6.9 … 27 → 2.7 … 7.9 ×
+// the true error against their closed forms (with the typical data share).
 //
 // Kinds are decided with the data's share at its worst (|l|ᵀ(…)|x|, not its
 // typical size), as in symmetric.cpp, and, where the rounding form F is given
@@ -134,9 +136,19 @@ struct Quadratic {
 // would leave an imaginary part of 1e-39). False when it does not settle.
 bool refine_pair(const Quadratic& q, bool real, Complex& s, Eigen::VectorXcd& x, Eigen::VectorXcd& l) {
   for (int step = 0; step < 8; ++step) {
-    const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(quadratic(q.M, q.C, q.K, s));  // no rank decision: a huge x is the point
     const Eigen::MatrixXcd dQ = derivative(q.M, q.C, s);
-    const Eigen::VectorXcd xn = lu.solve(dQ * x), ln = lu.transpose().solve(dQ.transpose() * l);
+    Eigen::VectorXcd xn, ln;
+    // No rank decision: a huge x is the point. Where s is an eigenvalue of
+    // Q as rounded (a pivot exactly 0, as on small scenes with round data),
+    // the iteration's vectors come from Q at s moved by 16ε|s|, far closer to
+    // s than any other eigenvalue that inverse iteration would need to
+    // reject; s's own step below still uses Q(s).
+    for (const double shift : {0.0, 16 * eps}) {
+      const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(quadratic(q.M, q.C, q.K, s + shift * std::abs(s)));
+      xn = lu.solve(dQ * x);
+      ln = lu.transpose().solve(dQ.transpose() * l);
+      if (xn.allFinite() && ln.allFinite() && xn.norm() > 0 && ln.norm() > 0) break;
+    }
     if (!xn.allFinite() || !ln.allFinite() || xn.norm() == 0 || ln.norm() == 0) return false;
     x = xn / xn.norm();
     l = ln / ln.norm();
@@ -226,12 +238,14 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     const double a = std::abs(s);
     Terms t;
     // At the typical size of independent entry errors, doubled (as
-    // symmetric.cpp's typical_quotient_rounding): (Σ_ij (l_i E_ij x_j)²)^½ ≤
-    // ‖|l|∘(E|x|)‖₂, Cauchy–Schwarz by rows; never above the worst case.
+    // symmetric.cpp's typical_quotient_rounding): (Σ_ij (l_i e_ij x_j)²)^½ ≤
+    // ‖|l|∘(e|x|)‖₂, Cauchy–Schwarz by rows, with e = E/4, an entry's
+    // typical error a quarter of its bound (as the point-mass chain's
+    // estimate takes K_error/4); never above the worst case.
     const VectorX moved_by_rest = a * (EC * absx) + (a * a) * (EM * absx);
     const VectorX moved_by_data = EK * absx + moved_by_rest;
     const double worst = absl.dot(moved_by_data);
-    t.data = std::min(worst, 2 * absl.cwiseProduct(moved_by_data).norm()) / den;
+    t.data = std::min(worst, 0.5 * absl.cwiseProduct(moved_by_data).norm()) / den;
     t.decision = worst / den;
     if (form) {
       // −4εF ≤ δK ≤ 4εF makes |uᵀδKv| ≤ 4ε√(uᵀFu · vᵀFv) for real u, v;
@@ -303,24 +317,39 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     auto error_of = [](const Pair& p) { return p.solver + p.t.data + p.t.systematic; };
     // Two pairs are told apart when their values lie further apart than their estimates together.
     auto apart = [&](const Pair& a, const Pair& b) { return std::abs(a.s - b.s) > error_of(a) + error_of(b); };
-    std::vector<std::size_t> candidates;
+    std::vector<std::size_t> candidates, tighten;
     // Unresolved: the solver's share over 10 × the data's. Also tried (with
     // their own start only): estimates over 1e6 ε|s|, whose data term came
     // from the solver's vectors (A's left ones are not accurate in a graded
-    // scene) and falls with accurate ones.
+    // scene) and falls with accurate ones. Then, within about the eigen-
+    // solve's own cost (25(2n)³ flops for A's Schur form and vectors, 9 modes
+    // at 8 factorizations each; at least 3e6 flops, every mode of a scene of
+    // up to about 12 coordinates), modes whose normwise share η‖A‖κ is merely
+    // over 2ε|s|: a refined pair's share is its own residual's, nearer what
+    // the solver left (the bundled damped, follower and gyroscopic scenes:
+    // 2.5–16 ε|s| normwise against true errors of at most 2ε|s|).
     auto solver_bound = [&](const Pair& p) {
       return p.solver > 10 * (p.t.data + p.t.systematic + eps * std::abs(p.s));
     };
-    for (std::size_t k = 0; k < pairs.size(); ++k)
-      if (solver_bound(pairs[k]) || error_of(pairs[k]) > 1e6 * eps * std::abs(pairs[k].s)) candidates.push_back(k);
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      const double size = eps * std::abs(pairs[k].s);
+      if (solver_bound(pairs[k]) || error_of(pairs[k]) > 1e6 * size)
+        candidates.push_back(k);
+      else if (pairs[k].solver > 2 * size)
+        tighten.push_back(k);
+    }
     auto excess = [&](std::size_t k) {
       const Pair& p = pairs[k];
       return p.solver / (p.t.data + p.t.systematic + eps * std::abs(p.s) + std::numeric_limits<double>::min());
     };
-    std::stable_sort(candidates.begin(), candidates.end(), [&](std::size_t a, std::size_t b) { return excess(a) > excess(b); });
+    auto by_excess = [&](std::size_t a, std::size_t b) { return excess(a) > excess(b); };
+    std::stable_sort(candidates.begin(), candidates.end(), by_excess);
+    std::stable_sort(tighten.begin(), tighten.end(), by_excess);
     const double nd = static_cast<double>(n), per_mode = 8 * 4 * (2.0 / 3.0) * nd * nd * nd;
     const auto budget = static_cast<std::size_t>(std::max(1.0, std::max(3e8, 4 * nd * nd * nd) / per_mode));
     if (candidates.size() > budget) candidates.resize(budget);
+    const auto tighten_budget = static_cast<std::size_t>(std::max(3e6, 25 * 8 * nd * nd * nd) / per_mode);
+    if (tighten.size() > tighten_budget) tighten.resize(tighten_budget);
     std::vector<std::size_t> kept;
     std::vector<bool> removed(pairs.size(), false), unresolved(pairs.size(), false);
     for (const std::size_t k : candidates) unresolved[k] = solver_bound(pairs[k]);
@@ -371,6 +400,8 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
       return true;
     };
     for (const std::size_t k : candidates)
+      if (!removed[k]) refine(k, pairs[k].s, pairs[k].x, pairs[k].l);
+    for (const std::size_t k : tighten)
       if (!removed[k]) refine(k, pairs[k].s, pairs[k].x, pairs[k].l);
     // What is left, as a group: the reversed problem μ²K + μC + M = 0
     // (μ = 1/s), solved the same way, has a normwise error relative to the
