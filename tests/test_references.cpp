@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <string>
@@ -199,32 +200,37 @@ TEST(References, SeesawTiltAndFrequency) {
 // estimates must cover): every s within its estimate, and the estimate at
 // most 20 × max(true error, ε|s|) (the floor is one rounding of s itself).
 // Issue 15's target is 10 ×; it is met on the bundled parameter values but
-// not on every one below (measured 2026-12-01: damped Ziegler at P = 0.5,
-// 1.5, 1.9 and 3 up to 13.5 ×, where the data are exact and the true errors
-// 0.5–1 ε|s|, while the estimate takes one rounding per entry of K, C and M
-// at its typical size, doubled, and the refined residual's rounding at its
-// worst, both about 5 ε|s| for an eigenvalue whose |l|ᵀ(|K| + |s||C| +
+// not on every one below (measured 2026-12-01, printed: damped Ziegler at
+// several loads up to 14.9 ×, where the data are exact and the true errors
+// 0.5–1 ε|s|, while the estimate takes ε per entry of K, C and M at its
+// typical size, doubled, and the refined residual's rounding at its worst, both about 5 ε|s| for an eigenvalue whose |l|ᵀ(|K| + |s||C| +
 // |s|²|M|)|x| / |lᵀQ'(s)x| is 6–8 |s|). Over a family of each scene's parameter:
 //  - the sleeping top (models/spinning_top.toml) at spins above the critical
 //    54.25 rad/s: M = A I, K = −m g h I, G = C·spin J with A = A_c + m h², so
-//    A s² ± i p s − m g h = 0, s = i(p ± √(p² − 4 A m g h)) / (2A), p = C·spin;
+//    A ω² ∓ p ω + m g h = 0, ω = (p ± √(p² − 4 A m g h)) / (2A), p = C·spin
+//    (the slower by Vieta, m g h / (A ω_fast));
 //  - Foucault's pendulum (models/foucault.toml) at several latitudes:
 //    M = m I, K = (m g / l) I, G = 2 m W J, W = Ω sin(latitude), so
 //    ω = √(g/l + W²) ± W;
 //  - Ziegler's damped pendulum (models/ziegler_damped.toml, REFERENCES R6 in
 //    relative angles, dampers c = 0.01 on the hinges) at loads on both sides
-//    of flutter: det(s²M + sC + K) = 0 with M = [[6, 2], [2, 1]],
+//    of flutter (damped: P = 41/28 + c²/2 by Routh–Hurwitz; 2.08 is near the
+//    undamped coalescence 7/2 − √2): det(s²M + sC + K) = 0 with M = [[6, 2], [2, 1]],
 //    C = c I, K = [[1, P], [0, 1]] (m = l = k = 1), a quartic whose roots
 //    come from its companion matrix in long double, polished by Newton's
 //    method on the quartic.
-// Measured when written (2026-12-01): estimate/true 2.7 … 7.9 on the bundled
-// values (bench/estimate_honesty.py), at most 13.5 here; with the data's
+// Skipped where long double is double. Measured when written (2026-12-01):
+// estimate/true 2.7 … 7.9 on the bundled values (bench/estimate_honesty.py),
+// at most 14.9 here; with the data's
 // share at 4ε per entry and the normwise solver share it was 6.9 … 27 there.
 using LD = long double;
 using CLD = std::complex<LD>;
 
-void expect_honest_first_order(const ModalResult& r, const std::vector<CLD>& reference, const std::string& what) {
-  ASSERT_EQ(r.modes.size(), reference.size()) << what;
+// Returns the largest estimate / max(true error, ε|s|) of r's modes.
+double expect_honest_first_order(const ModalResult& r, const std::vector<CLD>& reference, const std::string& what) {
+  EXPECT_EQ(r.modes.size(), reference.size()) << what;
+  if (r.modes.size() != reference.size()) return 0;
+  double worst = 0;
   for (const Mode& m : r.modes) {
     const CLD s(m.s.real(), m.s.imag());
     std::size_t best = 0;
@@ -232,15 +238,22 @@ void expect_honest_first_order(const ModalResult& r, const std::vector<CLD>& ref
       if (std::abs(reference[i] - s) < std::abs(reference[best] - s)) best = i;
     const double error = static_cast<double>(std::abs(reference[best] - s));
     const double size = static_cast<double>(std::abs(reference[best]));
-    EXPECT_LE(error, m.error_estimate) << what << ": s " << m.s << " reference " << static_cast<double>(reference[best].real())
+    // The reference's own rounding: a few units of long double's.
+    const double reference_rounding = 8 * static_cast<double>(std::numeric_limits<LD>::epsilon()) * size;
+    EXPECT_LE(error, m.error_estimate + reference_rounding) << what << ": s " << m.s << " reference " << static_cast<double>(reference[best].real())
                                        << (reference[best].imag() < 0 ? " - " : " + ")
                                        << static_cast<double>(std::abs(reference[best].imag())) << "i";
     EXPECT_LE(m.error_estimate, 20 * std::max(error, kEps * size))
         << what << ": s " << m.s << " ± " << m.error_estimate << ", true error " << error;
+    worst = std::max(worst, m.error_estimate / std::max(error, kEps * size));
   }
+  return worst;
 }
 
-TEST(References, FirstOrderEstimatesAreWithinTenTimesTheClosedFormsError) {
+TEST(References, FirstOrderEstimatesCoverTheClosedFormsWithinTwentyTimes) {
+  if (std::numeric_limits<LD>::digits <= std::numeric_limits<double>::digits)
+    GTEST_SKIP() << "long double is no wider than double here: no extended-precision reference";
+  double worst = 0;
   const auto text = [](double v) {
     char b[32];
     std::snprintf(b, sizeof b, "%.17g", v);
@@ -249,17 +262,19 @@ TEST(References, FirstOrderEstimatesAreWithinTenTimesTheClosedFormsError) {
   for (const int spin : {60, 80, 100, 150, 400}) {
     const Analysis a = analyze("spinning_top.toml", {{"spin", std::to_string(spin)}});
     const LD m = 1, h = 0.1L, A = 0.002L + m * h * h, C = 0.004L, g = 9.81L, p = C * spin;
-    const LD root = std::sqrt(p * p - 4 * A * m * g * h);
-    expect_honest_first_order(a.modes, {CLD(0, (p - root) / (2 * A)), CLD(0, (p + root) / (2 * A))},
-                              "top at spin " + std::to_string(spin));
+    const LD fast = (p + std::sqrt(p * p - 4 * A * m * g * h)) / (2 * A);
+    const LD slow = m * g * h / (A * fast);  // Vieta: no cancellation at high spin
+    worst = std::max(worst, expect_honest_first_order(a.modes, {CLD(0, slow), CLD(0, fast)},
+                                                      "top at spin " + std::to_string(spin)));
   }
   for (const double latitude : {48.8462, 10.0, 80.0}) {
     const Analysis a = analyze("foucault.toml", {{"latitude", text(latitude)}});
     const LD W = 7.2921159e-5L * std::sin(static_cast<LD>(latitude) * std::numbers::pi_v<LD> / 180);
     const LD w0 = std::sqrt(9.81L / 67 + W * W);
-    expect_honest_first_order(a.modes, {CLD(0, w0 - W), CLD(0, w0 + W)}, "Foucault at latitude " + text(latitude));
+    worst = std::max(worst, expect_honest_first_order(a.modes, {CLD(0, w0 - W), CLD(0, w0 + W)},
+                                                      "Foucault at latitude " + text(latitude)));
   }
-  for (const double P : {0.5, 1.0, 1.5, 1.9, 2.5, 3.0}) {
+  for (const double P : {0.5, 1.0, 1.5, 1.9, 2.08, 2.5, 3.0}) {
     const Analysis a = analyze("ziegler_damped.toml", {{"P", text(P)}});
     // det [[6s² + cs + 1, 2s² + P], [2s², s² + cs + 1]] = 2s⁴ + 7c s³ + (7 + c² − 2P)s² + 2c s + 1.
     const LD c = 0.01L, p = P;
@@ -281,8 +296,9 @@ TEST(References, FirstOrderEstimatesAreWithinTenTimesTheClosedFormsError) {
       }
       if (s.imag() > 0) reference.push_back(s);
     }
-    expect_honest_first_order(a.modes, reference, "damped Ziegler at P = " + text(P));
+    worst = std::max(worst, expect_honest_first_order(a.modes, reference, "damped Ziegler at P = " + text(P)));
   }
+  std::printf("first-order scenes: estimates at most %.3g x max(true error, eps|s|)\n", worst);
 }
 
 }  // namespace

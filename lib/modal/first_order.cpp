@@ -68,8 +68,9 @@
 // becomes one pair again). Measured on generated damped chains of slides
 // (masses and stiffnesses over 1e-6 … 1e6, tests/test_graded.cpp): worst
 // relative error 6.2e4 → 3.0e-5, estimates over 1e3 × the true error
-// 108 → 2 of 454. Pairs whose normwise share is merely over 2ε|s| are then
-// refined too, within about the eigen-solve's cost (below): the bundled
+// 108 → 2 of 454. Before that group step, isolated pairs whose normwise
+// share is merely over 2ε|s| are refined too, within about the eigen-
+// solve's cost (below): the bundled
 // damped, follower and gyroscopic scenes' estimates 6.9 … 27 → 2.7 … 7.9 ×
 // the true error against their closed forms (with the typical data share).
 //
@@ -138,12 +139,14 @@ bool refine_pair(const Quadratic& q, bool real, Complex& s, Eigen::VectorXcd& x,
   for (int step = 0; step < 8; ++step) {
     const Eigen::MatrixXcd dQ = derivative(q.M, q.C, s);
     Eigen::VectorXcd xn, ln;
-    // No rank decision: a huge x is the point. Where s is an eigenvalue of
-    // Q as rounded (a pivot exactly 0, as on small scenes with round data),
-    // the iteration's vectors come from Q at s moved by 16ε|s|, far closer to
-    // s than any other eigenvalue that inverse iteration would need to
-    // reject; s's own step below still uses Q(s).
+    // No rank decision: a huge x is the point. Where s ≠ 0 is an eigenvalue
+    // of Q as rounded (a pivot exactly 0, as on small scenes with round
+    // data), the iteration's vectors come from Q at s moved by 16ε|s|, far
+    // closer to s than any other eigenvalue that inverse iteration would need
+    // to reject; s's own step below still uses Q(s). (The budget below counts
+    // one factorization per step; the retry is rare.)
     for (const double shift : {0.0, 16 * eps}) {
+      if (shift > 0 && s == Complex(0)) break;
       const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(quadratic(q.M, q.C, q.K, s + shift * std::abs(s)));
       xn = lu.solve(dQ * x);
       ln = lu.transpose().solve(dQ.transpose() * l);
@@ -240,12 +243,15 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     // At the typical size of independent entry errors, doubled (as
     // symmetric.cpp's typical_quotient_rounding): (Σ_ij (l_i e_ij x_j)²)^½ ≤
     // ‖|l|∘(e|x|)‖₂, Cauchy–Schwarz by rows, with e = E/4, an entry's
-    // typical error a quarter of its bound (as the point-mass chain's
-    // estimate takes K_error/4); never above the worst case.
+    // typical error a quarter of its bound (ε, two units of rounding, where
+    // the bound is 4ε; the point-mass chain's estimate also takes K_error/4
+    // per entry). Never below a quarter of the worst case, the errors'
+    // linear sum at that size: entries computed alike round alike and need
+    // not average out (symmetric.cpp's chain estimate).
     const VectorX moved_by_rest = a * (EC * absx) + (a * a) * (EM * absx);
     const VectorX moved_by_data = EK * absx + moved_by_rest;
     const double worst = absl.dot(moved_by_data);
-    t.data = std::min(worst, 0.5 * absl.cwiseProduct(moved_by_data).norm()) / den;
+    t.data = std::max(0.25 * worst, 0.5 * absl.cwiseProduct(moved_by_data).norm()) / den;
     t.decision = worst / den;
     if (form) {
       // −4εF ≤ δK ≤ 4εF makes |uᵀδKv| ≤ 4ε√(uᵀFu · vᵀFv) for real u, v;
@@ -275,6 +281,7 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     Eigen::VectorXcd x, l;
     double solver = 0;  // the eigen-solver's share of the estimate
     Terms t;
+    bool holder = false;  // the solver's share is the Hölder form (κ infinite or that smaller)
   };
   std::vector<Pair> pairs;
   double worst_backward = 0;
@@ -282,7 +289,7 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     const Complex s = values(i);
     if (s.imag() < 0) continue;  // the conjugate of a reported pair
     const Eigen::VectorXcd z = Z.col(i);
-    Pair p{s, z.head(n), L.col(i), 0, {}};
+    Pair p{s, z.head(n), L.col(i), 0, {}, false};
 
     const double eta_A = (Ac * z - s * z).norm() / (normA * z.norm());
     const double q_scale = (std::norm(s) * normM + std::abs(s) * normC + normK) * p.x.norm();
@@ -294,7 +301,8 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     const double kappa = Y.row(i).norm() * z.norm() / std::abs(yz);
     const double first_order = eta * normA * kappa;
     const double holder = std::sqrt(eta) * normA;
-    p.solver = std::isfinite(first_order) ? std::min(first_order, holder) : holder;
+    p.holder = !(std::isfinite(first_order) && first_order <= holder);
+    p.solver = p.holder ? holder : first_order;
     p.t = terms(s, p.x, p.l, w * std::abs(yz));
     pairs.push_back(std::move(p));
   }
@@ -324,18 +332,26 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     // scene) and falls with accurate ones. Then, within about the eigen-
     // solve's own cost (25(2n)³ flops for A's Schur form and vectors, 9 modes
     // at 8 factorizations each; at least 3e6 flops, every mode of a scene of
-    // up to about 12 coordinates), modes whose normwise share η‖A‖κ is merely
+    // up to about 16 coordinates), isolated modes whose normwise share η‖A‖κ is merely
     // over 2ε|s|: a refined pair's share is its own residual's, nearer what
     // the solver left (the bundled damped, follower and gyroscopic scenes:
     // 2.5–16 ε|s| normwise against true errors of at most 2ε|s|).
     auto solver_bound = [&](const Pair& p) {
       return p.solver > 10 * (p.t.data + p.t.systematic + eps * std::abs(p.s));
     };
+    // A pair near another (within 100 × its estimate) or at a defective
+    // eigenvalue (the Hölder form) is not tightened: a refined pair's share,
+    // its residual's to first order, needs a simple, separated eigenvalue.
+    auto isolated = [&](std::size_t k) {
+      for (std::size_t j = 0; j < pairs.size(); ++j)
+        if (j != k && std::abs(pairs[j].s - pairs[k].s) <= 100 * error_of(pairs[k])) return false;
+      return !pairs[k].holder;
+    };
     for (std::size_t k = 0; k < pairs.size(); ++k) {
       const double size = eps * std::abs(pairs[k].s);
       if (solver_bound(pairs[k]) || error_of(pairs[k]) > 1e6 * size)
         candidates.push_back(k);
-      else if (pairs[k].solver > 2 * size)
+      else if (pairs[k].solver > 2 * size && isolated(k))
         tighten.push_back(k);
     }
     auto excess = [&](std::size_t k) {
@@ -366,10 +382,13 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
       r.t = terms(r.s, r.x, r.l, den);
     };
     // The refined pair from the start s (vectors x and l), if it is kept by
-    // the rules above.
+    // the rules above. While tightening, apart from every other pair, not
+    // only the refined ones: the others' estimates are small there too, and
+    // inverse iteration must not have moved to a neighbour.
+    bool tightening = false;
     auto attempt = [&](std::size_t k, Complex s, bool real, const Eigen::VectorXcd& x,
                        const Eigen::VectorXcd& l) -> std::optional<Pair> {
-      Pair r{s, x, l, 0, {}};
+      Pair r{s, x, l, 0, {}, false};
       if (!refine_pair(q, real, r.s, r.x, r.l)) return std::nullopt;  // a real start stays real
       analyze_refined(r);
       const double new_error = error_of(r);
@@ -378,6 +397,9 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
       if (pairs[k].s.imag() > 0 && !(r.s.imag() > 0)) return std::nullopt;  // a pair stays a pair
       for (const std::size_t j : kept)
         if (!apart(r, pairs[j])) return std::nullopt;
+      if (tightening)
+        for (std::size_t j = 0; j < pairs.size(); ++j)
+          if (j != k && !removed[j] && !apart(r, pairs[j])) return std::nullopt;
       return r;
     };
     // Refines mode k from a start; a real mode refined to a complex pair
@@ -401,8 +423,10 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
     };
     for (const std::size_t k : candidates)
       if (!removed[k]) refine(k, pairs[k].s, pairs[k].x, pairs[k].l);
+    tightening = true;
     for (const std::size_t k : tighten)
       if (!removed[k]) refine(k, pairs[k].s, pairs[k].x, pairs[k].l);
+    tightening = false;
     // What is left, as a group: the reversed problem μ²K + μC + M = 0
     // (μ = 1/s), solved the same way, has a normwise error relative to the
     // largest 1/|s|, so it resolves the small |s| that A's cannot. Its values
@@ -490,7 +514,7 @@ ModalResult solve_first_order(const MatrixX& M, const MatrixX& K, const MatrixX&
         for (std::size_t i = 0; whole && i < starts.size(); ++i) {
           const Complex start = values[static_cast<std::size_t>(starts[i])];
           const bool real = start.imag() == 0;
-          Pair r{start, reversed.eigenvectors().col(starts[i]).head(n), {}, 0, {}};
+          Pair r{start, reversed.eigenvectors().col(starts[i]).head(n), {}, 0, {}, false};
           r.l = r.x;
           whole = refine_pair(q, real, r.s, r.x, r.l) && (real || r.s.imag() > 0);
           if (!whole) {  // a member the solver had as this value already keeps its own pair
