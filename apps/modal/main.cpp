@@ -396,7 +396,7 @@ int main(int argc, char** argv) try {
       "Exit status: 0 success, 1 usage, 2 bad scene or input, 3 unstable under analyze --require-stable, "
       "4 numerical failure.\n"
       "Environment: MODAL_HUGE_PAGES=1 backs the working memory with transparent huge pages (may pay on bare "
-      "metal; slower on virtual machines that hand freed memory back to their host).\n");
+      "metal; slower on virtual machines that hand freed memory back to their host); MODAL_POPULATE=0 leaves large blocks to fault in page by page.\n");
 
   // --- analyze ---
   SceneArgs analyze_scene;
