@@ -178,16 +178,22 @@ void graded_links(std::mt19937_64& rng, int trial, int links, std::vector<double
   if (trial % 3 == 1) std::sort(lengths.rbegin(), lengths.rend());
 }
 
-// modal's modes of s at q = 0; a refusal (e.g. singular M) is a failure
-// (false).
-bool modes_at_rest(const System& s, const std::string& what, ModalResult& r) {
+// modal's modes of s at q with `options`; a refusal (e.g. singular M) is a
+// failure (false).
+bool modes_at(const System& s, const VectorX& q, const ModalOptions& options, const std::string& what,
+              ModalResult& r) {
   try {
-    r = solve_modes(linearize(s, VectorX::Zero(s.size())));
+    r = solve_modes(linearize(s, q), options);
     return true;
   } catch (const std::exception& e) {
     ADD_FAILURE() << what << ": " << e.what();
     return false;
   }
+}
+
+// The same at q = 0 with the default options.
+bool modes_at_rest(const System& s, const std::string& what, ModalResult& r) {
+  return modes_at(s, VectorX::Zero(s.size()), ModalOptions{}, what, r);
 }
 
 // The chain's modes at q = 0 against the long double reference.
@@ -2298,6 +2304,21 @@ TEST(PointMassChains, ADepartureAboveRoundingCountsInTheSystematicPart) {
   EXPECT_GE(departure_dominant, 1);
 }
 
+// Link i (0-based) of a planar chain of rigid links hanging along −z from
+// `origin`: a hinge about y, mass m, its centre of mass c·l below the
+// hinge, the moment of inertia `inertia` about every axis through it.
+Body chain_link(int i, const Vec3& origin, double m, double l, double c, double inertia) {
+  Body b;
+  b.name = "b" + std::to_string(i + 1);
+  b.parent = i - 1;
+  b.joint = JointType::hinge;
+  b.axis = Vec3::UnitY();
+  b.origin = origin;
+  b.mass = m;
+  b.com = Vec3(0, 0, -c * l);
+  b.inertia = inertia * Mat3::Identity();
+  return b;
+}
 
 // Chains of rigid links (docs/design.md, "Chains of rigid links"): hinges
 // about one axis, each link's centre of mass on the line to the next hinge
@@ -2324,7 +2345,7 @@ TEST(PointMassChains, ADepartureAboveRoundingCountsInTheSystematicPart) {
 TEST(LinkChains, GradedChainsOfRigidLinksMatchTheLongDoubleReference) {
   std::mt19937_64 rng(4111);
   Figures f;
-  int structured = 0, subsets = 0, from_values = 0, divergent = 0;
+  int structured = 0, subsets = 0, from_values = 0, divergent = 0, iterated = 0;
   double worst_ratio = 0;  // estimate / max(error, ε|λ|) over the hanging chains' modes
   for (int trial = 0; trial < 36; ++trial) {
     const int links = 3 + static_cast<int>(rng() % 58);
@@ -2338,17 +2359,8 @@ TEST(LinkChains, GradedChainsOfRigidLinksMatchTheLongDoubleReference) {
       const double l = light ? log_uniform(rng, 1e-3, 1e3) : log_uniform(rng, 1e-2, 1e2);
       const bool rod = trial % 5 == 0;
       const double c = rod ? 0.5 : std::uniform_real_distribution<double>(0.05, 1.0)(rng);
-      Body b;
-      b.name = "b" + std::to_string(i + 1);
-      b.parent = i - 1;
-      b.joint = JointType::hinge;
-      b.axis = Vec3::UnitY();
-      b.origin = origin;
-      b.mass = m;
-      b.com = Vec3(0, 0, -c * l);
       const double inertia = rod ? m * l * l / 12 : m * l * l * log_uniform(rng, 1e-4, 0.2);
-      b.inertia = inertia * Mat3::Identity();
-      d.bodies.push_back(b);
+      d.bodies.push_back(chain_link(i, origin, m, l, c, inertia));
       origin = Vec3(0, 0, -l);
     }
     const System s(d);
@@ -2359,13 +2371,9 @@ TEST(LinkChains, GradedChainsOfRigidLinksMatchTheLongDoubleReference) {
     const std::string what = "trial " + std::to_string(trial) + ", " + std::to_string(links) + " links" +
                              (light ? ", light over a heavy tip" : "") + (turned ? ", turned over" : "");
     ModalResult r;
-    try {
-      r = solve_modes(linearize(s, q), options);
-    } catch (const std::exception& e) {
-      ADD_FAILURE() << what << ": " << e.what();
-      continue;
-    }
+    if (!modes_at(s, q, options, what, r)) continue;
     structured += r.solver.find("chain of rigid links") != std::string::npos;
+    iterated += r.solver.find("inverse iteration") != std::string::npos;
     const std::vector<LD> reference = reference_omega2(s, q);
     check_modes(r, reference, what, f, false);
     // The lowest few alone (every eigenvalue from the standard form by
@@ -2382,7 +2390,8 @@ TEST(LinkChains, GradedChainsOfRigidLinksMatchTheLongDoubleReference) {
       // (where the cheap estimate leaves a kind in doubt up to the last
       // mode, every pair is analyzed: a light chain's spectrum over many
       // decades)
-      from_values += lowest.solver.find("dsterf") != std::string::npos;
+      from_values += lowest.solver.find("the lowest modes' vectors") != std::string::npos;
+      iterated += lowest.solver.find("inverse iteration") != std::string::npos;
       check_modes(lowest, sorted, what + ", lowest " + std::to_string(few.modes), f, false);
       EXPECT_EQ(lowest.morse_index, r.morse_index) << what;
       EXPECT_EQ(lowest.stability, r.stability) << what;
@@ -2402,12 +2411,88 @@ TEST(LinkChains, GradedChainsOfRigidLinksMatchTheLongDoubleReference) {
   }
   print_figures("chains of rigid links", f);
   std::printf("  %d of 36 on the rigid links' path (%d with the lowest few alone, %d of those analyzing only a "
-              "prefix); hanging: estimate / max(error, ε|λ|) up to %.1f\n",
-              structured, subsets, from_values, worst_ratio);
+              "prefix); %d of the 72 solves' vectors by inverse iteration on the pencil; hanging: estimate / "
+              "max(error, ε|λ|) up to %.1f\n",
+              structured, subsets, from_values, iterated, worst_ratio);
   EXPECT_EQ(structured, 36);
   EXPECT_EQ(subsets, 36);
   EXPECT_GE(from_values, 24);
   EXPECT_GE(divergent, 6);
+}
+
+// Longer chains of rigid links (66–90 links), where the rigid links' path
+// takes its vectors from the tridiagonal pencil by inverse iteration
+// (LinkChainMass::pencil_vectors), or, where a cluster of more than 64
+// eigenvalues lies within √ε(‖C‖ + |λ|‖B‖) of each other (a light chain's
+// lowest modes under a heavy tip), from dsbgst's transformation and MRRR.
+// Generated: identical uniform rods, rods graded over 1e±2, and light chains
+// (masses 1e-8 … 1e-4, lengths 1e±3) over a heavy tip; every other chain
+// turned over at a random joint; and identical rods but for one link a
+// thousand millionth as long (g/l ≈ 1e10 dominates ‖C‖, so the others' ω²,
+// a few hundred apart at most, are one cluster at √ε‖C‖ ≈ 150: the route
+// through the transformation). Reference: the scene's pencil in long
+// double (reference_omega2); every mode within its estimate of a reference
+// eigenvalue of its own, the Morse index exact, every pair and the lowest
+// three alone. The random families' light chains do not reach a cluster of
+// 65 (measured: their vectors all came by inverse iteration), so the last
+// family is the one that takes the other route.
+TEST(LinkChains, LongChainsOfRigidLinksByEitherRouteMatchTheLongDoubleReference) {
+  std::mt19937_64 rng(90210);
+  Figures f;
+  int iterated = 0, rotated = 0;
+  for (int trial = 0; trial < 8; ++trial) {
+    const int links = 66 + static_cast<int>(rng() % 25);
+    const int family = trial / 2;  // 0 identical rods, 1 graded rods, 2 light over a heavy tip, 3 one short link
+    const int short_link = static_cast<int>(rng() % static_cast<unsigned>(links));
+    const bool turned = trial % 2 == 1;
+    SystemDescription d;
+    d.gravity = Vec3(0, 0, -9.81);
+    Vec3 origin = Vec3::Zero();
+    for (int i = 0; i < links; ++i) {
+      const bool tip = i + 1 == links;
+      const double m = family == 0 || family == 3 ? 1.0
+                       : family == 1 || tip       ? log_uniform(rng, 1e-2, 1e2)
+                                                  : log_uniform(rng, 1e-8, 1e-4);
+      const double l = family == 0   ? 1.0
+                       : family == 1 ? log_uniform(rng, 1e-2, 1e2)
+                       : family == 2 ? log_uniform(rng, 1e-3, 1e3)
+                                     : (i == short_link ? 1e-9 : 1.0);
+      d.bodies.push_back(chain_link(i, origin, m, l, 0.5, m * l * l / 12));
+      origin = Vec3(0, 0, -l);
+    }
+    const System s(d);
+    VectorX q = VectorX::Zero(s.size());
+    if (turned) q(static_cast<Eigen::Index>(rng() % static_cast<unsigned>(links))) = std::numbers::pi;
+    const std::string what = "trial " + std::to_string(trial) + ", " + std::to_string(links) + " links" +
+                             (family == 0   ? ", identical rods"
+                              : family == 1 ? ", graded rods"
+                              : family == 2 ? ", light over a heavy tip"
+                                            : ", one link 1e-9 long") +
+                             (turned ? ", turned over" : "");
+    const std::vector<LD> reference = reference_omega2(s, q);
+    std::vector<LD> sorted = reference;
+    std::sort(sorted.begin(), sorted.end());
+    const auto negative = std::count_if(reference.begin(), reference.end(), [](LD v) { return v < 0; });
+    for (const int wanted : {-1, 3}) {
+      ModalOptions options;
+      options.dense_solver = DenseSolver::lapack;
+      options.modes = wanted;
+      ModalResult r;
+      if (!modes_at(s, q, options, what, r)) continue;
+      EXPECT_NE(r.solver.find("chain of rigid links"), std::string::npos) << what << ": " << r.solver;
+      iterated += r.solver.find("inverse iteration") != std::string::npos;
+      rotated += r.solver.find("dsbgst's transformation") != std::string::npos;
+      std::vector<LD> expected = sorted;
+      if (wanted > 0) expected.resize(static_cast<std::size_t>(wanted));
+      check_modes(r, wanted > 0 ? expected : reference, what + (wanted > 0 ? ", lowest 3" : ""), f, false);
+      EXPECT_EQ(r.morse_index, negative) << what;
+    }
+  }
+  print_figures("longer chains of rigid links", f);
+  std::printf("  %d of 16 solves' vectors by inverse iteration, %d by dsbgst's transformation\n", iterated, rotated);
+  EXPECT_EQ(iterated + rotated, 16);
+  EXPECT_GE(iterated, 12);
+  EXPECT_GE(rotated, 2);
 }
 
 }  // namespace

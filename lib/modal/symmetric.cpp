@@ -82,6 +82,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -121,6 +122,14 @@ extern "C" void dpbstf_(const char* uplo, const int* n, const int* kd, double* a
 extern "C" void dsbgst_(const char* vect, const char* uplo, const int* n, const int* ka, const int* kb, double* ab,
                         const int* ldab, const double* bb, const int* ldbb, double* x, const int* ldx, double* work,
                         int* info, std::size_t vect_length, std::size_t uplo_length);
+// LAPACK's tridiagonal LU with partial pivoting (dlagtf) and its solve
+// (dlagts; JOB −1 perturbs a pivot that would overflow the solution, as
+// inverse iteration needs where the shift is an eigenvalue to working
+// precision): the auxiliary routines of its dstein.
+extern "C" void dlagtf_(const int* n, double* a, const double* lambda, double* b, double* c, const double* tol,
+                        double* d, int* in, int* info);
+extern "C" void dlagts_(const int* job, const int* n, const double* a, const double* b, const double* c,
+                        const double* d, const int* in, double* y, double* tol, int* info);
 extern "C" void dormtr_(const char* side, const char* uplo, const char* trans, const int* m, const int* n,
                         const double* a, const int* lda, const double* tau, double* c, const int* ldc, double* work,
                         const int* lwork, int* info, std::size_t side_length, std::size_t uplo_length,
@@ -508,33 +517,123 @@ class LinkChainMass {
   double inverse_norm() const { return factor_inverse_norm() * chain_.inverse_norm(); }
 
   // The standard form of (C, B) for the diagonal k of K: T's diagonal d and
-  // subdiagonal e (n, the last entry unused) and X (n×n) by LAPACK dpbstf
-  // (B's split Cholesky factor) and dsbgst; false where either fails.
-  bool reduce(const VectorX& k, VectorX& d, VectorX& e, MatrixX& X) const {
+  // subdiagonal e (n, the last entry unused) by LAPACK dpbstf (B's split
+  // Cholesky factor) and dsbgst, with X (n×n) where asked for (VECT 'V':
+  // Θ(n³) of plane rotations; without it, O(n²)); C is kept for
+  // pencil_vectors. False where either routine fails.
+  bool reduce(const VectorX& k, VectorX& d, VectorX& e, MatrixX* X) {
     const int n = static_cast<int>(size()), one = 1, two = 2;
-    VectorX cd, ce;
-    chain_.tridiagonal(k, cd, ce);
+    chain_.tridiagonal(k, cd_, ce_);
     MatrixX ab(2, n), bb(2, n);  // upper band storage: row 0 the superdiagonal (column j: entry (j − 1, j)), row 1 the diagonal
     ab.setZero();
     bb.setZero();
     for (int j = 0; j < n; ++j) {
-      ab(1, j) = cd(j);
+      ab(1, j) = cd_(j);
       bb(1, j) = bd_(j);
       if (j > 0) {
-        ab(0, j) = ce(j - 1);
+        ab(0, j) = ce_(j - 1);
         bb(0, j) = be_(j - 1);
       }
     }
     int info = 0;
     dpbstf_("U", &n, &one, bb.data(), &two, &info, 1);
     if (info != 0) return false;
-    X.resize(n, n);
     VectorX work(2 * n);
-    dsbgst_("V", "U", &n, &one, &one, ab.data(), &two, bb.data(), &two, X.data(), &n, work.data(), &info, 1, 1);
-    if (info != 0 || !ab.allFinite() || !X.allFinite()) return false;
+    MatrixX none(1, 1);
+    if (X != nullptr) X->resize(n, n);
+    double* x = X != nullptr ? X->data() : none.data();
+    const int ldx = X != nullptr ? n : 1;
+    dsbgst_(X != nullptr ? "V" : "N", "U", &n, &one, &one, ab.data(), &two, bb.data(), &two, x, &ldx, work.data(),
+            &info, 1, 1);
+    if (info != 0 || !ab.allFinite() || (X != nullptr && !X->allFinite())) return false;
     d = ab.row(1).transpose();
     e.setZero(n);
     for (int j = 1; j < n; ++j) e(j - 1) = ab(0, j);
+    return true;
+  }
+  // The pencil's vectors Z (n×p, zᵀBz = 1) for the ascending eigenvalues
+  // `values` of (C, B) (those of T from the last reduce), by inverse
+  // iteration on the tridiagonal C − λB (dlagtf once per eigenvalue, then
+  // dlagts and the products with B and C: O(n) per step, so O(pn) in all,
+  // against X's Θ(n³) rotations and the product XY). Each start is a fixed
+  // pseudo-random vector; a vector is taken once its residual against its
+  // Rayleigh quotient, ‖(C − ρB)z‖₂, is within 4nε(‖C‖₁ + |ρ|‖B‖₁)‖z‖₂ (a
+  // backward error of the pencil's own rounding) after at least two steps,
+  // at most six. Eigenvalues closer than √ε(‖C‖₁ + |λ|‖B‖₁), where the shift's
+  // error could leave two steps on the same vector, form a cluster, within
+  // which each iterate is made B-orthogonal to the ones before it (twice:
+  // Kahan, in Parlett §6.9), as LAPACK's dstein does. False, and the caller
+  // forms X instead, where a step fails, a vector does not converge, or a
+  // cluster holds more than 64 eigenvalues (its orthogonalization would
+  // cost more than X: a strongly graded chain's lowest modes).
+  bool pencil_vectors(const VectorX& values, MatrixX& Z) const {
+    const Eigen::Index n = size(), p = values.size();
+    const int m = static_cast<int>(n);
+    auto row_norm = [n](const VectorX& diagonal, const VectorX& sub) {
+      double norm = 0;
+      for (Eigen::Index i = 0; i < n; ++i)
+        norm = std::max(norm, std::abs(diagonal(i)) + (i + 1 < n ? std::abs(sub(i)) : 0.0) +
+                                  (i > 0 ? std::abs(sub(i - 1)) : 0.0));
+      return norm;
+    };
+    const double normC = row_norm(cd_, ce_), normB = row_norm(bd_, be_);
+    auto product = [n](const VectorX& diagonal, const VectorX& sub, const VectorX& x, VectorX& y) {
+      for (Eigen::Index i = 0; i < n; ++i)
+        y(i) = diagonal(i) * x(i) + (i + 1 < n ? sub(i) * x(i + 1) : 0.0) + (i > 0 ? sub(i - 1) * x(i - 1) : 0.0);
+    };
+    Z.resize(n, p);
+    MatrixX BZ(n, p);
+    VectorX a(n), b(std::max<Eigen::Index>(n - 1, 1)), c(std::max<Eigen::Index>(n - 1, 1)),
+        fill(std::max<Eigen::Index>(n - 2, 1)), x(n), y(n), Bx(n), Cx(n);
+    std::vector<int> pivots(static_cast<std::size_t>(n));
+    std::uint64_t state = 0x9E3779B97F4A7C15ULL;  // the starts' generator (splitmix64)
+    auto uniform = [&state] {
+      std::uint64_t z = (state += 0x9E3779B97F4A7C15ULL);
+      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+      z ^= z >> 31;
+      return static_cast<double>(z >> 11) * 0x1.0p-52 - 1.0;  // in [−1, 1)
+    };
+    const double tolerance = 4 * static_cast<double>(n) * eps;
+    Eigen::Index cluster = 0;  // the first column of the current cluster
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double lambda = values(j);
+      if (!std::isfinite(lambda)) return false;
+      if (j == 0 || !(lambda - values(j - 1) <= std::sqrt(eps) * (normC + std::abs(lambda) * normB))) cluster = j;
+      if (j - cluster >= 64) return false;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        a(i) = cd_(i) - lambda * bd_(i);
+        if (i + 1 < n) b(i) = c(i) = ce_(i) - lambda * be_(i);
+      }
+      const double zero = 0, factor_tolerance = 0;
+      int info = 0;
+      dlagtf_(&m, a.data(), &zero, b.data(), c.data(), &factor_tolerance, fill.data(), pivots.data(), &info);
+      if (info != 0) return false;
+      for (Eigen::Index i = 0; i < n; ++i) x(i) = uniform();
+      bool converged = false;
+      for (int step = 0; step < 6 && !converged; ++step) {
+        product(bd_, be_, x, y);
+        const int job = -1;
+        double solve_tolerance = 0;
+        dlagts_(&job, &m, a.data(), b.data(), c.data(), fill.data(), pivots.data(), y.data(), &solve_tolerance,
+                &info);
+        if (info != 0 || !y.allFinite()) return false;
+        for (int pass = 0; pass < 2; ++pass)
+          for (Eigen::Index k = cluster; k < j; ++k) y -= BZ.col(k).dot(y) * Z.col(k);
+        product(bd_, be_, y, Bx);
+        const double norm = std::sqrt(std::max(y.dot(Bx), 0.0));
+        if (!(norm > 0) || !std::isfinite(norm)) return false;
+        x = y / norm;
+        Bx /= norm;
+        product(cd_, ce_, x, Cx);
+        const double rho = x.dot(Cx);
+        converged =
+            step >= 1 && (Cx - rho * Bx).norm() <= tolerance * (normC + std::abs(rho) * normB) * x.norm();
+      }
+      if (!converged) return false;
+      Z.col(j) = x;
+      BZ.col(j) = Bx;
+    }
     return true;
   }
   // ‖abs(L_B⁻¹)‖₂² ‖B‖∞ ≥ κ₂(B): the size of dsbgst's error relative to ε
@@ -579,6 +678,7 @@ class LinkChainMass {
   ChainMass chain_;
   VectorX remainder_;
   VectorX bd_, be_;  // B = I + U⁻¹RU⁻ᵀ: diagonal and subdiagonal (the last entry 0)
+  VectorX cd_, ce_;  // C = U⁻¹KU⁻ᵀ of the last reduce: diagonal and subdiagonal
   VectorX ld_, le_;  // its Cholesky factor L_B: diagonal and subdiagonal
 };
 
@@ -1294,28 +1394,42 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     return Phi_p;
   };
   // A chain of rigid links (LinkChain), where LAPACK solves and K is
-  // diagonal: the tridiagonal pencil (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) in standard
-  // form T = XᵀCX (LinkChainMass::reduce: T in O(n²), X's plane rotations
-  // in Θ(n³) of vector work), the pairs from T by MRRR
-  // (dstemr) and Φ = U⁻ᵀXY (one product, 2n²p), in place of M's Cholesky
-  // factor, dsygst and the dense tridiagonal reduction (n³ each); the
-  // analysis's products and solves with M by the structure. Where dsbgst or
-  // dstemr fails, the general path.
+  // diagonal: the tridiagonal pencil (C, B) = (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) in
+  // standard form T = XᵀCX (LinkChainMass::reduce without X: O(n²)), every
+  // eigenvalue from T (dsterf), the wanted vectors of (C, B) by inverse
+  // iteration on the tridiagonal C − λB (LinkChainMass::pencil_vectors:
+  // O(n) per step) and Φ = U⁻ᵀZ, in place of M's Cholesky factor, dsygst
+  // and the dense tridiagonal reduction (n³ each); the analysis's products
+  // and solves with M by the structure. Where the inverse iteration declines
+  // (a cluster of over 64 eigenvalues, a vector that does not converge),
+  // T's vectors by MRRR (dstemr) and Φ = U⁻ᵀXY (X's plane rotations: Θ(n³)
+  // of vector work, and one product, 2n²p); where dsbgst or dstemr fails,
+  // the general path.
   std::optional<LinkChainMass> link_mass;
   VectorX link_d, link_e;  // T's diagonal and subdiagonal
-  MatrixX link_X;
+  bool link_rotations = false;  // whether the vectors came from X (MRRR on T)
   if (link_candidate) {
     if (K_is_diagonal) link_mass = LinkChainMass::make(*links);
     // M̃ = FFᵀ is definite by B's factor; M, within the mismatch and the
     // comparison's rounding of it, where definite_within says so (else the
     // general path, whose factor and singularity test decide).
     if (link_mass && !link_mass->definite_within(links->generators.mismatch + 6 * eps)) link_mass.reset();
-    if (link_mass && !link_mass->reduce(K.diagonal(), link_d, link_e, link_X)) link_mass.reset();
+    if (link_mass && !link_mass->reduce(K.diagonal(), link_d, link_e, nullptr)) link_mass.reset();
   }
+  // The lowest p pairs' vectors (and, with `values`, every eigenvalue into
+  // it; else lambda_all holds them already).
   auto link_vectors = [&](Eigen::Index p, VectorX* values) -> MatrixX {
-    const MatrixX Y = tridiagonal_lowest(link_d, link_e, static_cast<int>(p), values);
-    if (Y.cols() != p) return {};
-    MatrixX Phi_p = Operand(link_X).product(Y);
+    if (values != nullptr) *values = tridiagonal_eigenvalues(link_d, link_e);
+    const VectorX& all = values != nullptr ? *values : lambda_all;
+    MatrixX Phi_p;
+    if (!link_mass->pencil_vectors(all.head(p), Phi_p)) {
+      MatrixX X;
+      if (!link_mass->reduce(K.diagonal(), link_d, link_e, &X)) return {};
+      const MatrixX Y = tridiagonal_lowest(link_d, link_e, static_cast<int>(p));
+      if (Y.cols() != p) return {};
+      Phi_p = Operand(X).product(Y);
+      link_rotations = true;
+    }
     link_mass->to_coordinates(Phi_p);
     return Phi_p;
   };
@@ -1338,7 +1452,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       lambda_all = tridiagonal_eigenvalues(link_d, link_e);
     } else {
       Phi = link_vectors(n, &lambda_all);
-      if (Phi.cols() != n) {  // dstemr failed: the general path
+      if (Phi.cols() != n) {  // dsbgst or dstemr failed: the general path
         link_mass.reset();
         lapack_pairs(K, mass(), lambda_all, Phi);
       }
@@ -1418,12 +1532,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     }
   } else if (link_mass && Phi.cols() == 0 && prefix > 0) {
     Phi = link_vectors(prefix, nullptr);
-    if (Phi.cols() != prefix) {  // dstemr failed: every pair by the dense solver
+    if (Phi.cols() != prefix) {  // dsbgst or dstemr failed: every pair by the dense solver
       link_mass.reset();
       lapack_pairs(K, mass(), lambda_all, Phi);
     }
   }
-  link_X.resize(0, 0);
   if (Phi.cols() > prefix) Phi.conservativeResize(Eigen::NoChange, prefix);
   // The analysis of the computed pairs (Φ, λ_all): residuals, bounds,
   // estimates, kinds. unresolved(i): the estimate of analyzed mode i over
@@ -1737,9 +1850,10 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
                     : link_mass
                         ? std::string("dense symmetric-definite (LAPACK: chain of rigid links, M = UUᵀ + R with U⁻¹ "
                                       "bidiagonal and R diagonal, the tridiagonal pencil (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) to "
-                                      "standard form by dsbgst, ") +
-                              (cheap.size() == n ? "every eigenvalue by dsterf, the lowest modes' vectors by MRRR dstemr)"
-                                                 : "every pair by MRRR dstemr)")
+                                      "standard form by dsbgst, every eigenvalue by dsterf, ") +
+                              (cheap.size() == n ? "the lowest modes' vectors " : "every vector ") +
+                              (link_rotations ? "by MRRR dstemr and dsbgst's transformation)"
+                                              : "by inverse iteration on the tridiagonal pencil)")
                     : reduced ? std::string("dense symmetric-definite (LAPACK: ") + reduction +
                                   ", tridiagonal reduction, every eigenvalue by dsterf, the lowest modes' vectors by "
                                   "MRRR dstemr)"
