@@ -457,6 +457,16 @@ class ChainMass {
   VectorX lever_, mass_, root_;
 };
 
+// ‖T‖₁ = ‖T‖∞ of the symmetric tridiagonal T with diagonal d and
+// subdiagonal e (as long as d, the last entry unused).
+double tridiagonal_norm(const VectorX& d, const VectorX& e) {
+  const Eigen::Index n = d.size();
+  double norm = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    norm = std::max(norm, std::abs(d(i)) + (i + 1 < n ? std::abs(e(i)) : 0.0) + (i > 0 ? std::abs(e(i - 1)) : 0.0));
+  return norm;
+}
+
 // M = UUᵀ + R of a chain of rigid links (LinkChain, in the units of the
 // pencil solved), UUᵀ a point-mass chain's (ChainMass) and R diagonal: with
 // B = I + U⁻¹RU⁻ᵀ = L_B L_Bᵀ (tridiagonal, L_B lower bidiagonal), M = FFᵀ
@@ -519,19 +529,20 @@ class LinkChainMass {
   // The standard form of (C, B) for the diagonal k of K: T's diagonal d and
   // subdiagonal e (n, the last entry unused) by LAPACK dpbstf (B's split
   // Cholesky factor) and dsbgst, with X (n×n) where asked for (VECT 'V':
-  // Θ(n³) of plane rotations; without it, O(n²)); C is kept for
-  // pencil_vectors. False where either routine fails.
-  bool reduce(const VectorX& k, VectorX& d, VectorX& e, MatrixX* X) {
+  // Θ(n³) of plane rotations; without it, O(n²)). False where either
+  // routine fails.
+  bool reduce(const VectorX& k, VectorX& d, VectorX& e, MatrixX* X) const {
     const int n = static_cast<int>(size()), one = 1, two = 2;
-    chain_.tridiagonal(k, cd_, ce_);
+    VectorX cd, ce;
+    chain_.tridiagonal(k, cd, ce);
     MatrixX ab(2, n), bb(2, n);  // upper band storage: row 0 the superdiagonal (column j: entry (j − 1, j)), row 1 the diagonal
     ab.setZero();
     bb.setZero();
     for (int j = 0; j < n; ++j) {
-      ab(1, j) = cd_(j);
+      ab(1, j) = cd(j);
       bb(1, j) = bd_(j);
       if (j > 0) {
-        ab(0, j) = ce_(j - 1);
+        ab(0, j) = ce(j - 1);
         bb(0, j) = be_(j - 1);
       }
     }
@@ -552,7 +563,8 @@ class LinkChainMass {
     return true;
   }
   // The pencil's vectors Z (n×p, zᵀBz = 1) for the ascending eigenvalues
-  // `values` of (C, B) (those of T from the last reduce), by inverse
+  // `values` of (C, B), C for the diagonal k of K (those of T from reduce
+  // with the same k), by inverse
   // iteration on the tridiagonal C − λB (dlagtf once per eigenvalue, then
   // dlagts and the products with B and C: O(n) per step, so O(pn) in all,
   // against X's Θ(n³) rotations and the product XY). Each start is a fixed
@@ -566,17 +578,12 @@ class LinkChainMass {
   // forms X instead, where a step fails, a vector does not converge, or a
   // cluster holds more than 64 eigenvalues (its orthogonalization would
   // cost more than X: a strongly graded chain's lowest modes).
-  bool pencil_vectors(const VectorX& values, MatrixX& Z) const {
+  bool pencil_vectors(const VectorX& k, const VectorX& values, MatrixX& Z) const {
     const Eigen::Index n = size(), p = values.size();
     const int m = static_cast<int>(n);
-    auto row_norm = [n](const VectorX& diagonal, const VectorX& sub) {
-      double norm = 0;
-      for (Eigen::Index i = 0; i < n; ++i)
-        norm = std::max(norm, std::abs(diagonal(i)) + (i + 1 < n ? std::abs(sub(i)) : 0.0) +
-                                  (i > 0 ? std::abs(sub(i - 1)) : 0.0));
-      return norm;
-    };
-    const double normC = row_norm(cd_, ce_), normB = row_norm(bd_, be_);
+    VectorX cd, ce;  // C = U⁻¹KU⁻ᵀ: diagonal and subdiagonal
+    chain_.tridiagonal(k, cd, ce);
+    const double normC = tridiagonal_norm(cd, ce), normB = tridiagonal_norm(bd_, be_);
     auto product = [n](const VectorX& diagonal, const VectorX& sub, const VectorX& x, VectorX& y) {
       for (Eigen::Index i = 0; i < n; ++i)
         y(i) = diagonal(i) * x(i) + (i + 1 < n ? sub(i) * x(i + 1) : 0.0) + (i > 0 ? sub(i - 1) * x(i - 1) : 0.0);
@@ -602,8 +609,8 @@ class LinkChainMass {
       if (j == 0 || !(lambda - values(j - 1) <= std::sqrt(eps) * (normC + std::abs(lambda) * normB))) cluster = j;
       if (j - cluster >= 64) return false;
       for (Eigen::Index i = 0; i < n; ++i) {
-        a(i) = cd_(i) - lambda * bd_(i);
-        if (i + 1 < n) b(i) = c(i) = ce_(i) - lambda * be_(i);
+        a(i) = cd(i) - lambda * bd_(i);
+        if (i + 1 < n) b(i) = c(i) = ce(i) - lambda * be_(i);
       }
       const double zero = 0, factor_tolerance = 0;
       int info = 0;
@@ -625,7 +632,7 @@ class LinkChainMass {
         if (!(norm > 0) || !std::isfinite(norm)) return false;
         x = y / norm;
         Bx /= norm;
-        product(cd_, ce_, x, Cx);
+        product(cd, ce, x, Cx);
         const double rho = x.dot(Cx);
         converged =
             step >= 1 && (Cx - rho * Bx).norm() <= tolerance * (normC + std::abs(rho) * normB) * x.norm();
@@ -639,11 +646,8 @@ class LinkChainMass {
   // ‖abs(L_B⁻¹)‖₂² ‖B‖∞ ≥ κ₂(B): the size of dsbgst's error relative to ε
   // (its standard form's error is about ε‖C‖‖B⁻¹‖).
   double condition() const {
-    double norm = 0;
-    for (Eigen::Index i = 0; i < size(); ++i)
-      norm = std::max(norm, std::abs(bd_(i)) + std::abs(be_(i)) + (i > 0 ? std::abs(be_(i - 1)) : 0.0));
     const double l = factor_inverse_norm();
-    return norm * l * l;
+    return tridiagonal_norm(bd_, be_) * l * l;
   }
   // Y ← U⁻ᵀY: the pencil's vectors φ = U⁻ᵀXy from the vectors Xy of (C, B).
   void to_coordinates(MatrixX& Y) const { chain_.solve_transposed(Y); }
@@ -678,7 +682,6 @@ class LinkChainMass {
   ChainMass chain_;
   VectorX remainder_;
   VectorX bd_, be_;  // B = I + U⁻¹RU⁻ᵀ: diagonal and subdiagonal (the last entry 0)
-  VectorX cd_, ce_;  // C = U⁻¹KU⁻ᵀ of the last reduce: diagonal and subdiagonal
   VectorX ld_, le_;  // its Cholesky factor L_B: diagonal and subdiagonal
 };
 
@@ -1422,7 +1425,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     if (values != nullptr) *values = tridiagonal_eigenvalues(link_d, link_e);
     const VectorX& all = values != nullptr ? *values : lambda_all;
     MatrixX Phi_p;
-    if (!link_mass->pencil_vectors(all.head(p), Phi_p)) {
+    if (!link_mass->pencil_vectors(K.diagonal(), all.head(p), Phi_p)) {
       MatrixX X;
       if (!link_mass->reduce(K.diagonal(), link_d, link_e, &X)) return {};
       const MatrixX Y = tridiagonal_lowest(link_d, link_e, static_cast<int>(p));
