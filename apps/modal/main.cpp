@@ -436,7 +436,7 @@ int main(int argc, char** argv) try {
                    "hinges and slides: long chains), or auto: sparse above " +
                        std::to_string(modal::large_system_coordinates) +
                        " coordinates when the scene has no dampers, follower loads, constraints, rotating frame or "
-                       "map, tree there for long chains")
+                       "map, tree there for long chains (dense where tree cannot factor M and dense fits)")
       ->check(CLI::IsMember({"auto", "dense", "sparse", "tree"}))
       ->capture_default_str();
   add_backend_option(analyze, backend, "analyze");

@@ -433,6 +433,26 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   a.timings.emplace_back("equilibrium", seconds_since(last));
   refuse_active_limits(model, eq);
   ModalResult result;
+  // The dense path: linearize (in the absolute angles of parallel hinges
+  // where the scene has them) and solve_modes.
+  const auto solve_dense = [&] {
+    a.linear = linearize(sys, eq.q, lo);
+    a.timings.emplace_back("linearize", seconds_since(last));
+    const LinearModel& lin = *a.linear;
+    ModalOptions mo;
+    mo.modes = options.modes;
+    mo.dense_solver = options.dense_solver;
+    ModalResult dense = solve_modes(lin, mo);
+    if (lo.derivatives != DerivativeMethod::exact)
+      dense.notes.push_back(fmt::format(
+          "K{} by {} differences (step factor {:.2g}) instead of exact derivatives; the error estimates include "
+          "their error, measured from K at h, 2h and 4h (largest {:.2g})",
+          lin.has_gyroscopic ? " and G" : "", to_string(lo.derivatives),
+          lo.step_factor > 0 ? lo.step_factor : default_step_factor(lo.derivatives),
+          lin.K_error.cwiseAbs().maxCoeff()));
+    a.timings.emplace_back("eigen", seconds_since(last));
+    return dense;
+  };
   if (path == Path::tree) {
     // K and M in their ordered form (O(bodies)); the equilibrium was found to
     // the tolerance the linearization would check.
@@ -445,8 +465,29 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.tolerance = options.tolerance;
     so.inertia_scale = inertia_scale(sys, w, eq.q);
     so.coordinate_names = sys.coordinate_names();
-    result = solve_tree_modes(*a.tree, so);
-    a.timings.emplace_back("eigen", seconds_since(last));
+    try {
+      result = solve_tree_modes(*a.tree, so);
+      a.timings.emplace_back("eigen", seconds_since(last));
+    } catch (const SingularMassMatrix& refused) {
+      // The tree's factorization of M is in the model's (relative) joint
+      // coordinates, unscaled within a path: a chain of links graded over
+      // decades can lose M's definiteness there in rounding, though M is
+      // positive definite (docs/design.md, "Matrix-free path"). Where the
+      // path was the automatic choice and the dense one fits, that one
+      // decides: it equilibrates M and solves chains of parallel hinges in
+      // their absolute angles, and where M is singular there too it names
+      // the directions without inertia.
+      if (options.solver != SolverChoice::automatic || options.shift ||
+          memory_refusal(dense_analysis_memory(sys), "", model.limits.memory))
+        throw;
+      a.tree.reset();
+      a.timings.emplace_back("eigen (matrix-free, refused)", seconds_since(last));
+      result = solve_dense();
+      result.notes.insert(result.notes.begin(),
+                          fmt::format("solved on the dense path: the matrix-free path, chosen for its {} coordinates, "
+                                      "refused the mass matrix ({})",
+                                      sys.size(), refused.what()));
+    }
   } else if (sparse) {
     a.sparse = linearize_sparse(sys, eq.q, lo);
     a.timings.emplace_back("assembly", seconds_since(last));
@@ -480,21 +521,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     for (const auto& [phase, seconds] : result.timings) a.timings.emplace_back("  " + phase, seconds);
     a.timings.emplace_back("eigen", seconds_since(last));
   } else {
-    a.linear = linearize(sys, eq.q, lo);
-    a.timings.emplace_back("linearize", seconds_since(last));
-    const LinearModel& lin = *a.linear;
-    ModalOptions mo;
-    mo.modes = options.modes;
-    mo.dense_solver = options.dense_solver;
-    result = solve_modes(lin, mo);
-    if (lo.derivatives != DerivativeMethod::exact)
-      result.notes.push_back(fmt::format(
-          "K{} by {} differences (step factor {:.2g}) instead of exact derivatives; the error estimates include "
-          "their error, measured from K at h, 2h and 4h (largest {:.2g})",
-          lin.has_gyroscopic ? " and G" : "", to_string(lo.derivatives),
-          lo.step_factor > 0 ? lo.step_factor : default_step_factor(lo.derivatives),
-          lin.K_error.cwiseAbs().maxCoeff()));
-    a.timings.emplace_back("eigen", seconds_since(last));
+    result = solve_dense();
   }
   std::optional<EnergyDistribution> energy;
   if (options.energy) {

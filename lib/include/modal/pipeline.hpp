@@ -154,7 +154,11 @@ VectorX parse_coordinates(const System& system, const std::string& option, const
 // path"), which automatic takes above large_system_coordinates for a scene it
 // describes (tree_pencil_unsupported) whose tree couples more than
 // 64 coordinate pairs per coordinate (long chains, where the sparse matrices
-// fill in), or when neither matrix path fits.
+// fill in), or when neither matrix path fits. Where automatic took the
+// matrix-free path and it refuses M (SingularMassMatrix: its factorization
+// through the tree, in the model's joint coordinates, meets a pivot ≤ 0), the
+// dense path answers instead when it fits and no shift is asked for, with a
+// note saying so.
 enum class SolverChoice { automatic, dense, sparse, tree };
 const char* to_string(SolverChoice choice);  // "auto", "dense", "sparse", "tree"
 
