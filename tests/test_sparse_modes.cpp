@@ -17,6 +17,7 @@
 #include "modal/modes.hpp"
 #include "modal/scene.hpp"
 #include "modal/mumps.hpp"
+#include "core/cholmod_factor.hpp"
 
 #include <gtest/gtest.h>
 
@@ -858,4 +859,44 @@ TEST(SparseModes, SingularMassMatrixNamesTheSceneCoordinates) {
       EXPECT_EQ(what.find("·q"), std::string::npos) << what;
     }
   }
+}
+
+// A symbolic analysis that gives no factor is reported, not read: an arrow
+// matrix (first column full) in its natural order fills to a dense factor of
+// n(n + 1)/2 entries, past the 2³¹ − 1 of CHOLMOD's int indices at n = 66 000
+// while A itself holds 3n entries (CHOLMOD_TOO_LARGE, as on a 3-D lattice of
+// 10⁶ coordinates, where Eigen's factorize then read a null factor and the
+// program died of a segmentation fault).
+TEST(SparseModes, CholmodAnalysisBeyondItsIndicesIsATrueErrorNotACrash) {
+  const int n = 66000;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int i = 0; i < n; ++i) entries.emplace_back(i, i, 4.0 * n);
+  for (int i = 1; i < n; ++i) entries.emplace_back(i, 0, 1.0);
+  SparseMatrix A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  for (const bool compute : {false, true}) {
+    modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
+    llt.cholmod().nmethods = 1;
+    llt.cholmod().method[0].ordering = CHOLMOD_NATURAL;
+    try {
+      if (compute) {
+        llt.compute(A);
+      } else {
+        llt.analyzePattern(A);
+        llt.factorize(A);
+      }
+      FAIL() << "no error";
+    } catch (const modal::NumericalError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("66000 × 66000"), std::string::npos) << what;
+      EXPECT_NE(what.find("more than 2³¹ − 1 entries"), std::string::npos) << what;
+    }
+  }
+  // The same matrix in CHOLMOD's own order (AMD puts the full column last):
+  // a factor of about 2n entries, solved.
+  modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
+  llt.compute(A);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  const VectorX b = VectorX::Ones(n);
+  EXPECT_LT((A.selfadjointView<Eigen::Lower>() * VectorX(llt.solve(b)) - b).norm(), 1e-12 * b.norm());
 }

@@ -4,8 +4,12 @@
 // Only stages that link CHOLMOD include it.
 #pragma once
 
+#include "modal/core.hpp"
+
 #include <Eigen/CholmodSupport>
 
+#include <new>
+#include <string>
 #include <vector>
 
 namespace modal::detail {
@@ -20,6 +24,24 @@ class CholmodAccess : public Decomposition {
   CholmodAccess() { this->cholmod().print = 0; }
   CholmodAccess(const CholmodAccess&) = delete;
   CholmodAccess& operator=(const CholmodAccess&) = delete;
+
+  // Eigen's analyzePattern, factorize and compute, with the factor's absence
+  // checked (check_analysis): Eigen's factorize reads the factor the
+  // analysis left, and where CHOLMOD gave none it would read a null pointer.
+  using MatrixType = typename Decomposition::MatrixType;
+  void analyzePattern(const MatrixType& A) {
+    Decomposition::analyzePattern(A);
+    check_analysis(A.rows());
+  }
+  void factorize(const MatrixType& A) {
+    check_analysis(A.rows());
+    Decomposition::factorize(A);
+  }
+  CholmodAccess& compute(const MatrixType& A) {
+    analyzePattern(A);
+    factorize(A);
+    return *this;
+  }
 
   // The fill-reducing pivot order of the analysis (entry k: the k-th
   // variable); empty before an analysis.
@@ -38,6 +60,26 @@ class CholmodAccess : public Decomposition {
   bool out_of_memory() {
     const cholmod_factor* L = this->m_cholmodFactor;
     return this->cholmod().status == CHOLMOD_OUT_OF_MEMORY || (L != nullptr && L->xtype == CHOLMOD_PATTERN);
+  }
+
+ protected:
+  // After a symbolic analysis of an n × n matrix: CHOLMOD gives no factor
+  // when it runs out of memory (the program's out-of-memory failure), when
+  // the factor would hold more entries than its int indices address, 2³¹ − 1
+  // (a 3-D lattice of 10⁶ coordinates: its status CHOLMOD_TOO_LARGE), which
+  // no amount of memory mends, or on an invalid argument (its status named).
+  void check_analysis(Eigen::Index n) {
+    if (this->m_cholmodFactor != nullptr) return;
+    this->m_analysisIsOk = false;
+    const int status = this->cholmod().status;
+    if (status == CHOLMOD_OUT_OF_MEMORY) throw std::bad_alloc();
+    const std::string matrix = "this system's " + std::to_string(n) + " × " + std::to_string(n) + " matrix";
+    if (status == CHOLMOD_TOO_LARGE)
+      throw NumericalError("the sparse Cholesky factor (CHOLMOD) of " + matrix +
+                           " would hold more than 2³¹ − 1 entries (16 GiB), more than its 32-bit indices address: "
+                           "the system is too large for the sparse path of one process");
+    throw NumericalError("CHOLMOD's symbolic analysis of " + matrix + " failed (its status " + std::to_string(status) +
+                         ")");
   }
 };
 

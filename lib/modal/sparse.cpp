@@ -266,9 +266,10 @@ class CholmodFactor : public detail::CholmodAccess<Eigen::CholmodDecomposition<S
     cholmod().nmethods = nmethods;
     cholmod().method[0].ordering = ordering;
     m_isInitialized = true;
-    m_analysisIsOk = m_cholmodFactor != nullptr;
     m_factorizationIsOk = false;
-    m_info = m_analysisIsOk ? Eigen::Success : Eigen::NumericalIssue;
+    check_analysis(A.rows());
+    m_analysisIsOk = true;
+    m_info = Eigen::Success;
   }
   // Frees a supernodal factor's numeric part and keeps its symbolic
   // analysis (the next factorize needs no new one): while MUMPS holds
