@@ -1327,6 +1327,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
                             const SparseMatrix& K_rounding_form, const PointMassChain* chain,
                             const LinkChain* links) {
   const Eigen::Index n = M.rows();
+  const bool given = K_error.rows() == n && K_error.cols() == n;  // K's entries' error bounds given (else 4ε|K|)
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
   VectorX lambda_all;
   MatrixX Phi;
@@ -1517,9 +1518,8 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     // graded over decades it exceeds every λ_j: all n vectors and an n³
     // analysis for --modes 3).
     bool kinds_certain = (chain_mass || link_mass) && K_is_diagonal;
-    const bool errors_given = K_error.rows() == n && K_error.cols() == n;
     for (Eigen::Index j = 0; j < n && kinds_certain; ++j)
-      kinds_certain = K(j, j) > (errors_given ? K_error(j, j) : 4 * eps * std::abs(K(j, j)));
+      kinds_certain = K(j, j) > (given ? K_error(j, j) : 4 * eps * std::abs(K(j, j)));
     cheap.resize(n);
     Eigen::Index needed = wanted;
     for (Eigen::Index j = 0; j < n; ++j) {
@@ -1575,7 +1575,6 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // error (K_error, less the measured error of differences where that is
   // given; else 4ε|K|); D: the measured error of differences.
   const bool differences = K_systematic_error.rows() == n && K_systematic_error.cols() == n;
-  const bool given = K_error.rows() == n && K_error.cols() == n;
   const Operand K_op(K), M_op = chain_mass  ? Operand(M, *chain_mass)
                                 : link_mass ? Operand(M, *link_mass)
                                             : Operand(M);
@@ -2067,14 +2066,46 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       }
     }
   }
+  // Refinement in rounds: a round that left fewer modes unresolved is
+  // followed by another from its vectors (a graded particle chain of 320
+  // particles kept mode 2 at 1.57e-14 ± 2.9e-15 for 1.31e-14 after one round,
+  // its 3 inverse-iteration steps having started from a vector mixed with its
+  // double neighbour's; the second round resolved it to 4e-6 relative
+  // estimate), at most 3 rounds. A later round that leaves more unresolved
+  // than the one before is undone.
+  auto count_unresolved = [&] {
+    Eigen::Index count = 0;
+    for (Eigen::Index i = 0; i < analyzed_count && i < unresolved.size(); ++i) count += unresolved(i) > 10 ? 1 : 0;
+    return count;
+  };
   VectorX lambda(analyzed_count), estimate(analyzed_count);  // of the analyzed modes, a prefix of result.modes
-  for (Eigen::Index i = 0; i < analyzed_count; ++i) {
-    lambda(i) = result.modes[static_cast<std::size_t>(i)].omega2;
-    estimate(i) = result.modes[static_cast<std::size_t>(i)].error_estimate;
-  }
-  if (refine_unresolved(M, K, M_op.sparse(), K_op.sparse(), unresolved, lambda, estimate, Phi)) {
-    result = analyze();
-    name_again(result);
+  for (Eigen::Index left = count_unresolved(), round = 0; round < 3 && left > 0; ++round) {
+    for (Eigen::Index i = 0; i < analyzed_count; ++i) {
+      lambda(i) = result.modes[static_cast<std::size_t>(i)].omega2;
+      estimate(i) = result.modes[static_cast<std::size_t>(i)].error_estimate;
+    }
+    MatrixX Phi_before;
+    VectorX lambda_all_before, unresolved_before, spread_before;
+    if (round > 0) {
+      Phi_before = Phi;
+      lambda_all_before = lambda_all;
+      unresolved_before = unresolved;
+      spread_before = chain_spread;
+    }
+    if (!refine_unresolved(M, K, M_op.sparse(), K_op.sparse(), unresolved, lambda, estimate, Phi)) break;
+    ModalResult refined = analyze();
+    name_again(refined);
+    const Eigen::Index now = count_unresolved();
+    if (round > 0 && now > left) {
+      Phi = std::move(Phi_before);
+      lambda_all = std::move(lambda_all_before);
+      unresolved = std::move(unresolved_before);
+      chain_spread = std::move(spread_before);
+      break;
+    }
+    result = std::move(refined);
+    if (now >= left) break;
+    left = now;
   }
   return result;
 }

@@ -477,12 +477,15 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
       // decides: it equilibrates M and solves chains of parallel hinges in
       // their absolute angles, and where M is singular there too it names
       // the directions without inertia.
-      if (options.solver != SolverChoice::automatic || options.shift ||
-          memory_refusal(dense_analysis_memory(sys), "", model.limits.memory))
-        throw;
+      // Its memory is the dense analysis's (within_estimate names that one,
+      // not the matrix-free estimate, if it runs out).
+      const double dense_bytes = dense_analysis_memory(sys);
+      const bool dense_fits = !memory_refusal(dense_bytes, "", model.limits.memory);
+      if (options.solver != SolverChoice::automatic || options.shift || !dense_fits) throw;
       a.tree.reset();
       a.timings.emplace_back("eigen (matrix-free, refused)", seconds_since(last));
-      result = solve_dense();
+      result = within_estimate(dense_bytes, fmt::format("the dense analysis of {} coordinates", sys.size()),
+                               solve_dense);
       result.notes.insert(result.notes.begin(),
                           fmt::format("solved on the dense path: the matrix-free path, chosen for its {} coordinates, "
                                       "refused the mass matrix ({})",
