@@ -861,6 +861,21 @@ TEST(SparseModes, SingularMassMatrixNamesTheSceneCoordinates) {
   }
 }
 
+namespace {
+
+// The lower triangle of an n × n arrow matrix: 4n on the diagonal, 1 down the
+// first column (diagonally dominant, so positive definite).
+SparseMatrix arrow_matrix(int n) {
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int i = 0; i < n; ++i) entries.emplace_back(i, i, 4.0 * n);
+  for (int i = 1; i < n; ++i) entries.emplace_back(i, 0, 1.0);
+  SparseMatrix A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+}  // namespace
+
 // A symbolic analysis that gives no factor is reported, not read: an arrow
 // matrix (first column full) in its natural order fills to a dense factor of
 // n(n + 1)/2 entries, past the 2³¹ − 1 of CHOLMOD's int indices at n = 66 000
@@ -869,11 +884,7 @@ TEST(SparseModes, SingularMassMatrixNamesTheSceneCoordinates) {
 // program died of a segmentation fault).
 TEST(SparseModes, CholmodAnalysisBeyondItsIndicesIsATrueErrorNotACrash) {
   const int n = 66000;
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int i = 0; i < n; ++i) entries.emplace_back(i, i, 4.0 * n);
-  for (int i = 1; i < n; ++i) entries.emplace_back(i, 0, 1.0);
-  SparseMatrix A(n, n);
-  A.setFromTriplets(entries.begin(), entries.end());
+  const SparseMatrix A = arrow_matrix(n);
   for (const bool compute : {false, true}) {
     modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
     llt.cholmod().nmethods = 1;
@@ -897,6 +908,67 @@ TEST(SparseModes, CholmodAnalysisBeyondItsIndicesIsATrueErrorNotACrash) {
   modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
   llt.compute(A);
   ASSERT_EQ(llt.info(), Eigen::Success);
+  const VectorX b = VectorX::Ones(n);
+  EXPECT_LT((A.selfadjointView<Eigen::Lower>() * VectorX(llt.solve(b)) - b).norm(), 1e-12 * b.norm());
+}
+
+// A factor larger than the memory it may take is refused by its symbolic
+// analysis, before its numbers are allocated (OutOfMemory, exit status 4),
+// with its true size: the arrow matrix above at n = 20 000 in its natural
+// order fills to a dense factor of n(n + 1)/2 = 2.0e8 entries, which
+// CHOLMOD's supernodal factor holds in one supernode of n² values (3.2 GB)
+// and its simplicial one as values and row indices (2.4 GB), while A holds
+// 3n entries. Without the check a factor the kernel lets the
+// process reserve but cannot give ends it by the out-of-memory killer.
+TEST(SparseModes, FactorBeyondTheMemoryLimitIsRefusedBeforeItIsAllocated) {
+  const int n = 20000;
+  const SparseMatrix A = arrow_matrix(n);
+  const double dense_entries = 0.5 * n * (n + 1.0);
+  const auto natural = [](auto& f) {
+    f.cholmod().nmethods = 1;
+    f.cholmod().method[0].ordering = CHOLMOD_NATURAL;
+  };
+  {
+    modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
+    natural(llt);
+    llt.memory_limit = 1e12;  // not the machine's MemAvailable: CI's may be below 3.2 GB
+    llt.analyzePattern(A);
+    const double bytes = llt.factor_bytes();
+    EXPECT_GE(bytes, 8 * dense_entries);
+    EXPECT_LE(bytes, 8.0 * n * n + 1e6);
+    llt.memory_limit = 1e9;
+    try {
+      llt.analyzePattern(A);
+      FAIL() << "no error";
+    } catch (const modal::OutOfMemory& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("20000 × 20000"), std::string::npos) << what;
+      EXPECT_NE(what.find("(3.2 GB, with the"), std::string::npos) << what;
+      EXPECT_NE(what.find("more than the 1 GB allowed"), std::string::npos) << what;
+      EXPECT_NE(what.find("found before allocating"), std::string::npos) << what;
+    }
+    // Nor does a factorization follow the refused analysis.
+    EXPECT_THROW(llt.factorize(A), modal::OutOfMemory);
+  }
+  {
+    modal::detail::CholmodAccess<Eigen::CholmodDecomposition<SparseMatrix, Eigen::Lower>> ldlt;
+    ldlt.setMode(Eigen::CholmodLDLt);
+    natural(ldlt);
+    ldlt.memory_limit = 2e9;  // the values alone fit; with the row indices they do not
+    try {
+      ldlt.analyzePattern(A);
+      FAIL() << "no error";
+    } catch (const modal::OutOfMemory& e) {
+      EXPECT_NE(std::string(e.what()).find("(2.4 GB, with the"), std::string::npos) << e.what();
+    }
+  }
+  // In CHOLMOD's own order the factor holds about 2n entries: within the
+  // same limit, factored and solved.
+  modal::detail::CholmodAccess<Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>> llt;
+  llt.memory_limit = 1e9;
+  llt.compute(A);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  EXPECT_LT(llt.factor_bytes(), 1e3 * n);
   const VectorX b = VectorX::Ones(n);
   EXPECT_LT((A.selfadjointView<Eigen::Lower>() * VectorX(llt.solve(b)) - b).norm(), 1e-12 * b.norm());
 }

@@ -22,6 +22,11 @@ class CholmodAccess : public Decomposition {
   // definite: the caller shifts, or counts), not a warning for the user's
   // terminal.
   CholmodAccess() { this->cholmod().print = 0; }
+
+  // Bytes the numeric factor may take (> 0), e.g. a limit the user set
+  // (--max-memory); 0: what the machine has available. Checked after every
+  // symbolic analysis (check_analysis, check_factor_memory).
+  double memory_limit = 0;
   CholmodAccess(const CholmodAccess&) = delete;
   CholmodAccess& operator=(const CholmodAccess&) = delete;
 
@@ -52,6 +57,38 @@ class CholmodAccess : public Decomposition {
     return std::vector<int>(perm, perm + L->n);
   }
 
+  // The memory the numeric factor of the last analysis will take, in bytes
+  // (0 before one): a supernodal factor's values (xsize, with the zeros its
+  // relaxed supernodes hold), its row indices (ssize) and the largest update
+  // matrix of the factorization (maxcsize); a simplicial one's values and
+  // row indices, one each per entry of L (CHOLMOD's count lnz for the
+  // analysis's order).
+  double factor_bytes() {
+    const cholmod_factor* L = this->m_cholmodFactor;
+    if (L == nullptr) return 0;
+    if (L->is_super)
+      return 8.0 * static_cast<double>(L->xsize) + 4.0 * static_cast<double>(L->ssize) +
+             8.0 * static_cast<double>(L->maxcsize);
+    return 12.0 * this->cholmod().lnz;
+  }
+
+  // Refuses the factorization of the n × n matrix just analyzed, before it
+  // allocates, when its factor (factor_bytes) would bring the process over
+  // `limit` bytes (> 0: a limit the user set) or, with limit 0, would take
+  // more than the machine has available (check_allocation; unknown: no
+  // refusal): OutOfMemory, with the factor's size and the matrix's. Without
+  // it a factor the kernel lets the process reserve but cannot give ends the
+  // process by the kernel's out-of-memory killer, with no message.
+  void check_factor_memory(Eigen::Index n, double limit) {
+    try {
+      check_allocation(factor_bytes(),
+                       "the sparse Cholesky factor (CHOLMOD) of " + matrix_words(n) + ", by its symbolic analysis", limit);
+    } catch (const OutOfMemory&) {
+      this->m_analysisIsOk = false;  // no factorization of this analysis
+      throw;
+    }
+  }
+
   // Whether the last factorize ran out of memory. Eigen judges a
   // factorization by the factor's `minor` alone, and a factor CHOLMOD could
   // not fill (the first after an analysis, or a released one refilled) keeps
@@ -67,19 +104,31 @@ class CholmodAccess : public Decomposition {
   // when it runs out of memory (the program's out-of-memory failure), when
   // the factor would hold more entries than its int indices address, 2³¹ − 1
   // (a 3-D lattice of 10⁶ coordinates: its status CHOLMOD_TOO_LARGE), which
-  // no amount of memory mends, or on an invalid argument (its status named).
+  // no amount of memory mends, or on an invalid argument (its status named);
+  // a factor more than the machine has available is refused
+  // (check_factor_memory).
   void check_analysis(Eigen::Index n) {
-    if (this->m_cholmodFactor != nullptr) return;
+    if (const cholmod_factor* L = this->m_cholmodFactor) {
+      // Before the factor's numbers are allocated only (a factor that holds
+      // them is already in use: what remains available no longer counts it).
+      if (L->xtype == CHOLMOD_PATTERN) check_factor_memory(n, memory_limit);
+      return;
+    }
     this->m_analysisIsOk = false;
     const int status = this->cholmod().status;
     if (status == CHOLMOD_OUT_OF_MEMORY) throw std::bad_alloc();
-    const std::string matrix = "this system's " + std::to_string(n) + " × " + std::to_string(n) + " matrix";
+    const std::string matrix = matrix_words(n);
     if (status == CHOLMOD_TOO_LARGE)
       throw NumericalError("the sparse Cholesky factor (CHOLMOD) of " + matrix +
                            " would hold more than 2³¹ − 1 entries (16 GiB), more than its 32-bit indices address: "
                            "the system is too large for the sparse path of one process");
     throw NumericalError("CHOLMOD's symbolic analysis of " + matrix + " failed (its status " + std::to_string(status) +
                          ")");
+  }
+
+ private:
+  static std::string matrix_words(Eigen::Index n) {
+    return "this system's " + std::to_string(n) + " × " + std::to_string(n) + " matrix";
   }
 };
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <malloc.h>
 #include <sys/resource.h>
 
 namespace modal {
@@ -43,13 +44,52 @@ std::string format_bytes(double bytes) {
   return text;
 }
 
-std::optional<std::string> memory_refusal(double bytes, const std::string& what, double limit) {
-  const bool set = limit > 0;
-  const double have = set ? limit : available_memory();
+namespace {
+// "it would need about <bytes> of memory for <what>, more than the <have>
+// <source>", or nothing when it fits.
+std::optional<std::string> refusal(double bytes, const std::string& what, double have, const char* source) {
   if (have <= 0 || bytes <= have) return std::nullopt;
   return "it would need about " + format_bytes(bytes) + " of memory for " + what + ", more than the " +
-         format_bytes(have) +
-         (set ? " allowed (--max-memory)" : " this machine has available (MemAvailable in /proc/meminfo)");
+         format_bytes(have) + " " + source;
+}
+
+// The heap's free bytes kept for reuse (glibc's mallinfo2); 0 under another
+// allocator (the sanitizers' report none).
+double free_heap() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  return static_cast<double>(mallinfo2().fordblks);
+#else
+  return 0;
+#endif
+}
+}  // namespace
+
+std::optional<std::string> memory_refusal(double bytes, const std::string& what, double limit) {
+  if (limit > 0) return refusal(bytes, what, limit, "allowed (--max-memory)");
+  return refusal(bytes, what, available_memory(), "this machine has available (MemAvailable in /proc/meminfo)");
+}
+
+double memory_in_use() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  const struct mallinfo2 heap = mallinfo2();
+  return static_cast<double>(heap.uordblks) + static_cast<double>(heap.hblkhd);
+#else
+  return 0;
+#endif
+}
+
+void check_allocation(double bytes, const std::string& what, double limit) {
+  std::optional<std::string> refused;
+  if (limit > 0) {
+    const double held = memory_in_use();
+    refused = memory_refusal(
+        held + bytes, what + " (" + format_bytes(bytes) + ", with the " + format_bytes(held) + " already in use)", limit);
+  } else if (const double have = available_memory(); have > 0) {
+    refused = refusal(bytes, what, have + free_heap(),
+                      "this machine has available (MemAvailable in /proc/meminfo, and the free memory of the program's "
+                      "heap)");
+  }
+  if (refused) throw OutOfMemory("out of memory, found before allocating: " + *refused);
 }
 
 double coupled_pairs(const System& s) {

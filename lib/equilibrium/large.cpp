@@ -104,6 +104,8 @@ class NewtonSteps {
   // steps have run: there an indefinite ∇∇V sends the caller back to them).
   bool definite_only = false;
 
+  void set_memory_limit(double bytes) { llt_.memory_limit = bytes; }
+
   // −A⁻¹ r by a fresh supernodal Cholesky factorization of A (the symbolic
   // analysis kept while the pattern stays); empty when A is not positive
   // definite. The factor is kept as the preconditioner of later steps.
@@ -331,6 +333,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
   Equilibrium best;
   best.residual = std::numeric_limits<double>::infinity();
   NewtonSteps steps;
+  steps.set_memory_limit(options.memory_limit);
   int newton_iterations = 0;
   auto newton = [&](VectorX q) {
     steps.renew();

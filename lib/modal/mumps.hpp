@@ -24,8 +24,13 @@ class MumpsLdlt {
   // A: full symmetric storage, compressed; its lower triangle is used.
   // `order`: a fill-reducing pivot order (order[k] = the k-th variable), e.g.
   // CHOLMOD's for the same pattern, which spares MUMPS its own ordering;
-  // empty: MUMPS chooses. Throws NumericalError when MUMPS cannot start.
-  MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order);
+  // empty: MUMPS chooses. `memory_limit`: bytes the process may hold once
+  // the factorization has allocated its workspace (> 0, a limit the user
+  // set), 0: what the machine has available; checked against MUMPS's own
+  // estimate after its analysis (check_allocation), before the
+  // factorization allocates: OutOfMemory. Throws NumericalError when MUMPS
+  // cannot start.
+  MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order, double memory_limit = 0);
   MumpsLdlt(const MumpsLdlt&) = delete;
   MumpsLdlt& operator=(const MumpsLdlt&) = delete;
   ~MumpsLdlt();

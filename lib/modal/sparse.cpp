@@ -318,6 +318,7 @@ SparseModalOptions without_matrices(const SparseModalOptions& options) {
   o.max_iterations = options.max_iterations;
   o.fill_reducing_order = options.fill_reducing_order;
   o.coordinate_names = options.coordinate_names;
+  o.memory_limit = options.memory_limit;
   return o;
 }
 
@@ -386,8 +387,9 @@ std::vector<std::string> coordinate_names(const SparseModalOptions& options, Ind
 // steps of inverse iteration: 1/ρ ≥ λ_min, ρ the Rayleigh quotient of M⁻¹, as
 // in mass.cpp), the direction named in the original coordinates (S x).
 std::unique_ptr<CholmodFactor> factor_sparse_mass(const SparseMatrix& M, const VectorX& scale,
-                                                  const std::vector<std::string>& names) {
+                                                  const std::vector<std::string>& names, double memory_limit) {
   auto llt = std::make_unique<CholmodFactor>();
+  llt->memory_limit = memory_limit;
   llt->compute(M);
   if (llt->info() != Eigen::Success) singular_mass(M, "its sparse Cholesky factorization (CHOLMOD) failed");
   if (const auto [negative, zero] = llt->nonpositive_pivots(); negative + zero > 0)
@@ -425,9 +427,10 @@ using detail::MumpsLdlt;
 // inertia is wanted, MUMPS's LDLᵀ with pivoting.
 class ShiftedFactor {
  public:
-  // `order`: the fill-reducing order of CholmodFactor::analyze (empty: CHOLMOD's choice).
-  ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M, std::vector<int> order)
-      : K_(K), M_(M), A_(K), order_(std::move(order)) {}
+  // `order`: the fill-reducing order of CholmodFactor::analyze (empty:
+  // CHOLMOD's choice); `memory_limit`: CholmodAccess::memory_limit.
+  ShiftedFactor(const SparseMatrix& K, const SparseMatrix& M, std::vector<int> order, double memory_limit = 0)
+      : K_(K), M_(M), A_(K), order_(std::move(order)), memory_limit_(memory_limit) {}
 
   Index size() const { return K_.rows(); }
   double sigma() const { return sigma_; }
@@ -453,6 +456,10 @@ class ShiftedFactor {
     active_ = Active::none;
     const bool skip_llt = inertia && expect_indefinite && analyzed_ && automatic_supernodal_;
     if (!skip_llt) {
+      // MUMPS's factor, of another σ: freed first, so that the two factors
+      // never occupy memory at once (MUMPS 5.5 frees its factors only with
+      // the whole instance: its analysis is redone when next needed).
+      mumps_.reset();
       if (std::optional<Index> below = factor_automatic()) {
         active_ = Active::cholmod;
         indefinite_ = *below > 0;
@@ -462,7 +469,7 @@ class ShiftedFactor {
     if (!inertia || !automatic_supernodal_) return std::nullopt;
     // The automatic choice was a supernodal LLᵀ, which fails for an
     // indefinite matrix: MUMPS's LDLᵀ gives the inertia.
-    if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_, automatic_->ordering());
+    if (!mumps_) mumps_ = std::make_unique<MumpsLdlt>(A_, automatic_->ordering(), memory_limit_);
     automatic_->release_numeric();  // CHOLMOD's factor, failed or of another σ: refactored when next needed
     ++factorizations_;
     if (std::optional<Index> below = mumps_->factor(A_, normwise_null)) {
@@ -532,7 +539,10 @@ class ShiftedFactor {
   // non-positive pivot); the count of negative pivots, or nothing when it
   // failed or met a zero pivot.
   std::optional<Index> factor_automatic() {
-    if (!automatic_) automatic_ = std::make_unique<CholmodFactor>();
+    if (!automatic_) {
+      automatic_ = std::make_unique<CholmodFactor>();
+      automatic_->memory_limit = memory_limit_;
+    }
     if (!analyzed_) {
       automatic_->analyze(A_, order_);
       analyzed_ = true;
@@ -555,6 +565,7 @@ class ShiftedFactor {
   SparseMatrix A_;
   std::vector<int> order_;
   std::unique_ptr<CholmodFactor> automatic_;
+  double memory_limit_ = 0;
   std::unique_ptr<MumpsLdlt> mumps_;
   bool analyzed_ = false;
   bool automatic_supernodal_ = false;  // what the analysis of the automatic factor chose
@@ -1149,8 +1160,8 @@ class SparsePencil {
                const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift), term_sizes_(term_sizes),
         rounding_form_(rounding_form),
-        mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()))), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
-        mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order) {
+        mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()), options.memory_limit)), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
+        mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order, options.memory_limit) {
     if (!is_diagonal(M_)) {
       norms_.inverse_root_diagonal = M_.diagonal().cwiseSqrt().cwiseInverse();
       norms_.mass_floor = equilibrated_mass_floor(M_, *mass_, norms_.inverse_root_diagonal);

@@ -96,6 +96,12 @@ Equilibrium equilibrium_at(const System& sys, const VectorX& at, const Equilibri
                                nearest));
 }
 
+// "the dense analysis of 2352 coordinates": what a memory estimate of an
+// analysis on `path` is for, in the refusals and out-of-memory reports.
+std::string analysis_words(const char* path, const System& sys) {
+  return fmt::format("the {} analysis of {} coordinates", path, sys.size());
+}
+
 // The documented rule (SolverChoice): sparse for more than
 // large_system_coordinates coordinates when the sparse model describes the
 // scene, else dense; the matrix-free path for large trees it describes whose
@@ -112,18 +118,15 @@ Path choose_path(const System& sys, SolverChoice choice, double limit, int modes
   if (choice == SolverChoice::tree && why_tree)
     throw InputError("--solver tree: the matrix-free path does not apply to this scene: " + *why_tree);
   const auto dense_refusal = [&] {
-    return memory_refusal(dense_analysis_memory(sys),
-                          fmt::format("the dense analysis of {} coordinates", sys.size()), limit);
+    return memory_refusal(dense_analysis_memory(sys), analysis_words("dense", sys), limit);
   };
   const auto sparse_refusal = [&] {
-    return memory_refusal(sparse_analysis_memory(sys),
-                          fmt::format("the sparse analysis of {} coordinates ({:.3g} coupled coordinate pairs)",
-                                      sys.size(), coupled_pairs(sys)),
-                          limit);
+    return memory_refusal(
+        sparse_analysis_memory(sys),
+        analysis_words("sparse", sys) + fmt::format(" ({:.3g} coupled coordinate pairs)", coupled_pairs(sys)), limit);
   };
   const auto tree_refusal = [&] {
-    return memory_refusal(tree_analysis_memory(sys, modes),
-                          fmt::format("the matrix-free analysis of {} coordinates", sys.size()), limit);
+    return memory_refusal(tree_analysis_memory(sys, modes), analysis_words("matrix-free", sys), limit);
   };
   const auto refuse = [&](const std::string& reason, const std::string& advice) {
     throw InputError("this scene cannot be analyzed here: " + reason + advice);
@@ -393,6 +396,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   EquilibriumOptions eo;
   eo.tolerance = options.equilibrium_tolerance;
   eo.large_method = options.large_equilibrium;
+  eo.memory_limit = model.limits.memory;
   eo.progress = options.progress;
   if (options.step_factor > 0 && options.derivatives == DerivativeMethod::exact)
     throw InputError("--step sets the step of differences: give --derivatives central, forward or complex-step");
@@ -426,7 +430,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
   const double estimate = path == Path::tree ? tree_analysis_memory(sys, options.modes)
                           : sparse          ? sparse_analysis_memory(sys)
                                             : dense_analysis_memory(sys);
-  return within_estimate(estimate, fmt::format("the {} analysis of {} coordinates", path_name, sys.size()), [&] {
+  return within_estimate(estimate, analysis_words(path_name, sys), [&] {
 
   const Equilibrium eq = !options.at ? find_equilibrium(sys, sys.initial_configuration(), eo)
                                      : equilibrium_at(sys, *options.at, eo);
@@ -464,6 +468,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.shift = options.shift;
     so.tolerance = options.tolerance;
     so.inertia_scale = inertia_scale(sys, w, eq.q);
+    so.memory_limit = model.limits.memory;
     so.coordinate_names = sys.coordinate_names();
     try {
       result = solve_tree_modes(*a.tree, so);
@@ -484,8 +489,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
       if (options.solver != SolverChoice::automatic || options.shift || !dense_fits) throw;
       a.tree.reset();
       a.timings.emplace_back("eigen (matrix-free, refused)", seconds_since(last));
-      result = within_estimate(dense_bytes, fmt::format("the dense analysis of {} coordinates", sys.size()),
-                               solve_dense);
+      result = within_estimate(dense_bytes, analysis_words("dense", sys), solve_dense);
       result.notes.insert(result.notes.begin(),
                           fmt::format("solved on the dense path: the matrix-free path, chosen for its {} coordinates, "
                                       "refused the mass matrix ({})",
@@ -500,6 +504,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.shift = options.shift;
     so.tolerance = options.tolerance;
     so.fill_reducing_order = eq.fill_reducing_order;  // ∇∇V's analysis, same pattern as K − σM
+    so.memory_limit = model.limits.memory;
     // The estimates' parts of K's error: its systematic error, its rounding
     // where a spring's terms cancel, a loose equilibrium's share. Each of K's
     // size, lent to the solver and given back, not copied (an exception
@@ -604,8 +609,7 @@ SweepStudy sweep(const Model& model, const std::vector<SweepAxis>& axes, const S
                                  model.scene.file));
   if (!options.sweep.analyze_point)  // every point a dense analysis; a point that grows the scene is checked itself
     if (const auto r = memory_refusal(dense_analysis_memory(model.system),
-                                      fmt::format("each point of the sweep (the dense analysis of {} coordinates)",
-                                                  model.system.size()),
+                                      "each point of the sweep (" + analysis_words("dense", model.system) + ")",
                                       model.limits.memory))
       throw InputError("this sweep cannot run here: " + *r);
   SweepStudy study;

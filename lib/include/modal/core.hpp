@@ -64,11 +64,13 @@
 #include <Eigen/SparseCore>
 
 #include <array>
+#include <new>
 #include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace modal {
@@ -961,6 +963,21 @@ class TreeFactor {
 
 // --- memory, estimated before allocating (docs/design.md, "Memory policy") ---
 
+// Memory ran out although the estimate made before allocating fitted (the
+// estimates are measured per coordinate pair, body and spring, not exact),
+// or a stage found, before allocating, that what it is about to allocate
+// exceeds what the machine has (the sparse factor's size from its symbolic
+// analysis). what() says so, with the estimate of what was being computed;
+// exit status 4 like every std::bad_alloc.
+class OutOfMemory : public std::bad_alloc {
+ public:
+  explicit OutOfMemory(std::string message) : message_(std::move(message)) {}
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
+};
+
 // What the machine can still give a process: MemAvailable of /proc/meminfo,
 // in bytes; 0 when it cannot be read.
 double available_memory();
@@ -975,6 +992,18 @@ std::string format_bytes(double bytes);
 // `limit` > 0 is a limit the user set (`--max-memory`, SceneLimits::memory);
 // 0 stands for the machine's available memory (no refusal when unknown).
 std::optional<std::string> memory_refusal(double bytes, const std::string& what, double limit);
+// The memory the process's allocations hold, in bytes (glibc's mallinfo2:
+// the heap's blocks in use and the blocks mapped on their own); 0 under
+// another allocator (the sanitizers', jemalloc), which the checks below then
+// leave out.
+double memory_in_use();
+// Before `bytes` are allocated for `what` on top of what the process holds:
+// throws OutOfMemory ("out of memory, found before allocating: it would need
+// about …") when they would bring the process's use (memory_in_use + bytes)
+// over `limit` (> 0, a limit the user set) or, with limit 0, when they are
+// more than the machine has available and the heap's free memory, which
+// they may reuse (nothing is refused where that cannot be read).
+void check_allocation(double bytes, const std::string& what, double limit);
 
 // Coordinate pairs (j, k), both orders, that the tree couples in M and in the
 // potential's Hessian: those of each body's coordinates with its own and its

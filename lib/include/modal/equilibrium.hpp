@@ -60,6 +60,11 @@ struct EquilibriumOptions {
                              // -1: default_equilibrium_starts(system)
   int max_iterations = 100;  // per Newton polish
   LargeEquilibriumMethod large_method = LargeEquilibriumMethod::newton;
+  // Bytes a sparse factorization of a large scene's Hessian may take (> 0,
+  // e.g. a limit the user set); 0: what the machine has available. A factor
+  // its symbolic analysis finds larger is refused before it is allocated
+  // (OutOfMemory).
+  double memory_limit = 0;
   // find_equilibria: called after each start with the starts done and their
   // number (long surveys show it on a terminal). find_equilibrium and
   // polish_equilibrium of a large scene (Newton with the sparse Hessian):

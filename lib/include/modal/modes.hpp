@@ -175,6 +175,11 @@ struct SparseModalOptions {
   // The coordinates' names (n), by which a singular mass matrix is described.
   // Empty: q1 … qn.
   std::vector<std::string> coordinate_names;
+  // Bytes a sparse Cholesky factor (of M, of K − σM) may take (> 0, e.g. a
+  // limit the user set); 0: what the machine has available. A factor its
+  // symbolic analysis finds larger is refused before it is allocated
+  // (OutOfMemory).
+  double memory_limit = 0;
 };
 
 // The k eigenvalues λ of K φ = λ M φ nearest the shift σ (by default the k

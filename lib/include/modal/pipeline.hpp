@@ -59,19 +59,6 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Memory ran out although the estimate made before allocating fitted (the
-// estimates are measured per coordinate pair, body and spring, not exact).
-// what() says so, with the estimate of what was being computed; exit status 4
-// like every std::bad_alloc.
-class OutOfMemory : public std::bad_alloc {
- public:
-  explicit OutOfMemory(std::string message) : message_(std::move(message)) {}
-  const char* what() const noexcept override { return message_.c_str(); }
-
- private:
-  std::string message_;
-};
-
 // "4G", "512M", "100k" or a number of bytes, as `--max-memory` takes it
 // (decimal units: k = 10³, M = 10⁶, G = 10⁹, T = 10¹²); InputError otherwise.
 double parse_memory_size(const std::string& text);

@@ -58,12 +58,15 @@ struct MumpsLdlt::State {
   std::vector<MUMPS_INT> irn, jcn, perm_in;
   std::vector<double> values;
   DMUMPS_STRUC_C id{};
+  double memory_limit = 0;  // MumpsLdlt's
   bool initialized = false, analyzed = false, factored = false;
 };
 
-MumpsLdlt::MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order) : state_(std::make_unique<State>()) {
+MumpsLdlt::MumpsLdlt(const SparseMatrix& A, const std::vector<int>& order, double memory_limit)
+    : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.n = A.rows();
+  s.memory_limit = memory_limit;
   for (Eigen::Index j = 0; j < A.outerSize(); ++j)
     for (Eigen::Index p = A.outerIndexPtr()[j]; p < A.outerIndexPtr()[j + 1]; ++p)
       if (A.innerIndexPtr()[p] >= j) {
@@ -117,6 +120,12 @@ std::optional<Eigen::Index> MumpsLdlt::factor(const SparseMatrix& A, bool normwi
     s.id.job = 1;
     run_mumps(s.id);
     if (s.id.infog[0] < 0) return std::nullopt;
+    // INFOG(17): the analysis's estimate of the factorization's memory in
+    // core, in millions of bytes (all processes: here one).
+    const std::string n = std::to_string(s.n);
+    check_allocation(1e6 * static_cast<double>(s.id.infog[16]),
+                     "the sparse LDLᵀ factorization (MUMPS) of this system's " + n + " × " + n + " matrix, by its analysis",
+                     s.memory_limit);
     s.analyzed = true;
   }
   s.factored = false;
