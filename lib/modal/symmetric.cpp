@@ -2031,6 +2031,19 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
   // within a budget of p²n ≤ 2e8 (dbdsvdx reorthogonalizes them as one
   // cluster), and analyzed again; kept unless their estimates sum to more
   // than before (B's shapes on light links are not always better).
+  // What analyze() reads and writes besides its result: kept before a
+  // second attempt at the vectors, put back when the attempt is refused.
+  struct State {
+    MatrixX Phi;
+    VectorX lambda_all, unresolved, chain_spread;
+  };
+  auto save = [&] { return State{Phi, lambda_all, unresolved, chain_spread}; };
+  auto restore = [&](State&& saved) {
+    Phi = std::move(saved.Phi);
+    lambda_all = std::move(saved.lambda_all);
+    unresolved = std::move(saved.unresolved);
+    chain_spread = std::move(saved.chain_spread);
+  };
   Eigen::Index again = 0;  // how many were solved again (the solver's name)
   auto name_again = [&](ModalResult& r) {
     if (again > 0 && !r.solver.empty() && r.solver.back() == ')')
@@ -2051,8 +2064,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
         for (Eigen::Index i = 0; i < p; ++i) total += r.modes[static_cast<std::size_t>(i)].error_estimate;
         return total;
       };
-      const MatrixX Phi_before = Phi;
-      const VectorX unresolved_before = unresolved, spread_before = chain_spread;
+      State before = save();
       Phi.leftCols(p) = chain_shapes(K.diagonal(), sigma, V);
       ModalResult again_result = analyze();
       if (sum(again_result) <= sum(result)) {
@@ -2060,9 +2072,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
         again = p;
         name_again(result);
       } else {
-        Phi = Phi_before;
-        unresolved = unresolved_before;
-        chain_spread = spread_before;
+        restore(std::move(before));
       }
     }
   }
@@ -2084,23 +2094,13 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       lambda(i) = result.modes[static_cast<std::size_t>(i)].omega2;
       estimate(i) = result.modes[static_cast<std::size_t>(i)].error_estimate;
     }
-    MatrixX Phi_before;
-    VectorX lambda_all_before, unresolved_before, spread_before;
-    if (round > 0) {
-      Phi_before = Phi;
-      lambda_all_before = lambda_all;
-      unresolved_before = unresolved;
-      spread_before = chain_spread;
-    }
+    State before = round > 0 ? save() : State{};
     if (!refine_unresolved(M, K, M_op.sparse(), K_op.sparse(), unresolved, lambda, estimate, Phi)) break;
     ModalResult refined = analyze();
     name_again(refined);
     const Eigen::Index now = count_unresolved();
     if (round > 0 && now > left) {
-      Phi = std::move(Phi_before);
-      lambda_all = std::move(lambda_all_before);
-      unresolved = std::move(unresolved_before);
-      chain_spread = std::move(spread_before);
+      restore(std::move(before));
       break;
     }
     result = std::move(refined);
