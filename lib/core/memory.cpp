@@ -53,13 +53,18 @@ std::optional<std::string> refusal(double bytes, const std::string& what, double
          format_bytes(have) + " " + source;
 }
 
-// The heap's free bytes kept for reuse (glibc's mallinfo2); 0 under another
-// allocator (the sanitizers' report none).
-double free_heap() {
+// glibc's account of its main heap (mallinfo2): the bytes its blocks in use
+// and its blocks mapped on their own hold, and the free bytes it keeps for
+// reuse; zeros under another allocator (the sanitizers', jemalloc).
+struct Heap {
+  double in_use = 0, free = 0;
+};
+Heap heap() {
 #if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
-  return static_cast<double>(mallinfo2().fordblks);
+  const struct mallinfo2 info = mallinfo2();
+  return {static_cast<double>(info.uordblks) + static_cast<double>(info.hblkhd), static_cast<double>(info.fordblks)};
 #else
-  return 0;
+  return {};
 #endif
 }
 }  // namespace
@@ -69,14 +74,7 @@ std::optional<std::string> memory_refusal(double bytes, const std::string& what,
   return refusal(bytes, what, available_memory(), "this machine has available (MemAvailable in /proc/meminfo)");
 }
 
-double memory_in_use() {
-#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
-  const struct mallinfo2 heap = mallinfo2();
-  return static_cast<double>(heap.uordblks) + static_cast<double>(heap.hblkhd);
-#else
-  return 0;
-#endif
-}
+double memory_in_use() { return heap().in_use; }
 
 void check_allocation(double bytes, const std::string& what, double limit) {
   std::optional<std::string> refused;
@@ -85,7 +83,7 @@ void check_allocation(double bytes, const std::string& what, double limit) {
     refused = memory_refusal(
         held + bytes, what + " (" + format_bytes(bytes) + ", with the " + format_bytes(held) + " already in use)", limit);
   } else if (const double have = available_memory(); have > 0) {
-    refused = refusal(bytes, what, have + free_heap(),
+    refused = refusal(bytes, what, have + heap().free,
                       "this machine has available (MemAvailable in /proc/meminfo, and the free memory of the program's "
                       "heap)");
   }
