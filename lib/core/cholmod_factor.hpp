@@ -6,6 +6,8 @@
 
 #include "modal/core.hpp"
 
+#include "core/supernodal_solve.hpp"
+
 #include <Eigen/CholmodSupport>
 
 #include <new>
@@ -46,6 +48,14 @@ class CholmodAccess : public Decomposition {
     analyzePattern(A);
     factorize(A);
     return *this;
+  }
+
+  // x = A⁻¹b for one vector (n each; x may be b) in two parts on two cores,
+  // where the factor is a supernodal LLᵀ large enough to pay
+  // (core/supernodal_solve.hpp); false otherwise: the caller then solves with
+  // CHOLMOD.
+  bool solve_in_parts(const double* b, double* x) {
+    return supernodal_solve(this->m_cholmodFactor, b, x, schedule_);
   }
 
   // The fill-reducing pivot order of the analysis (entry k: the k-th
@@ -127,6 +137,8 @@ class CholmodAccess : public Decomposition {
   }
 
  private:
+  SupernodalSchedule schedule_;  // solve_in_parts's cut of the factor's tree, kept while its structure stays
+
   static std::string matrix_words(Eigen::Index n) {
     return "this system's " + std::to_string(n) + " × " + std::to_string(n) + " matrix";
   }

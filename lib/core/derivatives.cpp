@@ -33,6 +33,7 @@
 #include "core/map.hpp"
 #include "core/map_eval.hpp"
 #include "core/model.hpp"
+#include "core/in_parts.hpp"
 #include "core/sums.hpp"
 #include "core/text.hpp"
 
@@ -139,42 +140,7 @@ std::pair<std::size_t, std::size_t> spring_range(const System& s, std::size_t pa
   return {count * part / parts, count * (part + 1) / parts};
 }
 
-// f(0) and, with two parts, f(1) on a thread of its own (in turn where the
-// machine has one core or no thread can be started); an exception of either
-// is rethrown here after both have finished.
-template <class F> void in_parts(std::size_t parts, F&& f) {
-  if (parts < 2) {
-    f(std::size_t{0});
-    return;
-  }
-  std::exception_ptr failure;
-  std::thread second;
-  if (std::thread::hardware_concurrency() >= 2) {
-    try {
-      second = std::thread([&f, &failure] {
-        try {
-          f(std::size_t{1});
-        } catch (...) {
-          failure = std::current_exception();
-        }
-      });
-    } catch (const std::system_error&) {  // no thread to be had: the parts in turn
-    }
-  }
-  if (!second.joinable()) {
-    f(std::size_t{0});
-    f(std::size_t{1});
-    return;
-  }
-  try {
-    f(std::size_t{0});
-  } catch (...) {
-    second.join();
-    throw;
-  }
-  second.join();
-  if (failure) std::rethrow_exception(failure);
-}
+using detail::in_parts;
 
 const TreeState<double>& kinematics(const System& s, Workspace& w, const VectorX& q) {
   check_size(s, q, "kinematics");

@@ -124,7 +124,7 @@ class NewtonSteps {
     rate_ = 0;
     if (llt_.out_of_memory()) throw std::bad_alloc();  // the program's out-of-memory report, not an indefinite ∇∇V
     if (llt_.info() != Eigen::Success) return {};
-    VectorX d = -llt_.solve(r);
+    VectorX d = -solve(r);
     if (!d.allFinite()) return {};
     have_factor_ = true;
     return d;
@@ -180,7 +180,7 @@ class NewtonSteps {
     const double target = forcing * r.norm();
     VectorX d = VectorX::Zero(r.size());
     VectorX res = -r;
-    VectorX z = llt_.solve(res);
+    VectorX z = solve(res);
     VectorX p = z;
     double rz = res.dot(z);
     double best = 1;  // the smallest ‖H d + r‖/‖r‖ so far
@@ -206,12 +206,20 @@ class NewtonSteps {
       // have their best residual below 0.55 by the 4th.
       best = std::min(best, res.norm() / r.norm());
       if (it >= 4 && !(best < 1 && it * std::log(forcing) / std::log(best) <= 2.0 * limit)) break;
-      z = llt_.solve(res);
+      z = solve(res);
       const double rz_next = res.dot(z);
       p = z + (rz_next / rz) * p;
       rz = rz_next;
     }
     return {};
+  }
+
+  // A⁻¹r with the kept factor of A: in two parts where it is large
+  // (solve_in_parts), else by CHOLMOD.
+  VectorX solve(const VectorX& r) {
+    VectorX x(r.size());
+    if (llt_.solve_in_parts(r.data(), x.data())) return x;
+    return llt_.solve(r);
   }
 
   // True when some row of H vanishes to rounding against the largest

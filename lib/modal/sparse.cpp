@@ -228,7 +228,8 @@ class CholmodFactor : public detail::CholmodAccess<Eigen::CholmodDecomposition<S
   ~CholmodFactor() {
     for (cholmod_dense** d : {&x_, &y_, &e_}) cholmod_free_dense(d, &cholmod());
   }
-  // y = A⁻¹x for one vector, through cholmod_solve2 with workspace kept from
+  // y = A⁻¹x for one vector, in two parts where the factor is large
+  // (solve_in_parts), else through cholmod_solve2 with workspace kept from
   // call to call (Eigen's solve() allocates and frees three n-vectors per
   // call, which dominates the many solves of a Lanczos run). False when
   // CHOLMOD fails.
@@ -236,6 +237,7 @@ class CholmodFactor : public detail::CholmodAccess<Eigen::CholmodDecomposition<S
   // supernodal solve then runs on blocks (BLAS 3), several times cheaper
   // per vector than one at a time.
   bool solve_into(const double* in, double* out, int columns = 1) {
+    if (columns == 1 && solve_in_parts(in, out)) return true;
     cholmod_dense b{};
     b.nrow = b.d = m_cholmodFactor->n;
     b.ncol = static_cast<std::size_t>(columns);
