@@ -18,6 +18,7 @@
 #include "modal/scene.hpp"
 #include "modal/mumps.hpp"
 #include "core/cholmod_factor.hpp"
+#include "core/sparse_product.hpp"
 
 #include <gtest/gtest.h>
 
@@ -981,7 +982,8 @@ namespace {
 // neighbours along each axis and the face diagonals, its size log-uniform
 // over `decades` decades, every node held to the ground by 1e-3 of the
 // smallest bond; then graded by a random diagonal congruence D A D, D
-// log-uniform over `grading` decades. Symmetric positive definite.
+// log-uniform over `grading` decades. Symmetric (to the bit) positive
+// definite.
 SparseMatrix generated_grid(int nx, int ny, int layers, double decades, double grading, std::mt19937_64& random) {
   std::uniform_real_distribution<double> unit(-1, 1);
   const int nodes = nx * ny * layers, n = 3 * nodes;
@@ -1015,6 +1017,9 @@ SparseMatrix generated_grid(int nx, int ny, int layers, double decades, double g
   VectorX d(n);
   for (int k = 0; k < n; ++k) d[k] = std::pow(10.0, 0.5 * grading * unit(random));
   A = d.asDiagonal() * A * d.asDiagonal();
+  // Symmetric to the bit (the sums of the bonds' blocks into an entry and
+  // its mirror came in different orders: 1e-12 apart where they cancel).
+  A = 0.5 * (A + SparseMatrix(A.transpose()));
   A.makeCompressed();
   return A;
 }
@@ -1105,5 +1110,41 @@ TEST(SparseModes, SupernodalSolveInTwoPartsMatchesCholmodOnGeneratedGrids) {
     ASSERT_EQ(llt.info(), Eigen::Success);
     VectorX x(n);
     EXPECT_FALSE(llt.solve_in_parts(VectorX::Ones(n).eval().data(), x.data()));
+  }
+}
+
+// Products with symmetric sparse matrices in two parts (core/sparse_product.hpp),
+// on the generated grids below and above the size that pays (2²⁰ stored
+// entries), uniform and graded over 12 + 12 decades, x over 6: against
+// Eigen's A x entry by entry within both sums' worst-case rounding
+// (4ε·terms·(|A||x|)_j), |A||x| against Eigen's on A.cwiseAbs() (2ε·terms),
+// the sum of the entries' squares against a long double sum, and the same
+// bits twice.
+TEST(SparseModes, SymmetricProductsInTwoPartsMatchEigen) {
+  std::mt19937_64 random(1504);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  const double eps = std::numeric_limits<double>::epsilon();
+  for (const auto& [nx, decades] : {std::pair{40, 0.0}, std::pair{200, 0.0}, std::pair{40, 12.0}, std::pair{220, 12.0}}) {
+    const SparseMatrix A = generated_grid(nx, nx, 1, decades, decades, random);
+    VectorX x(A.rows());
+    for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = unit(random) * std::pow(10.0, 3 * unit(random));
+    EXPECT_EQ(modal::detail::second_part_column(A) < A.outerSize(), A.nonZeros() >= modal::detail::sparse_parts_from);
+    const VectorX y = modal::detail::symmetric_product(A, x), again = modal::detail::symmetric_product(A, x);
+    EXPECT_EQ(0, std::memcmp(y.data(), again.data(), sizeof(double) * static_cast<std::size_t>(y.size())));
+    const VectorX reference = A * x;
+    const SparseMatrix magnitudes = A.cwiseAbs();
+    const VectorX sizes = magnitudes * x.cwiseAbs();
+    const VectorX absolute = modal::detail::symmetric_product(A, x.cwiseAbs(), [](double v) { return std::abs(v); });
+    for (Eigen::Index j = 0; j < A.outerSize(); ++j) {
+      const double terms = static_cast<double>(A.col(j).nonZeros());
+      EXPECT_LE(std::abs(y[j] - reference[j]), 4 * eps * terms * sizes[j]) << "n " << A.rows() << ", entry " << j;
+      EXPECT_LE(std::abs(absolute[j] - sizes[j]), 2 * eps * terms * sizes[j]) << "n " << A.rows() << ", entry " << j;
+    }
+    Long exact = 0;
+    for (Eigen::Index j = 0; j < A.outerSize(); ++j)
+      for (SparseMatrix::InnerIterator it(A, j); it; ++it) exact += std::pow(static_cast<Long>(it.value()) * x[it.row()] * x[j], 2);
+    const double squares = modal::detail::sum_over_entries(
+        A, [&x](double v, Eigen::Index row, Eigen::Index column) { return std::pow(v * x[row] * x[column], 2); });
+    EXPECT_LE(std::abs(squares - static_cast<double>(exact)), 8 * eps * static_cast<double>(A.nonZeros()) * static_cast<double>(exact));
   }
 }

@@ -31,6 +31,7 @@
 // the damped method below starts at once.
 #include "equilibrium/problem.hpp"
 #include "core/cholmod_factor.hpp"
+#include "core/sparse_product.hpp"
 
 #include <nlopt.hpp>
 
@@ -185,7 +186,7 @@ class NewtonSteps {
     double rz = res.dot(z);
     double best = 1;  // the smallest ‖H d + r‖/‖r‖ so far
     for (int it = 1; it <= limit; ++it) {
-      const VectorX Hp = H * p;  // H holds both triangles
+      const VectorX Hp = detail::symmetric_product(H, p);  // H holds both triangles
       const double curvature = p.dot(Hp);
       if (!(curvature > 0) || !std::isfinite(rz)) break;  // not positive definite along p
       const double alpha = rz / curvature;
@@ -507,7 +508,7 @@ Equilibrium find_large_equilibrium(const System& s, const VectorX& start, const 
       if (d.size() == 0) return q;
       ++damped_steps;
       // The model's curvature along d: of the matrix the step was solved with.
-      const VectorX Hd = matrix_free ? tree_product(*pencil, 1.0, 0.0, d) : VectorX((newton_step ? H : C) * d);
+      const VectorX Hd = matrix_free ? tree_product(*pencil, 1.0, 0.0, d) : detail::symmetric_product(newton_step ? H : C, d);
       // A line search on V along d: V costs O(elements), a factorization far
       // more. Where V still falls at twice the step (the model, quadratic in
       // d, underrates how far the shape d goes: from a slack start V is

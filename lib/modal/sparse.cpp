@@ -101,6 +101,7 @@
 // at σ₀ for the Morse index.
 #include "detail.hpp"
 #include "core/cholmod_factor.hpp"
+#include "core/sparse_product.hpp"
 #include "mumps.hpp"
 
 #include <Eigen/CholmodSupport>
@@ -921,10 +922,7 @@ double phi_sum_of_products(const VectorX& x, const VectorX& y) { return x.cwiseP
 
 // Σ|A_ij| a_j per row, for a ≥ 0.
 VectorX absolute_product(const SparseMatrix& A, const VectorX& a) {
-  VectorX out = VectorX::Zero(A.rows());
-  for (Index j = 0; j < A.outerSize(); ++j)
-    for (SparseMatrix::InnerIterator it(A, j); it; ++it) out(it.row()) += std::abs(it.value()) * a(j);
-  return out;
+  return detail::symmetric_product(A, a, [](double v) { return std::abs(v); });
 }
 
 // The Mode for the converged Ritz vector φ: λ its Rayleigh quotient, shape
@@ -944,7 +942,7 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
   phi *= scale_phi;
   Mphi *= scale_phi;
-  const VectorX Kphi = K * phi;
+  const VectorX Kphi = detail::symmetric_product(K, phi);
   const double lambda = phi.dot(Kphi);  // the Rayleigh quotient (φᵀMφ = 1)
   const VectorX r = Kphi - lambda * Mphi;
   const double x2 = phi.squaredNorm();
@@ -977,15 +975,15 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   // a smooth mode of a net or a spring chain |φ|ᵀ|K||φ| is 10²–10⁴ × λ (K
   // is a discrete Laplacian), and that worst case made the estimates
   // 10³–10⁵ × the true error.
-  double K2 = 0, M2 = 0;
   const SparseMatrix& K_terms = term_sizes.rows() == K.rows() ? term_sizes : K;
-  for (const auto& [A, sum] : {std::pair<const SparseMatrix*, double*>{&K_terms, &K2}, {&M, &M2}})
-    for (Index j = 0; j < A->outerSize(); ++j)
-      for (SparseMatrix::InnerIterator it(*A, j); it; ++it) *sum += std::pow(it.value() * phi(it.row()) * phi(j), 2);
+  const auto squares = [&phi](double value, Index row, Index column) {
+    return std::pow(value * phi(row) * phi(column), 2);
+  };
+  const double K2 = detail::sum_over_entries(K_terms, squares), M2 = detail::sum_over_entries(M, squares);
   // φᵀFφ, F = K_rounding_form (a rigorous bound, in units of 4ε, of the
   // rounding's effect, positions included; see below): where smaller, it
   // stands for K's entries at their typical size too.
-  const double structured = rounding_form.rows() == K.rows() ? std::max(0.0, phi.dot(rounding_form * phi))
+  const double structured = rounding_form.rows() == K.rows() ? std::max(0.0, phi.dot(detail::symmetric_product(rounding_form, phi)))
                                                              : std::numeric_limits<double>::infinity();
   sums.rows = a.cwiseProduct(aK).norm() + std::abs(lambda) * a.cwiseProduct(aM).norm();
   sums.sums_K = phi_sum_of_products(phi, Kphi);
