@@ -100,12 +100,13 @@ inline void supernodal_schedule(const cholmod_factor& L, SupernodalSchedule& sch
   std::vector<int> candidates = roots, top;
   double top_weight = 0;
   std::array<std::vector<int>, 2> bins;
+  std::array<double, 2> load{0, 0};
   for (int round = 0; round < 256; ++round) {
     std::sort(candidates.begin(), candidates.end(), [&](int a, int b) {
       return weight[static_cast<std::size_t>(a)] > weight[static_cast<std::size_t>(b)] ||
              (weight[static_cast<std::size_t>(a)] == weight[static_cast<std::size_t>(b)] && a < b);
     });
-    std::array<double, 2> load{0, 0};
+    load = {0, 0};
     bins = {};
     for (int c : candidates) {
       const std::size_t b = load[0] <= load[1] ? 0 : 1;
@@ -114,20 +115,15 @@ inline void supernodal_schedule(const cholmod_factor& L, SupernodalSchedule& sch
     }
     if (std::abs(load[0] - load[1]) <= 0.05 * total) break;
     const int largest = candidates.front();
-    const std::size_t own = static_cast<std::size_t>(px[largest + 1] - px[largest]);
-    if (children[static_cast<std::size_t>(largest)].empty()) break;
+    // The bins stay those of the candidates they were filled from.
+    if (children[static_cast<std::size_t>(largest)].empty() || round == 255) break;
     candidates.erase(candidates.begin());
     top.push_back(largest);
-    top_weight += static_cast<double>(own);
+    top_weight += static_cast<double>(px[largest + 1] - px[largest]);
     for (int c : children[static_cast<std::size_t>(largest)]) candidates.push_back(c);
   }
   if (bins[0].empty() || bins[1].empty()) return;
-  double heavier = 0;
-  for (const auto& bin : bins) {
-    double load = 0;
-    for (int c : bin) load += weight[static_cast<std::size_t>(c)];
-    heavier = std::max(heavier, load);
-  }
+  const double heavier = std::max(load[0], load[1]);
   // The top runs on one core with Eigen's kernels, slower than CHOLMOD's
   // BLAS on large dense blocks (a 3-D grid's separators): cut only where
   // the top is small and the cut saves at least a quarter.
