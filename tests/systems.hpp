@@ -16,7 +16,10 @@ inline ModalResult sparse_modes_of(const SparseLinearModel& lin, int modes, bool
   SparseModalOptions options;
   options.modes = modes;
   options.K_magnitude = lin.K_magnitude;
-  if (rounding_form) options.K_rounding_form = lin.K_rounding_form;
+  if (rounding_form) {
+    options.K_rounding_form = lin.K_rounding_form;
+    options.K_spring_rounding = lin.K_spring_rounding;
+  }
   options.inertia_scale = lin.inertia_scale;
   return solve_sparse_modes(lin.K, lin.M, options);
 }

@@ -1167,6 +1167,58 @@ SparseMatrix sparse_rounding_form(const System& s, Workspace& w, const VectorX& 
   return F;
 }
 
+SpringRounding spring_rounding(const System& s, Workspace& w, const VectorX& q) {
+  SpringRounding out;
+  if (s.is_map() || s.springs().empty()) return out;
+  const int n = s.size();
+  const TreeState<double>& st = kinematics(s, w, q);
+  out.others = VectorX::Zero(n);
+  auto add_other = [&out](int j, int k, double v) {
+    out.others(j) += 0.5 * std::abs(v);
+    out.others(k) += 0.5 * std::abs(v);
+  };
+  std::vector<Eigen::Triplet<double>> rows;
+  std::vector<Eigen::Matrix<double, 6, 1>> blocks;
+  blocks.reserve(s.springs().size());
+  std::array<PointJacobian, 2> J;
+  accumulate(
+      s, w, true,
+      [&](std::size_t) {
+        return [&](const auto& sites, const auto& He) {
+          if constexpr (std::tuple_size_v<std::decay_t<decltype(sites)>> == 2) {
+            const int e = static_cast<int>(blocks.size());
+            for (std::size_t end = 0; end < 2; ++end) {
+              site_jacobian(s, st, sites[end], J[end]);
+              const double sign = end == 0 ? 1.0 : -1.0;  // v = ẋ_a − ẋ_b
+              for (std::size_t i = 0; i < J[end].index.size(); ++i)
+                for (int c = 0; c < 3; ++c)
+                  if (J[end].column[i](c) != 0.0) rows.emplace_back(3 * e + c, J[end].index[i], sign * J[end].column[i](c));
+            }
+            Eigen::Matrix<double, 6, 1> block = Eigen::Matrix<double, 6, 1>::Zero();
+            SpringAxes a;
+            if (spring_axes(sites, He, a)) {
+              const double rho = (sites[0].x.norm() + sites[1].x.norm()) / a.length;
+              block << a.u, std::abs(a.k), std::abs(a.k - a.t), rho * std::abs(a.k - a.t);
+            } else {  // no axis: |v|ᵀ|h||v| ≤ (largest row sum of |h|) |v|²
+              block(3) = He.template topLeftCorner<3, 3>().cwiseAbs().rowwise().sum().maxCoeff();
+            }
+            blocks.push_back(block);
+            return;
+          }
+          DiagonalHalves<decltype(add_other)&> halves{add_other};
+          add_local_hessian(s, st, sites, He, halves);
+        };
+      },
+      nullptr, 1);
+  DiagonalHalves<decltype(add_other)&> halves{add_other};
+  other_hessian_terms(s, st, w, q, halves, nullptr);
+  out.G.resize(3 * static_cast<Eigen::Index>(blocks.size()), n);
+  out.G.setFromTriplets(rows.begin(), rows.end());
+  out.blocks.resize(6, static_cast<Eigen::Index>(blocks.size()));
+  for (std::size_t e = 0; e < blocks.size(); ++e) out.blocks.col(static_cast<Eigen::Index>(e)) = blocks[e];
+  return out;
+}
+
 SparseMatrix sparse_tension_metric(const System& s, Workspace& w, const VectorX& q) {
   const int n = s.size();
   SparseMatrix D(n, n);

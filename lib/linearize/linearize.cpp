@@ -185,6 +185,7 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   // |T_ij|) ψ, T symmetric); the form is projected with the rest below.
   if (!model.circulatory && options.derivatives == DerivativeMethod::exact && !s.is_map()) {
     model.K_rounding_form = sparse_rounding_form(s, ws, q);
+    if (!s.has_constraints()) model.K_spring_rounding = spring_rounding(s, ws, q);
     if (s.has_constraints() && model.K_rounding_form.size() > 0) {
       const VectorX rows = multiplier_term.cwiseAbs().rowwise().sum();
       model.K_rounding_form += SparseMatrix(rows.asDiagonal());
@@ -328,6 +329,7 @@ SparseLinearModel linearize_sparse(const System& s, const VectorX& q, const Line
   model.K = sparse_potential_hessian(s, ws, q);
   model.K_magnitude = sparse_potential_hessian_magnitude(s, ws, q);
   model.K_rounding_form = sparse_rounding_form(s, ws, q);
+  model.K_spring_rounding = spring_rounding(s, ws, q);
   model.M = sparse_mass_matrix(s, ws, q);
   model.inertia_scale = inertia_scale(s, ws, q);
   if (model.residual > sparse_equilibrium_correction_residual) {  // see the header

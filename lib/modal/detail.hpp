@@ -159,6 +159,9 @@ std::optional<LinkChain> link_chain(const MatrixX& M);
 // `K_rounding_form` (n×n or empty; LinearModel::K_rounding_form, scaled as
 // K): where given, the kinds take the data's rounding as 4ε φᵀFφ instead of
 // the entrywise |φ|ᵀ(K_error − K_systematic_error)|φ|.
+// `springs` (or null; LinearModel::K_spring_rounding, scaled as K): where
+// given, the estimates may take the springs' rounding at its typical size
+// (spring_by_spring).
 // `chain` (or null): M's point-mass chain structure (PointMassChain, in the
 // units of M as given), within its mismatch of M: the products with M and
 // M⁻¹ of the analysis then cost O(n) per vector, and where K is diagonal
@@ -173,7 +176,8 @@ std::optional<LinkChain> link_chain(const MatrixX& M);
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
                             Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),
-                            const PointMassChain* chain = nullptr, const LinkChain* links = nullptr);
+                            const PointMassChain* chain = nullptr, const LinkChain* links = nullptr,
+                            const SpringRounding* springs = nullptr);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 // Whether every entry off A's diagonal is zero (O(n²), leaves at the first
@@ -234,6 +238,17 @@ Mode make_mode(std::complex<double> s, double error, ModeKind kind);
 // and the worst case made the estimates as many times the true error. Used
 // by the dense and sparse paths alike.
 double typical_quotient_rounding(double width, double n, double rows, double sums, double entries);
+
+// The data's rounding of φᵀKφ at its typical size from the springs'
+// rounding kept spring by spring (SpringRounding; +∞ where `springs` is
+// empty or not of φ's size), in the units of typical_quotient_rounding's
+// `entries` over 4ε (which that doubles): ε(C + R)/8 … see modes.cpp.
+double spring_by_spring(const SpringRounding& springs, const VectorX& phi);
+// Whether `springs` is of n coordinates and consistent.
+bool fits(const SpringRounding& springs, Eigen::Index n);
+// SpringRounding of the pencil (S K S)·2^b: G by S (columns; none where
+// `scale` is empty), the blocks' sizes by 2^b, `others` by S² 2^b.
+void scale_spring_rounding(SpringRounding& springs, const VectorX& scale, int b);
 
 // Notes about clusters of (nearly) repeated eigenvalues among consecutive
 // entries of `modes` (already sorted). The eigenvalue compared is λ = omega2

@@ -216,6 +216,11 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   SparseMatrix rounding_form;
   if (!absolute && model.K_rounding_form.rows() == n && model.K_rounding_form.cols() == n)
     rounding_form = scale.asDiagonal() * model.K_rounding_form * scale.asDiagonal();
+  SpringRounding springs;
+  if (!absolute && rounding_form.size() != 0 && detail::fits(model.K_spring_rounding, n)) {
+    springs = model.K_spring_rounding;
+    detail::scale_spring_rounding(springs, scale, 0);
+  }
   if (!symmetric_within_rounding(Ms))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
   make_symmetric(Ms);
@@ -243,6 +248,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
     if (exact) {
       for (const auto& [A, p] : scaled) detail::scale_exactly(*A, p);
       rounding_form *= std::ldexp(1.0, b);
+      detail::scale_spring_rounding(springs, VectorX(), b);
     } else {
       magnitude = {};
     }
@@ -272,7 +278,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   const detail::MassFactor mass = chain || links ? detail::MassFactor(factor) : detail::MassFactor(factor());
   result = symmetric ? detail::solve_symmetric(Ms, Ks, mass, K_error, K_systematic, options.dense_solver,
                                                options.modes, rounding_form, chain ? &*chain : nullptr,
-                                               links ? &*links : nullptr)
+                                               links ? &*links : nullptr, &springs)
                      : detail::solve_first_order(Ms, Ks, Cs, mass(), K_error, K_systematic, G_error, C_rounding,
                                                  rounding_form);
   detail::restore_magnitudes(result, magnitude, symmetric);
@@ -490,6 +496,48 @@ void restore_magnitudes(ModalResult& result, const Magnitudes& m, bool symmetric
 
 double typical_quotient_rounding(double width, double n, double rows, double sums, double entries) {
   return 2 * (eps * (std::sqrt(width) * rows + std::sqrt(n) * sums) + entries);
+}
+
+// With v_e the motion of spring e's ends apart, C = Σ_e v_eᵀ(a uuᵀ + (a +
+// b)(I − uuᵀ))v_e is the part of its rounding that springs computed alike
+// may share (their own computation and data: counted coherently, at its
+// bound, each rounding ε, twice the unit roundoff) and R = (Σ_e (r
+// v_eᵀ(uuᵀ + 2(I − uuᵀ))v_e)²)^½ its end points' rounding, independent
+// from spring to spring, at the typical size of a sum of independent errors
+// (SpringRounding). ε(C + R) in all: (C + R)/8 in units of 4ε, doubled by
+// typical_quotient_rounding. The other terms as in F (4ε each, coherent).
+// On a smooth mode of a net each v_e = φ_a − φ_b is small against φ (a
+// spring's block [s −s; −s s] cancels along a smooth shape), which the
+// entrywise figures (|K_ij φ_i φ_j| in squares) cannot see, and R is far
+// below φᵀFφ's sum of the ends' rounding: the net of models/net.toml had
+// estimates 120–410 × its true errors from the entrywise figure, 17–23 ×
+// with this (results/estimate_honesty.md).
+double spring_by_spring(const SpringRounding& springs, const VectorX& phi) {
+  if (springs.empty() || !fits(springs, phi.size())) return std::numeric_limits<double>::infinity();
+  const VectorX v = springs.G * phi;
+  double coherent = 0, spread = 0;
+  for (Eigen::Index e = 0; e < springs.blocks.cols(); ++e) {
+    const auto block = springs.blocks.col(e);
+    const Eigen::Vector3d ve = v.segment<3>(3 * e);
+    const double along = std::pow(block.head<3>().dot(ve), 2), across = std::max(0.0, ve.squaredNorm() - along);
+    coherent += block(3) * along + (block(3) + block(4)) * across;
+    spread += std::pow(block(5) * (along + 2 * across), 2);
+  }
+  return (coherent + std::sqrt(spread)) / 8 + phi.cwiseAbs2().dot(springs.others);
+}
+
+bool fits(const SpringRounding& springs, Eigen::Index n) {
+  return springs.G.cols() == n && springs.G.rows() == 3 * springs.blocks.cols() && springs.others.size() == n;
+}
+
+void scale_spring_rounding(SpringRounding& springs, const VectorX& scale, int b) {
+  if (springs.empty()) return;
+  if (scale.size() == springs.G.cols()) {
+    springs.G = springs.G * scale.asDiagonal();
+    springs.others.array() *= scale.array().square();
+  }
+  springs.blocks.bottomRows<3>() *= std::ldexp(1.0, b);
+  springs.others *= std::ldexp(1.0, b);
 }
 
 Eigen::Index dominant_index(const Eigen::VectorXcd& v) {

@@ -937,7 +937,8 @@ VectorX absolute_product(const SparseMatrix& A, const VectorX& a) {
 // of K (signed, n×n, or empty), see ModeResidual.
 Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
                       const SparseMatrix& systematic, const SparseMatrix& shift, const SparseMatrix& term_sizes,
-                      const SparseMatrix& rounding_form, VectorX phi, ModeResidual& residual) {
+                      const SparseMatrix& rounding_form, const SpringRounding& springs, VectorX phi,
+                      ModeResidual& residual) {
   VectorX Mphi = M * phi;
   const double scale_phi = 1.0 / std::sqrt(phi.dot(Mphi));
   phi *= scale_phi;
@@ -989,7 +990,11 @@ Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const Cholmo
   sums.sums_K = phi_sum_of_products(phi, Kphi);
   sums.sums_M = phi_sum_of_products(phi, Mphi);
   sums.quotient_terms = a.dot(terms);
-  sums.entries = std::min(std::sqrt(K2), structured) + std::abs(lambda) * std::sqrt(M2);
+  // Where smaller still, the springs' rounding spring by spring
+  // (detail::spring_by_spring: on a smooth mode of a net 10–100 × below
+  // both).
+  sums.entries = std::min({std::sqrt(K2), structured, detail::spring_by_spring(springs, phi)}) +
+                 std::abs(lambda) * std::sqrt(M2);
   // The data's worst case for the kind: φᵀFφ where F is given, else
   // |φ|ᵀT|φ| with T the sizes of K's terms. With the residual's typical
   // size alone, a flat net at its rest length (every out-of-plane λ zero in
@@ -1157,9 +1162,9 @@ class SparsePencil {
  public:
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
                const SparseMatrix& shift, const SparseMatrix& term_sizes, const SparseMatrix& rounding_form,
-               const VectorX& coordinate_scale)
+               const SpringRounding& springs, const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift), term_sizes_(term_sizes),
-        rounding_form_(rounding_form),
+        rounding_form_(rounding_form), springs_(springs),
         mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()), options.memory_limit)), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
         mass_op_(M_), factor_(common(K_, M_), M_, options.fill_reducing_order, options.memory_limit) {
     if (!is_diagonal(M_)) {
@@ -1179,8 +1184,8 @@ class SparsePencil {
     return {spectrum_scale(dK, dM, norms_.K1), gershgorin};
   }
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
-    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, rounding_form_, std::move(phi),
-                            residual);
+    return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, rounding_form_, springs_,
+                            std::move(phi), residual);
   }
   // The largest 4ε φᵀFφ over M-orthonormal columns φ of Phi (F =
   // K_rounding_form: how far the data's rounding may move their λ); +∞
@@ -1200,6 +1205,7 @@ class SparsePencil {
   const SparseMatrix& shift_;
   const SparseMatrix& term_sizes_;  // Σ|terms| of K's entries, or empty
   const SparseMatrix& rounding_form_;  // SparseModalOptions::K_rounding_form, or empty
+  const SpringRounding& springs_;      // SparseModalOptions::K_spring_rounding, or empty
   std::unique_ptr<CholmodFactor> mass_;
   Norms norms_;
   MassProduct mass_op_;  // on M's own pattern, before the common one
@@ -1533,6 +1539,13 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       throw std::invalid_argument(std::string("solve_sparse_modes: ") + name + " is " + std::to_string(A->rows()) +
                                   "×" + std::to_string(A->cols()) + ", K " + std::to_string(n) + "×" +
                                   std::to_string(n));
+  SpringRounding springs = options.K_spring_rounding;
+  if (!springs.empty() && !detail::fits(springs, n))
+    throw std::invalid_argument("solve_sparse_modes: K_spring_rounding has " + std::to_string(springs.G.rows()) +
+                                " rows, " + std::to_string(springs.G.cols()) + " columns and " +
+                                std::to_string(springs.others.size()) + " other terms for " +
+                                std::to_string(springs.blocks.cols()) + " springs; K is " + std::to_string(n) + "×" +
+                                std::to_string(n));
   {
     const VectorX inverse = scale.cwiseInverse();
     if (exactly_scalable(M, scale, inverse) && exactly_scalable(K, scale, inverse)) {
@@ -1542,6 +1555,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       if (shift.rows() == n && shift.cols() == n) scale_in_place(shift, scale);
       if (term_sizes.rows() == n) scale_in_place(term_sizes, scale);
       if (rounding_form.rows() == n) scale_in_place(rounding_form, scale);
+      detail::scale_spring_rounding(springs, scale, 0);
     } else {
       scale = VectorX::Ones(n);
     }
@@ -1566,6 +1580,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
         exactly_scalable(shift, b) && exactly_scalable(term_sizes, b) && exactly_scalable(rounding_form, b)) {
       scale_in_place(M, a);
       for (SparseMatrix* A : {&K, &systematic, &shift, &term_sizes, &rounding_form}) scale_in_place(*A, b);
+      detail::scale_spring_rounding(springs, VectorX(), b);
       if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
     } else {
       magnitude = {};
@@ -1581,7 +1596,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
                                                   term_sizes, rounding_form, scale, units)
                            : [&] {
                                SparsePencil pencil(std::move(K), std::move(M), scaled_options, systematic, shift,
-                                                   term_sizes, rounding_form, scale);
+                                                   term_sizes, rounding_form, springs, scale);
                                return lanczos_modes(pencil, k, scaled_options, units);
                              }();
   finish_scaled(result, magnitude, scale);

@@ -1325,7 +1325,7 @@ bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
                             const SparseMatrix& K_rounding_form, const PointMassChain* chain,
-                            const LinkChain* links) {
+                            const LinkChain* links, const SpringRounding* springs) {
   const Eigen::Index n = M.rows();
   const bool given = K_error.rows() == n && K_error.cols() == n;  // K's entries' error bounds given (else 4ε|K|)
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
@@ -1844,6 +1844,11 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
       const MatrixX FPhi = K_rounding_form * Phi;
       for (Eigen::Index i = 0; i < m; ++i) structured(i) = 4 * eps * std::max(0.0, Phi.col(i).dot(FPhi.col(i)));
     }
+    // The springs' rounding at its typical size, spring by spring
+    // (spring_by_spring), where given: for the estimates.
+    VectorX by_spring = VectorX::Constant(m, std::numeric_limits<double>::infinity());
+    if (springs != nullptr && fits(*springs, n))
+      for (Eigen::Index i = 0; i < m; ++i) by_spring(i) = 4 * eps * spring_by_spring(*springs, Phi.col(i));
 
     ModalResult result;
     const char* reduction = diagonal_factor ? "M diagonal, L⁻¹KL⁻ᵀ by scaling" : "Cholesky of M, dsygst";
@@ -1960,7 +1965,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
           std::min(with_gap(typical, std::sqrt(nq) * quotient_rounding(i), i), certified(i)) + data_bound;
       const double phi2 = phiMphi(i);  // Φ's columns are M-normalized only to rounding
       const double entries =
-          std::min(absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm(), structured(i)) / phi2 +
+          std::min({absPhi.col(i).cwiseProduct(EabsPhi.col(i)).stableNorm(), structured(i), by_spring(i)}) / phi2 +
           (chain_mass ? 2 * length_error * std::abs(l) * mass_terms(i)
                       : rM * std::abs(l) *
                             std::min(absPhi.col(i).cwiseProduct(absMPhi.col(i)).stableNorm(), diagonal_terms(i))) /

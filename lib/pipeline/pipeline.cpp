@@ -512,6 +512,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     so.K_systematic_error = std::move(lin.K_systematic_error);
     so.K_magnitude = std::move(lin.K_magnitude);
     so.K_rounding_form = std::move(lin.K_rounding_form);
+    so.K_spring_rounding = std::move(lin.K_spring_rounding);
     so.K_equilibrium_shift = std::move(lin.K_equilibrium_shift);
     so.inertia_scale = lin.inertia_scale;
     so.coordinate_names = lin.coordinates;
@@ -519,6 +520,7 @@ Analysis analyze(const Model& model, const AnalysisOptions& options) {
     lin.K_systematic_error = std::move(so.K_systematic_error);
     lin.K_magnitude = std::move(so.K_magnitude);
     lin.K_rounding_form = std::move(so.K_rounding_form);
+    lin.K_spring_rounding = std::move(so.K_spring_rounding);
     lin.K_equilibrium_shift = std::move(so.K_equilibrium_shift);
     if (lin.residual > EquilibriumOptions{}.tolerance && lin.K_equilibrium_shift.nonZeros() == 0)
       result.notes.push_back(fmt::format(

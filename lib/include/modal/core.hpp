@@ -463,6 +463,32 @@ SparseMatrix sparse_potential_hessian_magnitude(const System& s, Workspace& w, c
 // (SparseModalOptions::K_rounding_form).
 SparseMatrix sparse_rounding_form(const System& s, Workspace& w, const VectorX& q);
 
+// sparse_rounding_form's bound kept spring by spring, split by where each
+// rounding comes from, so that a mode's estimate can add the springs'
+// independent errors at their typical size (a root sum of squares) instead
+// of all at their worst together. Spring e's end points move apart at
+// v_e = (G q̇)_{3e…3e+2}; its share of φᵀFφ is vᵀs v with s = a uuᵀ +
+// (a + b)(I − uuᵀ) + r (uuᵀ + 2(I − uuᵀ)) (u its axis, unit; in units of ε):
+//   a = |k| and b = |k − t| = |k| L₀/L, the rounding of its own computation
+//     and data (stiffness, rest length, length): springs computed alike
+//     round alike, so these add coherently over the springs;
+//   r = ρ|k − t|, ρ = (‖x_a‖ + ‖x_b‖)/L: the rounding of its end points'
+//     positions (ε of their size), independent from spring to spring.
+// A spring whose ends meet has u = 0 and a the largest row sum of |h|.
+// `others`: every other term's magnitude halved onto the diagonal (n, units
+// of 4ε, as in F). So φᵀFφ = Σ_e v_eᵀ s_e v_e + Σ_i others_i φ_i².
+struct SpringRounding {
+  Eigen::SparseMatrix<double, Eigen::RowMajor> G;  // 3 · springs × n
+  // Column e: u (3), a, b, r.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> blocks;
+  VectorX others;  // n
+  bool empty() const { return blocks.cols() == 0; }
+};
+
+// SpringRounding at q: O(elements). Empty for a map or a scene without
+// springs (SparseModalOptions::K_spring_rounding).
+SpringRounding spring_rounding(const System& s, Workspace& w, const VectorX& q);
+
 // The stiffness the scene would have if every spring carried a tension per
 // unit length equal to its stiffness (T/L = k, so its 6×6 block is
 // k [I −I; −I I] in its end points instead of k uuᵀ + T/L (I − uuᵀ)), and

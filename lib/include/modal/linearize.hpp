@@ -72,6 +72,11 @@ struct LinearModel {
   // solver decides the modes' kinds with its 4ε φᵀFφ instead of K_error's
   // entrywise worst case, which leaves out the positions' rounding.
   SparseMatrix K_rounding_form;
+  // spring_rounding at q (F kept spring by spring) where K_rounding_form is
+  // given and the scene has no constraints; empty otherwise. The symmetric
+  // solver's estimates take the springs' rounding at its typical size with
+  // it (detail::spring_by_spring).
+  SpringRounding K_spring_rounding;
   // The measured error of G (dof×dof) when it comes from differences
   // (gyroscopic_matrix with an error), systematic like the above; empty when
   // G is exact or absent. The first-order solver adds its effect, with that
@@ -142,6 +147,9 @@ struct SparseLinearModel {
   // sparse_rounding_form at q (n×n, positive semidefinite; empty without
   // springs): for SparseModalOptions::K_rounding_form.
   SparseMatrix K_rounding_form;
+  // spring_rounding at q (empty without springs): for SparseModalOptions::
+  // K_spring_rounding.
+  SpringRounding K_spring_rounding;
   double residual = 0;                   // relative equilibrium residual at q
   // |K(q + δq) − K(q)| for the Newton correction δq (see above); empty when
   // the residual is negligible. For the eigenvalues' error estimates.

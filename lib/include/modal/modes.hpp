@@ -161,6 +161,14 @@ struct SparseModalOptions {
   // rounding and on a smooth mode of a net is 10²–10⁴ × its possible effect.
   // Empty: the entrywise worst case.
   SparseMatrix K_rounding_form;
+  // F of K_rounding_form kept spring by spring (e.g. SparseLinearModel::
+  // K_spring_rounding, spring_rounding): where given, each mode's estimate
+  // may take the springs' rounding at its typical size, the part that
+  // springs computed alike share added coherently and their end points'
+  // independent rounding as a root sum of squares over the springs (on a
+  // smooth mode of a large net 10²–10³ × below the entrywise figures).
+  // Empty: K_magnitude's and K_rounding_form's figures alone.
+  SpringRounding K_spring_rounding;
   // A loose equilibrium's change of K on the way to the equilibrium (n×n,
   // signed, e.g. SparseLinearModel::K_equilibrium_shift, ΔK = K(q + δq) −
   // K(q)): each mode's estimate adds 2(|φᵀΔKφ| + δ_Δ²/g), first-order
