@@ -18,6 +18,7 @@
 #include "modal/scene.hpp"
 #include "modal/mumps.hpp"
 #include "core/cholmod_factor.hpp"
+#include "core/pairwise_dot.hpp"
 #include "core/sparse_product.hpp"
 
 #include <gtest/gtest.h>
@@ -1120,6 +1121,52 @@ TEST(SparseModes, SupernodalSolveInTwoPartsMatchesCholmodOnGeneratedGrids) {
 // (4ε·terms·(|A||x|)_j), |A||x| against Eigen's on A.cwiseAbs() (2ε·terms),
 // the sum of the entries' squares against a long double sum, and the same
 // bits twice.
+// pairwise_dot (the sparse path's Rayleigh quotients): on generated vectors
+// of random sizes (1 … 3·10⁵): entries over 20 decades with random signs,
+// such vectors made to cancel (y chosen so that xᵀy is 1e-10 of Σ|x_i y_i|
+// or less), and positive entries within a decade; the computed sum lies within γ_m Σ|x_i y_i| of the exact one
+// (__float128: each product of two doubles exact, the sum's own rounding
+// ~1e-34 relative), m = pairwise_depth(n) = 32 + ⌈log₂ ⌈n/32⌉⌉, the bound
+// the estimates and residual bounds now use; the same bits twice.
+TEST(SparseModes, PairwiseDotsAreWithinTheirDepthsBound) {
+  std::mt19937_64 random(312);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::uniform_int_distribution<int> exponent(1, 19);
+  const double u = std::numeric_limits<double>::epsilon() / 2;
+  for (int trial = 0; trial < 60; ++trial) {
+    const auto n = static_cast<Eigen::Index>(std::pow(10.0, exponent(random) * 5.5 / 19.0));
+    VectorX x(n), y(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      x[i] = unit(random) * std::pow(10.0, 10 * unit(random));
+      y[i] = unit(random) * std::pow(10.0, 10 * unit(random));
+    }
+    if (trial % 3 == 2)  // all positive, within a decade (as φᵀMφ): the partial sums grow, and their rounding with them
+      for (Eigen::Index i = 0; i < n; ++i) {
+        x[i] = 1 + unit(random) * 0.45;
+        y[i] = 1 + unit(random) * 0.45;
+      }
+    if (trial % 3 == 1 && n > 1) {  // cancelling: the last term nearly undoes the rest
+      __float128 rest = 0;
+      for (Eigen::Index i = 0; i + 1 < n; ++i) rest += static_cast<__float128>(x[i]) * y[i];
+      y[n - 1] = static_cast<double>(-rest / x[n - 1]);
+    }
+    __float128 exact = 0, magnitude = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const __float128 term = static_cast<__float128>(x[i]) * y[i];
+      exact += term;
+      magnitude += term < 0 ? -term : term;
+    }
+    const double m = modal::detail::pairwise_depth(n);
+    EXPECT_LE(m, static_cast<double>(std::max<Eigen::Index>(n, 1)));
+    const double computed = modal::detail::pairwise_dot(x, y), again = modal::detail::pairwise_dot(x, y);
+    EXPECT_EQ(0, std::memcmp(&computed, &again, sizeof computed));
+    const __float128 error = static_cast<__float128>(computed) - exact;
+    const double gamma = m * u / (1 - m * u);
+    EXPECT_LE(static_cast<double>(error < 0 ? -error : error), gamma * static_cast<double>(magnitude))
+        << "n " << n << ", depth " << m << ", trial " << trial;
+  }
+}
+
 TEST(SparseModes, SymmetricProductsInTwoPartsMatchEigen) {
   std::mt19937_64 random(1504);
   std::uniform_real_distribution<double> unit(-1, 1);

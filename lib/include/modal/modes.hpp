@@ -240,7 +240,7 @@ Mode sparse_mode(VectorX phi, double lambda, double error, double rounding, doub
 // (sparse_rounding_form).
 struct QuotientSums {
   double width = 1;          // the most nonzeros in a row of K or M: the terms of an entry of Kφ
-  double n = 1;              // the coordinates: the terms of φᵀ(Kφ)
+  double n = 1;              // the rounding depth of the sums φᵀ(Kφ), φᵀ(Mφ): their terms (n) for a plain sum, less for a pairwise one
   double residual = 0;       // ‖r‖_{M⁻¹} + r's own rounding at its typical size (error_estimate's part)
   double residual_worst = 0;  // the same at its worst case (residual_bound's part)
   double rows = 0;            // ‖a ∘ |K|a‖₂ + |λ|‖a ∘ |M|a‖₂: the rounding of Kφ and Mφ seen by the quotient
@@ -252,11 +252,11 @@ struct QuotientSums {
 };
 // The mode of the sums (sparse_mode): the estimate is the residual and the
 // quotient's rounding at their typical sizes (independent errors: √width
-// terms in an entry of Kφ, √n in the sum φᵀ(Kφ), and 4ε per entry of K and
-// M, each doubled); the kind is decided, as on the dense path, with the
-// residual and the data's rounding at its worst, 4ε·data; residual_bound
-// sums the magnitudes (width + 1 terms in each entry of Kφ, n + 1 in the
-// sums).
+// terms in an entry of Kφ, √n in the sum φᵀ(Kφ) with n its rounding depth
+// (QuotientSums::n), and 4ε per entry of K and M, each doubled); the kind is
+// decided, as on the dense path, with the residual and the data's rounding
+// at its worst, 4ε·data; residual_bound sums the magnitudes (width + 1
+// terms in each entry of Kφ, n + 1 in the sums).
 Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums);
 
 // What the inertia of K − σM says about the modes a shift-invert solver did
