@@ -28,7 +28,7 @@ inline double pairwise_depth(Eigen::Index n) {
 
 // xᵀy: blocks of pairwise_block terms, then their sums pairwise (each level
 // adds neighbours, an odd last one carried up): a fixed order for a given n.
-inline double pairwise_dot(const VectorX& x, const VectorX& y) {
+template <class X, class Y> double pairwise_dot(const Eigen::MatrixBase<X>& x, const Eigen::MatrixBase<Y>& y) {
   const Eigen::Index n = x.size();
   if (n <= pairwise_block) return x.dot(y);
   std::vector<double> sums;
