@@ -18,6 +18,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -123,7 +124,7 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
       // The closed form, from the bodies' world positions.
       const std::vector<Pose> poses = body_poses(s, w, q);
       VectorX g = VectorX::Zero(s.size());
-      std::vector<Eigen::Triplet<double>> t, tc;  // ∇∇V; with the compressed springs' positive parts
+      std::vector<Eigen::Triplet<double>> t, tc, tm;  // ∇∇V; with the compressed springs' positive parts; the tension metric
       int compressed = 0, stretched = 0;
       auto coordinate = [&](int body) {
         if (body < 0 || s.joint_size(body) == 0) return -1;
@@ -169,6 +170,11 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
           block(ka, kb, -B);
           block(kb, ka, -B);
         }
+        // The tension metric's block: k [I −I; −I I].
+        for (const auto& [r, c, sign] : {std::tuple{ka, ka, 1.0}, std::tuple{kb, kb, 1.0}, std::tuple{ka, kb, -1.0},
+                                         std::tuple{kb, ka, -1.0}})
+          if (r >= 0 && c >= 0)
+            for (int i = 0; i < 3; ++i) tm.emplace_back(r + i, c + i, sign * sp.stiffness);
       }
       SparseMatrix reference(s.size(), s.size());
       reference.setFromTriplets(t.begin(), t.end());
@@ -197,6 +203,19 @@ TEST(Core, LargeNetsDerivativesInPartsMatchTheClosedForm) {
       Workspace fresh(s);
       const SparseMatrix first = sparse_convex_potential_hessian(s, fresh, q);
       EXPECT_LE(SparseMatrix(first - convex).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
+      // The tension metric (sparse_tension_metric): in place on ∇∇V's
+      // pattern, in two parts above the threshold, the same bits twice; by
+      // columns in a fresh workspace.
+      SparseMatrix metric(s.size(), s.size());
+      metric.setFromTriplets(tm.begin(), tm.end());
+      const SparseMatrix D = sparse_tension_metric(s, w, q), D_again = sparse_tension_metric(s, w, q);
+      EXPECT_LE(SparseMatrix(D - metric).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
+      EXPECT_TRUE(D.nonZeros() == D_again.nonZeros() &&
+                  std::equal(D.valuePtr(), D.valuePtr() + D.nonZeros(), D_again.valuePtr()))
+          << what;
+      Workspace fresh_metric(s);
+      const SparseMatrix D_first = sparse_tension_metric(s, fresh_metric, q);
+      EXPECT_LE(SparseMatrix(D_first - metric).coeffs().cwiseAbs().maxCoeff(), 1e-12 * scale) << what;
     }
   }
   EXPECT_TRUE(below && above) << "the nets must lie on both sides of the two-part threshold";

@@ -173,11 +173,12 @@ std::optional<LinkChain> link_chain(const MatrixX& M);
 // O(n) per vector, and the pairs from the tridiagonal pencil
 // (U⁻¹KU⁻ᵀ, I + U⁻¹RU⁻ᵀ) reduced to standard form by LAPACK dsbgst (T in
 // O(n²), its transformation X in Θ(n³) of plane rotations).
+struct ScaledSprings;  // below
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error = {},
                             const MatrixX& K_systematic_error = {}, DenseSolver solver = DenseSolver::automatic,
                             Eigen::Index wanted = -1, const SparseMatrix& K_rounding_form = SparseMatrix(),
                             const PointMassChain* chain = nullptr, const LinkChain* links = nullptr,
-                            const SpringRounding* springs = nullptr);
+                            const ScaledSprings* springs = nullptr);
 // The documented rule of DenseSolver::automatic: LAPACK from lapack_threshold coordinates.
 bool lapack_wins(Eigen::Index n);
 // Whether every entry off A's diagonal is zero (O(n²), leaves at the first
@@ -239,16 +240,22 @@ Mode make_mode(std::complex<double> s, double error, ModeKind kind);
 // by the dense and sparse paths alike.
 double typical_quotient_rounding(double width, double n, double rows, double sums, double entries);
 
+// SpringRounding as it applies to the pencil (S K S)·2^b the solvers see:
+// G's columns by S (`scale`, empty: none), the sizes by 2^b (`factor`),
+// `others` by S²·2^b, applied on the fly (at 10⁶ coordinates a copy of G
+// and the blocks is about 110 MB).
+struct ScaledSprings {
+  const SpringRounding* springs = nullptr;  // or null: none
+  VectorX scale;
+  double factor = 1;
+  // Whether it is given and of n coordinates.
+  bool fits(Eigen::Index n) const;
+};
 // The data's rounding of φᵀKφ at its typical size from the springs'
-// rounding kept spring by spring (SpringRounding; +∞ where `springs` is
-// empty or not of φ's size), in the units of typical_quotient_rounding's
-// `entries` over 4ε (which that doubles): ε(C + R)/8 … see modes.cpp.
-double spring_by_spring(const SpringRounding& springs, const VectorX& phi);
-// Whether `springs` is of n coordinates and consistent.
-bool fits(const SpringRounding& springs, Eigen::Index n);
-// SpringRounding of the pencil (S K S)·2^b: G by S (columns; none where
-// `scale` is empty), the blocks' sizes by 2^b, `others` by S² 2^b.
-void scale_spring_rounding(SpringRounding& springs, const VectorX& scale, int b);
+// rounding kept spring by spring (+∞ where `springs` is not given or not of
+// φ's size), in the units of typical_quotient_rounding's `entries` over 4ε
+// (which that doubles): ε(C + R)/8 … see modes.cpp.
+double spring_by_spring(const ScaledSprings& springs, const VectorX& phi);
 
 // Notes about clusters of (nearly) repeated eigenvalues among consecutive
 // entries of `modes` (already sorted). The eigenvalue compared is λ = omega2

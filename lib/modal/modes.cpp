@@ -216,11 +216,8 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   SparseMatrix rounding_form;
   if (!absolute && model.K_rounding_form.rows() == n && model.K_rounding_form.cols() == n)
     rounding_form = scale.asDiagonal() * model.K_rounding_form * scale.asDiagonal();
-  SpringRounding springs;
-  if (!absolute && rounding_form.size() != 0 && detail::fits(model.K_spring_rounding, n)) {
-    springs = model.K_spring_rounding;
-    detail::scale_spring_rounding(springs, scale, 0);
-  }
+  detail::ScaledSprings springs;
+  if (!absolute && rounding_form.size() != 0) springs = {&model.K_spring_rounding, scale, 1.0};
   if (!symmetric_within_rounding(Ms))
     throw std::invalid_argument("solve_modes: the mass matrix is not symmetric");
   make_symmetric(Ms);
@@ -248,7 +245,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
     if (exact) {
       for (const auto& [A, p] : scaled) detail::scale_exactly(*A, p);
       rounding_form *= std::ldexp(1.0, b);
-      detail::scale_spring_rounding(springs, VectorX(), b);
+      springs.factor = std::ldexp(1.0, b);
     } else {
       magnitude = {};
     }
@@ -512,9 +509,11 @@ double typical_quotient_rounding(double width, double n, double rows, double sum
 // below φᵀFφ's sum of the ends' rounding: the net of models/net.toml had
 // estimates 120–410 × its true errors from the entrywise figure, 17–23 ×
 // with this (results/estimate_honesty.md).
-double spring_by_spring(const SpringRounding& springs, const VectorX& phi) {
-  if (springs.empty() || !fits(springs, phi.size())) return std::numeric_limits<double>::infinity();
-  const VectorX v = springs.G * phi;
+double spring_by_spring(const ScaledSprings& scaled, const VectorX& phi) {
+  if (!scaled.fits(phi.size())) return std::numeric_limits<double>::infinity();
+  const SpringRounding& springs = *scaled.springs;
+  const bool scaling = scaled.scale.size() == phi.size();
+  const VectorX v = scaling ? VectorX(springs.G * scaled.scale.cwiseProduct(phi)) : VectorX(springs.G * phi);
   double coherent = 0, spread = 0;
   for (Eigen::Index e = 0; e < springs.blocks.cols(); ++e) {
     const auto block = springs.blocks.col(e);
@@ -523,21 +522,14 @@ double spring_by_spring(const SpringRounding& springs, const VectorX& phi) {
     coherent += block(3) * along + (block(3) + block(4)) * across;
     spread += std::pow(block(5) * (along + 2 * across), 2);
   }
-  return (coherent + std::sqrt(spread)) / 8 + phi.cwiseAbs2().dot(springs.others);
+  const double others = scaling ? scaled.scale.cwiseProduct(phi).cwiseAbs2().dot(springs.others)
+                                : phi.cwiseAbs2().dot(springs.others);
+  return scaled.factor * ((coherent + std::sqrt(spread)) / 8 + others);
 }
 
-bool fits(const SpringRounding& springs, Eigen::Index n) {
-  return springs.G.cols() == n && springs.G.rows() == 3 * springs.blocks.cols() && springs.others.size() == n;
-}
-
-void scale_spring_rounding(SpringRounding& springs, const VectorX& scale, int b) {
-  if (springs.empty()) return;
-  if (scale.size() == springs.G.cols()) {
-    springs.G = springs.G * scale.asDiagonal();
-    springs.others.array() *= scale.array().square();
-  }
-  springs.blocks.bottomRows<3>() *= std::ldexp(1.0, b);
-  springs.others *= std::ldexp(1.0, b);
+bool ScaledSprings::fits(Eigen::Index n) const {
+  return springs != nullptr && !springs->empty() && springs->G.cols() == n &&
+         springs->G.rows() == 3 * springs->blocks.cols() && springs->others.size() == n;
 }
 
 Eigen::Index dominant_index(const Eigen::VectorXcd& v) {

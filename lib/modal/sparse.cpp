@@ -938,7 +938,7 @@ VectorX absolute_product(const SparseMatrix& A, const VectorX& a) {
 // of K (signed, n×n, or empty), see ModeResidual.
 Mode make_sparse_mode(const SparseMatrix& K, const SparseMatrix& M, const CholmodFactor& mass, const Norms& norms,
                       const SparseMatrix& systematic, const SparseMatrix& shift, const SparseMatrix& term_sizes,
-                      const SparseMatrix& rounding_form, const SpringRounding& springs, VectorX phi,
+                      const SparseMatrix& rounding_form, const detail::ScaledSprings& springs, VectorX phi,
                       ModeResidual& residual) {
   // φᵀMφ and φᵀKφ summed pairwise (detail::pairwise_dot): their rounding
   // grows with the depth m = 32 + ⌈log₂ ⌈n/32⌉⌉ of the sum, not with n (39
@@ -1167,7 +1167,7 @@ class SparsePencil {
  public:
   SparsePencil(SparseMatrix K, SparseMatrix M, const SparseModalOptions& options, const SparseMatrix& systematic,
                const SparseMatrix& shift, const SparseMatrix& term_sizes, const SparseMatrix& rounding_form,
-               const SpringRounding& springs, const VectorX& coordinate_scale)
+               const detail::ScaledSprings& springs, const VectorX& coordinate_scale)
       : K_(std::move(K)), M_(std::move(M)), systematic_(systematic), shift_(shift), term_sizes_(term_sizes),
         rounding_form_(rounding_form), springs_(springs),
         mass_(factor_sparse_mass(M_, coordinate_scale, coordinate_names(options, M_.rows()), options.memory_limit)), norms_{norm1(K_), norm1(M_), column_width(K_, M_), VectorX(), 0.0},
@@ -1210,7 +1210,7 @@ class SparsePencil {
   const SparseMatrix& shift_;
   const SparseMatrix& term_sizes_;  // Σ|terms| of K's entries, or empty
   const SparseMatrix& rounding_form_;  // SparseModalOptions::K_rounding_form, or empty
-  const SpringRounding& springs_;      // SparseModalOptions::K_spring_rounding, or empty
+  const detail::ScaledSprings& springs_;  // SparseModalOptions::K_spring_rounding as scaled, or none
   std::unique_ptr<CholmodFactor> mass_;
   Norms norms_;
   MassProduct mass_op_;  // on M's own pattern, before the common one
@@ -1544,12 +1544,13 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       throw std::invalid_argument(std::string("solve_sparse_modes: ") + name + " is " + std::to_string(A->rows()) +
                                   "×" + std::to_string(A->cols()) + ", K " + std::to_string(n) + "×" +
                                   std::to_string(n));
-  SpringRounding springs = options.K_spring_rounding;
-  if (!springs.empty() && !detail::fits(springs, n))
-    throw std::invalid_argument("solve_sparse_modes: K_spring_rounding has " + std::to_string(springs.G.rows()) +
-                                " rows, " + std::to_string(springs.G.cols()) + " columns and " +
-                                std::to_string(springs.others.size()) + " other terms for " +
-                                std::to_string(springs.blocks.cols()) + " springs; K is " + std::to_string(n) + "×" +
+  const SpringRounding& given = options.K_spring_rounding;
+  detail::ScaledSprings springs{&given, VectorX(), 1.0};
+  if (!given.empty() && !springs.fits(n))
+    throw std::invalid_argument("solve_sparse_modes: K_spring_rounding has " + std::to_string(given.G.rows()) +
+                                " rows, " + std::to_string(given.G.cols()) + " columns and " +
+                                std::to_string(given.others.size()) + " other terms for " +
+                                std::to_string(given.blocks.cols()) + " springs; K is " + std::to_string(n) + "×" +
                                 std::to_string(n));
   {
     const VectorX inverse = scale.cwiseInverse();
@@ -1560,7 +1561,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
       if (shift.rows() == n && shift.cols() == n) scale_in_place(shift, scale);
       if (term_sizes.rows() == n) scale_in_place(term_sizes, scale);
       if (rounding_form.rows() == n) scale_in_place(rounding_form, scale);
-      detail::scale_spring_rounding(springs, scale, 0);
+      springs.scale = scale;
     } else {
       scale = VectorX::Ones(n);
     }
@@ -1585,7 +1586,7 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
         exactly_scalable(shift, b) && exactly_scalable(term_sizes, b) && exactly_scalable(rounding_form, b)) {
       scale_in_place(M, a);
       for (SparseMatrix* A : {&K, &systematic, &shift, &term_sizes, &rounding_form}) scale_in_place(*A, b);
-      detail::scale_spring_rounding(springs, VectorX(), b);
+      springs.factor = std::ldexp(1.0, b);
       if (options.shift) scaled_options.shift = std::ldexp(*options.shift, 2 * (magnitude.b - magnitude.a));
     } else {
       magnitude = {};

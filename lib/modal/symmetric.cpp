@@ -1327,7 +1327,7 @@ bool lapack_wins(Eigen::Index n) { return n >= lapack_threshold; }
 ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor& mass, const MatrixX& K_error,
                             const MatrixX& K_systematic_error, DenseSolver solver, Eigen::Index wanted,
                             const SparseMatrix& K_rounding_form, const PointMassChain* chain,
-                            const LinkChain* links, const SpringRounding* springs) {
+                            const LinkChain* links, const ScaledSprings* springs) {
   const Eigen::Index n = M.rows();
   const bool given = K_error.rows() == n && K_error.cols() == n;  // K's entries' error bounds given (else 4ε|K|)
   const bool lapack = solver == DenseSolver::lapack || (solver == DenseSolver::automatic && lapack_wins(n));
@@ -1870,7 +1870,7 @@ ModalResult solve_symmetric(const MatrixX& M, const MatrixX& K, const MassFactor
     // The springs' rounding at its typical size, spring by spring
     // (spring_by_spring), where given: for the estimates.
     VectorX by_spring = VectorX::Constant(m, std::numeric_limits<double>::infinity());
-    if (springs != nullptr && fits(*springs, n))
+    if (springs != nullptr && springs->fits(n))
       for (Eigen::Index i = 0; i < m; ++i) by_spring(i) = 4 * eps * spring_by_spring(*springs, Phi.col(i));
 
     ModalResult result;
