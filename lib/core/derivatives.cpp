@@ -758,24 +758,39 @@ Eigen::Matrix<double, 6, 6> spring_term_sizes(const std::array<Site, 2>& sites, 
                          std::abs(a.k - a.t) * (Mat3::Identity() - a.u * a.u.transpose()).cwiseAbs());
 }
 
-// A bound of a spring's rounding as a positive semidefinite block, for
-// sparse_rounding_form: with d = x_a − x_b, L = |d|, u = d/L, the computed
-// h = k uuᵀ + t(I − uuᵀ) errs by δk uuᵀ + δt(I − uuᵀ) + (k − t)(δu uᵀ + uδuᵀ)
-// with |δk| ≤ ε|k| (k is a term), |δt| ≤ ε(|k| + (1 + ρ)|k − t|) (t = k −
-// kL₀/L: two terms, and L's rounding, ρε relative, with ρ = (‖x_a‖ +
-// ‖x_b‖)/L: the ends' positions are rounded to ε of their size) and |δu| ≤
-// ρε; for the end points' difference v, |vᵀδh v| ≤ ε vᵀ s v with s = |k|uuᵀ
-// + (|k| + (1 + ρ)|k − t|)(I − uuᵀ) + ρ|k − t| I (2|a||b| ≤ a² + b² for the
-// direction's term). The block is [s −s; −s s], in units of ε.
-Eigen::Matrix<double, 6, 6> spring_rounding_form(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+// The sizes of a spring's rounding (SpringRounding's column): with d = x_a −
+// x_b, L = |d|, u = d/L, the computed h = k uuᵀ + t(I − uuᵀ) errs by δk uuᵀ
+// + δt(I − uuᵀ) + (k − t)(δu uᵀ + uδuᵀ) with |δk| ≤ ε|k| (k is a term),
+// |δt| ≤ ε(|k| + (1 + ρ)|k − t|) (t = k − kL₀/L: two terms, and L's
+// rounding, ρε relative, with ρ = (‖x_a‖ + ‖x_b‖)/L: the ends' positions
+// are rounded to ε of their size) and |δu| ≤ ρε; for the end points'
+// difference v, |vᵀδh v| ≤ ε vᵀ s v with s = a uuᵀ + (a + b)(I − uuᵀ) +
+// r(uuᵀ + 2(I − uuᵀ)), a = |k|, b = |k − t|, r = ρb (2|x||y| ≤ x² + y² for
+// the direction's term). Where the ends coincide (no axis), u = 0, b = r = 0
+// and a = the largest row sum of |h| (|v|ᵀ|h||v| ≤ a|v|²).
+Eigen::Matrix<double, 6, 1> spring_rounding_sizes(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+  Eigen::Matrix<double, 6, 1> sizes = Eigen::Matrix<double, 6, 1>::Zero();
   SpringAxes a;
-  if (!spring_axes(sites, He, a))  // |v|ᵀ|h||v| ≤ Σ_i (Σ_j |h_ij|) v_i²
+  if (spring_axes(sites, He, a)) {
+    const double rho = (sites[0].x.norm() + sites[1].x.norm()) / a.length;
+    sizes << a.u, std::abs(a.k), std::abs(a.k - a.t), rho * std::abs(a.k - a.t);
+  } else {
+    sizes(3) = He.topLeftCorner<3, 3>().cwiseAbs().rowwise().sum().maxCoeff();
+  }
+  return sizes;
+}
+
+// A bound of a spring's rounding as a positive semidefinite block, for
+// sparse_rounding_form: [s −s; −s s] with s as spring_rounding_sizes, in
+// units of ε (without an axis, a I: |v|ᵀ|h||v| ≤ Σ_i (Σ_j |h_ij|) v_i² ≤ a|v|²
+// is kept as the row sums themselves, the tighter diagonal).
+Eigen::Matrix<double, 6, 6> spring_rounding_form(const std::array<Site, 2>& sites, const Eigen::Matrix<double, 6, 6>& He) {
+  const Eigen::Matrix<double, 6, 1> z = spring_rounding_sizes(sites, He);
+  const Vec3 u = z.head<3>();
+  if (u.squaredNorm() == 0.0)  // no axis
     return two_point_block(He.topLeftCorner<3, 3>().cwiseAbs().rowwise().sum().asDiagonal());
-  const double rho = (sites[0].x.norm() + sites[1].x.norm()) / a.length;
-  const Mat3 along = a.u * a.u.transpose();
-  return two_point_block(std::abs(a.k) * along +
-                         (std::abs(a.k) + (1 + rho) * std::abs(a.k - a.t)) * (Mat3::Identity() - along) +
-                         rho * std::abs(a.k - a.t) * Mat3::Identity());
+  const Mat3 along = u * u.transpose(), across = Mat3::Identity() - along;
+  return two_point_block(z(3) * along + (z(3) + z(4)) * across + z(5) * (along + 2 * across));
 }
 
 // An adder that bounds each term |v φ_j φ_k| by |v|(φ_j² + φ_k²)/2: the
@@ -1194,15 +1209,7 @@ SpringRounding spring_rounding(const System& s, Workspace& w, const VectorX& q) 
                 for (int c = 0; c < 3; ++c)
                   if (J[end].column[i](c) != 0.0) rows.emplace_back(3 * e + c, J[end].index[i], sign * J[end].column[i](c));
             }
-            Eigen::Matrix<double, 6, 1> block = Eigen::Matrix<double, 6, 1>::Zero();
-            SpringAxes a;
-            if (spring_axes(sites, He, a)) {
-              const double rho = (sites[0].x.norm() + sites[1].x.norm()) / a.length;
-              block << a.u, std::abs(a.k), std::abs(a.k - a.t), rho * std::abs(a.k - a.t);
-            } else {  // no axis: |v|ᵀ|h||v| ≤ (largest row sum of |h|) |v|²
-              block(3) = He.template topLeftCorner<3, 3>().cwiseAbs().rowwise().sum().maxCoeff();
-            }
-            blocks.push_back(block);
+            blocks.push_back(spring_rounding_sizes(sites, He));
             return;
           }
           DiagonalHalves<decltype(add_other)&> halves{add_other};
