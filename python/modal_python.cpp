@@ -651,8 +651,9 @@ PYBIND11_MODULE(_modal, m) {
       .def_property_readonly(
           "bounds",
           [](const modal::Analysis& a) { return per_mode(a, [](const modal::Mode& x) { return x.residual_bound; }); },
-          "residual bound ‖Kφ − λMφ‖_{M⁻¹} of each omega2 (rad²/s²): an eigenvalue of (K, M) as formed lies within it; "
-          "NaN for first-order problems")
+          "rigorous bound of each omega2's error (rad²/s²): an eigenvalue of (K, M) as formed lies within it (from "
+          "the residual ‖Kφ − λMφ‖_{M⁻¹} and the rounding, quadratic in the residual where the other modes leave a "
+          "gap, a cluster's for repeated eigenvalues); NaN for first-order problems")
       .def_property_readonly(
           "kinds",
           [](const modal::Analysis& a) {

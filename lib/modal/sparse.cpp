@@ -892,6 +892,36 @@ struct ModeResidual {
   double typical_part = nan;  // the residual's share of error_estimate (typical, or its Kato–Temple square)
 };
 
+// A group of modes' projected pencil (lanczos_modes' cluster bound): A =
+// ΦᵀKΦ and B = ΦᵀMΦ for the group's shapes Φ (M-normalized columns), and
+// bounds of their entries' rounding, elementwise.
+struct Projection {
+  MatrixX A, B, A_rounding, B_rounding;
+};
+
+// Projection of the columns of Phi through the products K(x), M(x) and
+// their magnitudes' |K|(a), |M|(a), with `dot` the pencil's sum: an entry's
+// rounding bound is `entries`·|φ_a|ᵀ|K||φ_b| (Kφ_b's entries) + `sums`·Σ_i
+// |φ_ai (Kφ_b)_i| (the sum), likewise with M.
+template <class K, class M, class AbsK, class AbsM, class Dot>
+Projection projection(const MatrixX& Phi, double entries, double sums, K&& K_of, M&& M_of, AbsK&& absK_of,
+                      AbsM&& absM_of, Dot&& dot) {
+  const Index g = Phi.cols();
+  Projection p{MatrixX(g, g), MatrixX(g, g), MatrixX(g, g), MatrixX(g, g)};
+  for (Index b = 0; b < g; ++b) {
+    const VectorX phi = Phi.col(b), a = phi.cwiseAbs();
+    const VectorX Kphi = K_of(phi), Mphi = M_of(phi), aK = absK_of(a), aM = absM_of(a);
+    for (Index i = 0; i < g; ++i) {
+      const VectorX other = Phi.col(i);
+      p.A(i, b) = dot(other, Kphi);
+      p.B(i, b) = dot(other, Mphi);
+      p.A_rounding(i, b) = entries * other.cwiseAbs().dot(aK) + sums * other.cwiseProduct(Kphi).cwiseAbs().sum();
+      p.B_rounding(i, b) = entries * other.cwiseAbs().dot(aM) + sums * other.cwiseProduct(Mphi).cwiseAbs().sum();
+    }
+  }
+  return p;
+}
+
 // Fills the residual's part of `residual` (both paths): δ = ‖r‖_{M⁻¹} plus
 // r's own rounding, ε‖terms‖_{M⁻¹} with terms = |K||φ| + |λ||M||φ| and
 // `width` + 2 rounded operations per entry, worst case in bound, at its
@@ -1191,6 +1221,18 @@ class SparsePencil {
   Mode make_mode(VectorX phi, ModeResidual& residual) const {
     return make_sparse_mode(K_, M_, *mass_, norms_, systematic_, shift_, term_sizes_, rounding_form_, springs_,
                             std::move(phi), residual);
+  }
+  // The projected pencil of the columns of Phi (Projection): an entry
+  // φ_aᵀ(Kφ_b) as make_mode's quotient, within (w + 1)ε|φ_a|ᵀ|K||φ_b| (w
+  // rounded terms in an entry of Kφ_b) + (m + 1)ε Σ_i |φ_ai (Kφ_b)_i| (the
+  // pairwise sum's depth m), likewise with M.
+  Projection project(const MatrixX& Phi) const {
+    return projection(Phi, (norms_.width + 1) * eps, (detail::pairwise_depth(size()) + 1) * eps,
+                      [&](const VectorX& x) { return detail::symmetric_product(K_, x); },
+                      [&](const VectorX& x) { return VectorX(M_ * x); },
+                      [&](const VectorX& a) { return absolute_product(K_, a); },
+                      [&](const VectorX& a) { return absolute_product(M_, a); },
+                      [](const auto& x, const auto& y) { return detail::pairwise_dot(x, y); });
   }
   // The largest 4ε φᵀFφ over M-orthonormal columns φ of Phi (F =
   // K_rounding_form: how far the data's rounding may move their λ); +∞
@@ -1610,6 +1652,100 @@ ModalResult solve_sparse_modes(const SparseMatrix& K_in, const SparseMatrix& M_i
 }
 
 namespace {
+
+// Groups of 2–8 consecutive modes whose intervals λ_j ± δ_j overlap (δ_j
+// the residual bound's δ, ModeResidual::bound), where no mode has a gap of
+// its own and Kato–Temple leaves each the linear δ_j, however far the group
+// lies from the rest of the spectrum: the repeated pairs of a symmetric net
+// kept bounds 10⁵ × their true errors (models/net.toml, modes 2–3). For a
+// group C with shapes Φ_C, the projected pencil (A, B) = (Φ_CᵀKΦ_C,
+// Φ_CᵀMΦ_C) has eigenvalues μ; with β ≥ ‖B − I‖₂ < ½ and δ_C² = Σ_C δ_k² /
+// (1 − β) (≥ the squared 2-norm of the block residual of Φ_C B^{-½} after
+// Rayleigh–Ritz, which the diagonal λ_k cannot better), the μ lie within
+// δ_C²/η of the group's eigenvalues in order, η the separation of the μ
+// from every eigenvalue outside C (the other modes' intervals and the
+// verified bound b, as for Kato–Temple) where η² > δ_C² (the quadratic
+// residual bound for a cluster: Mathias, SIAM J. Matrix Anal. Appl. 19,
+// 1998). So |λ_k − λ| ≤ |λ_k − μ_k| + δ_C²/η + μ_k's own error + ε|λ_k|:
+// λ_k itself is the number compared, so its own rounding does not enter.
+// μ's error: A's and B's rounding (Projection) moves a Rayleigh quotient
+// xᵀAx/xᵀBx by at most (‖ΔA‖ + |μ|‖ΔB‖)/(1 − 2β) to first order (|xᵀΔAx|
+// ≤ ‖ΔA‖xᵀx ≤ ‖ΔA‖xᵀBx/(1 − β); min–max), taken with |μ| + ‖ΔA‖ for the
+// second-order term, and the small solver's own, 8gε(‖A‖ + |μ|‖B‖). The residual bound takes it where
+// smaller; the estimate likewise with the typical δ (its residual part,
+// ModeResidual::typical_part).
+template <class Pencil>
+void cluster_bounds(std::vector<std::pair<Mode, ModeResidual>>& built, double complete_below, const Pencil& pencil) {
+  const std::size_t count = built.size();
+  const auto eligible = [&](std::size_t j) {
+    const Mode& mode = built[j].first;
+    return std::isfinite(built[j].second.bound) && mode.omega2 < complete_below && mode.kind != ModeKind::zero &&
+           mode.shape.size() == pencil.size();
+  };
+  const auto linked = [&](std::size_t j) {  // j and j + 1 overlap
+    return built[j + 1].first.omega2 - built[j].first.omega2 <= built[j].second.bound + built[j + 1].second.bound;
+  };
+  constexpr std::size_t largest = 8;
+  for (std::size_t first = 0; first < count;) {
+    std::size_t last = first;
+    while (last + 1 < count && linked(last)) ++last;
+    const std::size_t g = last - first + 1;
+    const std::size_t begin = first;
+    first = last + 1;
+    if (g < 2 || g > largest) continue;
+    bool all = true;
+    for (std::size_t j = begin; j <= last; ++j) all = all && eligible(j);
+    if (!all) continue;
+    MatrixX Phi(pencil.size(), static_cast<Index>(g));
+    for (std::size_t a = 0; a < g; ++a) Phi.col(static_cast<Index>(a)) = built[begin + a].first.shape.real();
+    const Projection p = pencil.project(Phi);
+    const Index G = static_cast<Index>(g);
+    const double beta = (p.B - MatrixX::Identity(G, G)).norm() + p.B_rounding.norm();  // Frobenius ≥ 2-norm
+    if (!(beta < 0.5)) continue;
+    Eigen::GeneralizedSelfAdjointEigenSolver<MatrixX> ritz(p.A, p.B, Eigen::EigenvaluesOnly);
+    if (ritz.info() != Eigen::Success) continue;
+    const VectorX& mu = ritz.eigenvalues();  // ascending, as the group's λ
+    VectorX mu_error(G);
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (Index a = 0; a < G; ++a) {
+      const double m = std::abs(mu(a));
+      mu_error(a) = (p.A_rounding.norm() + (m + p.A_rounding.norm()) * p.B_rounding.norm()) / (1 - 2 * beta) +
+                    8 * static_cast<double>(g) * eps * (p.A.norm() + m * p.B.norm());
+      low = std::min(low, mu(a) - mu_error(a));
+      high = std::max(high, mu(a) + mu_error(a));
+    }
+    if (!(std::isfinite(low) && std::isfinite(high))) continue;
+    double d2_bound = 0, d2_typical = 0;
+    for (std::size_t j = begin; j <= last; ++j) {
+      d2_bound += built[j].second.bound * built[j].second.bound;
+      d2_typical += built[j].second.typical * built[j].second.typical;
+    }
+    d2_bound /= 1 - beta;
+    d2_typical /= 1 - beta;
+    double eta_bound = complete_below - high, eta_typical = eta_bound;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (i >= begin && i <= last) continue;
+      const double lambda = built[i].first.omega2;
+      const double d = lambda < low ? low - lambda : lambda > high ? lambda - high : 0.0;
+      eta_bound = std::min(eta_bound, d - built[i].second.bound);
+      eta_typical = std::min(eta_typical, d - built[i].second.typical);
+    }
+    for (Index a = 0; a < G; ++a) {
+      Mode& mode = built[begin + static_cast<std::size_t>(a)].first;
+      ModeResidual& own = built[begin + static_cast<std::size_t>(a)].second;
+      const double apart = std::abs(mode.omega2 - mu(a)) + mu_error(a) + eps * std::abs(mode.omega2);
+      if (eta_bound > 0 && eta_bound * eta_bound > d2_bound)
+        mode.residual_bound = std::min(mode.residual_bound, apart + d2_bound / eta_bound);
+      if (eta_typical > 0 && eta_typical * eta_typical > d2_typical && std::isfinite(own.typical_part)) {
+        const double part = apart + d2_typical / eta_typical;
+        if (part < own.typical_part) {
+          mode.error_estimate -= own.typical_part - part;
+          own.typical_part = part;
+        }
+      }
+    }
+  }
+}
 
 template <class Pencil>
 ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& options, const Units& units) {
@@ -2103,6 +2239,7 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
         own.typical_part = own.typical * own.typical / gap_typical;
       }
     }
+    cluster_bounds(built, complete_below, pencil);
   }
   // Second order, where the check left the factor at b: a vector v with
   // φ_jᵀv = 0 (the residual r, or d below) moves λ_j by Σ_i c_i²/(λ_j − λ_i),
@@ -2358,6 +2495,16 @@ class TreeLanczosPencil {
   std::pair<double, double> scale_and_gershgorin() const {
     const VectorX dK = tree_diagonal(p_, 1.0, 0.0), dM = tree_diagonal(p_, 0.0, 1.0);
     return {spectrum_scale(dK, dM, norms_.K1), tree_gershgorin(p_, 1.0, 0.0, dK, dM.cwiseSqrt().cwiseInverse())};
+  }
+  // As SparsePencil::project, with an entry of Kφ_b a chain of 2·depth + 12
+  // rounded operations (make_mode) and a plain sum of n terms after it.
+  Projection project(const MatrixX& Phi) const {
+    return projection(Phi, (2.0 * p_.depth + 13) * eps, (static_cast<double>(size()) + 1) * eps,
+                      [&](const VectorX& x) { return tree_product(p_, 1.0, 0.0, x); },
+                      [&](const VectorX& x) { return tree_product(p_, 0.0, 1.0, x); },
+                      [&](const VectorX& a) { return tree_product(p_, 1.0, 0.0, a, true); },
+                      [&](const VectorX& a) { return tree_product(p_, 0.0, 1.0, a, true); },
+                      [](const auto& x, const auto& y) { return x.dot(y); });
   }
   // No rounding form on trees (SparsePencil::data_level).
   double data_level(const MatrixX&) const { return std::numeric_limits<double>::infinity(); }

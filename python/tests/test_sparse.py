@@ -36,13 +36,16 @@ def check_against_eigsh(a, k):
                                             return_eigenvectors=False))
     ulps = 64 * EPS * np.abs(lam).max()
     assert np.all(np.abs(lam - a.omega2) <= a.errors + ulps), (lam - a.omega2, a.errors)
-    # The shapes: M-orthonormal, residuals within the reported bounds.
+    # The bounds: eigsh solves the very matrices the bounds are for, so its
+    # eigenvalues lie within them (and its own rounding). A bound is on the
+    # eigenvalue's distance, not on the residual ‖Kφ − λMφ‖_{M⁻¹}: quadratic
+    # in it where the other modes leave a gap, and a cluster's where they do
+    # not (a repeated eigenvalue's shapes are each any vector of its
+    # eigenspace, with residuals far above the eigenvalue's error).
+    assert np.all(np.abs(lam - a.omega2) <= a.bounds + ulps), (lam - a.omega2, a.bounds)
+    # The shapes: M-orthonormal.
     Phi = a.shapes
     np.testing.assert_allclose(Phi.T @ (M @ Phi), np.eye(k), atol=1e-9)
-    R = K @ Phi - (M @ Phi) * a.omega2
-    MinvR = scipy.sparse.linalg.splu(M.tocsc()).solve(R)
-    norms = np.sqrt(np.einsum("ij,ij->j", R, MinvR))
-    assert np.all(norms <= a.bounds * (1 + 1e-6) + ulps)
 
 
 def test_generated_lattice_against_eigsh():

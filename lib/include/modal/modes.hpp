@@ -47,11 +47,14 @@ struct Mode {
   double error_estimate = 0;  // absolute error estimate of the eigenvalue: of omega2
                               // (rad²/s²) for symmetric problems, of s (rad/s) otherwise;
                               // covers the solver and the rounding (or differences) of M and K
-  // Symmetric problems: the residual bound ‖Kφ − λMφ‖_{M⁻¹} (rad²/s²), rigorous
-  // for the matrices as formed: an eigenvalue of the pencil solved lies
-  // within it of omega2 (Parlett, thm 4.5.1, in the M-inner product; for a
-  // hanging point-mass chain, Sturm counts where they bracket it more
-  // narrowly). The pencil solved is (K, M) of the LinearModel, or, for a
+  // Symmetric problems: a rigorous bound (rad²/s²) for the matrices as
+  // formed: an eigenvalue of the pencil solved lies within it of omega2. From
+  // the residual δ = ‖Kφ − λMφ‖_{M⁻¹} and the rounding: δ itself (Parlett,
+  // thm 4.5.1, in the M-inner product), δ²/g where the other modes leave a
+  // gap g (Kato–Temple), a cluster's quadratic bound for repeated eigenvalues
+  // (Mathias), and for a hanging point-mass chain Sturm counts where they
+  // bracket it more narrowly. So it bounds the eigenvalue's distance, not
+  // the residual, which may exceed it. The pencil solved is (K, M) of the LinearModel, or, for a
   // chain of parallel hinges, the congruent one in absolute angles
   // (LinearModel::absolute), whose rounding differs. It bounds what the
   // eigen-solver left, not the errors of K and M. error_estimate covers both
@@ -198,8 +201,8 @@ struct SparseModalOptions {
 // The inertia of K − σM counts the eigenvalues below σ, so that zero and
 // negative modes are never lost: morse_index is the number of negative
 // eigenvalues (all of them, whether or not among the k returned), and the
-// stability class uses it. Modes are M-normalized, ascending in λ, with
-// error_estimate the rigorous residual bound ‖Kφ − λMφ‖_{M⁻¹} (ΦᵀMΦ = I).
+// stability class uses it. Modes are M-normalized (ΦᵀMΦ = I), ascending in
+// λ, with error_estimate and residual_bound as Mode describes them.
 // Throws SingularMassMatrix (M not positive definite), NumericalError (no
 // convergence, a factorization failure), std::invalid_argument (sizes, k).
 ModalResult solve_sparse_modes(const SparseMatrix& K, const SparseMatrix& M, const SparseModalOptions& options = {});
