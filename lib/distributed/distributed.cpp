@@ -1703,6 +1703,17 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       for (std::size_t i = 0; i < numbers.size(); ++i)
         result.modes.push_back(
             quotient_mode(rank == 0 ? std::move(shapes[i]) : VectorX::Zero(1), numbers[i].first, numbers[i].second));
+      // Where the completeness check passed, Kato–Temple's δ²/g (as
+      // solve_sparse_modes): the linear δ had made the nets' estimates about
+      // 10 × the Lanczos path's.
+      if (completeness && completeness->first.outcome == CompletenessCheck::Outcome::complete) {
+        std::vector<double> bound, typical;
+        for (const auto& number : numbers) {
+          bound.push_back(number.second.residual_worst);
+          typical.push_back(number.second.residual);
+        }
+        kato_temple(result.modes, bound, typical, completeness->first.bound);
+      }
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
       if (completeness && !copies_note.empty())

@@ -1324,6 +1324,32 @@ Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums) {
   return mode;
 }
 
+std::vector<double> kato_temple(std::vector<Mode>& modes, const std::vector<double>& bound,
+                                const std::vector<double>& typical, double complete_below) {
+  if (bound.size() != modes.size() || typical.size() != modes.size())
+    throw std::invalid_argument("kato_temple: " + std::to_string(modes.size()) + " modes but " +
+                                std::to_string(bound.size()) + " bounds and " + std::to_string(typical.size()) +
+                                " typical residuals");
+  std::vector<double> parts(modes.size(), nan);
+  for (std::size_t j = 0; j < modes.size(); ++j) {
+    Mode& mode = modes[j];
+    if (!std::isfinite(bound[j]) || !(mode.omega2 < complete_below) || mode.kind == ModeKind::zero) continue;
+    double gap_bound = complete_below - mode.omega2, gap_typical = gap_bound;
+    for (std::size_t i = 0; i < modes.size(); ++i) {
+      if (i == j) continue;
+      const double d = std::abs(modes[i].omega2 - mode.omega2);
+      gap_bound = std::min(gap_bound, d - bound[i]);
+      gap_typical = std::min(gap_typical, d - typical[i]);
+    }
+    if (gap_bound > bound[j]) mode.residual_bound -= bound[j] - bound[j] * bound[j] / gap_bound;
+    if (gap_typical > typical[j]) {
+      parts[j] = typical[j] * typical[j] / gap_typical;
+      mode.error_estimate -= typical[j] - parts[j];
+    }
+  }
+  return parts;
+}
+
 CompletenessCheck check_completeness(long k, long n, double s0, double zeta,
                                      const std::function<std::vector<double>(long nev)>& solve,
                                      const std::function<long(double& b, bool expect_indefinite)>& count_below) {
@@ -2222,22 +2248,17 @@ ModalResult lanczos_modes(Pencil& pencil, Index k, const SparseModalOptions& opt
   // Parlett, thm 11.7.1), as the dense solver does. The loose equilibrium's
   // δ_Δ (ModeResidual) likewise. Otherwise the linear δ stays.
   if (std::isfinite(complete_below)) {
+    std::vector<Mode> modes;
+    std::vector<double> bound, typical;
+    for (auto& [mode, own] : built) {
+      modes.push_back(std::move(mode));
+      bound.push_back(own.bound);
+      typical.push_back(own.typical);
+    }
+    const std::vector<double> parts = kato_temple(modes, bound, typical, complete_below);
     for (std::size_t j = 0; j < built.size(); ++j) {
-      Mode& mode = built[j].first;
-      ModeResidual& own = built[j].second;
-      if (!std::isfinite(own.bound) || !(mode.omega2 < complete_below) || mode.kind == ModeKind::zero) continue;
-      double gap_bound = complete_below - mode.omega2, gap_typical = gap_bound;
-      for (std::size_t i = 0; i < built.size(); ++i) {
-        if (i == j) continue;
-        const double d = std::abs(built[i].first.omega2 - mode.omega2);
-        gap_bound = std::min(gap_bound, d - built[i].second.bound);
-        gap_typical = std::min(gap_typical, d - built[i].second.typical);
-      }
-      if (gap_bound > own.bound) mode.residual_bound -= own.bound - own.bound * own.bound / gap_bound;
-      if (gap_typical > own.typical) {
-        mode.error_estimate -= own.typical - own.typical * own.typical / gap_typical;
-        own.typical_part = own.typical * own.typical / gap_typical;
-      }
+      built[j].first = std::move(modes[j]);
+      if (std::isfinite(parts[j])) built[j].second.typical_part = parts[j];
     }
     cluster_bounds(built, complete_below, pencil);
   }

@@ -262,6 +262,21 @@ struct QuotientSums {
 // terms in each entry of Kφ, n + 1 in the sums).
 Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums);
 
+// Kato–Temple for the modes a shift-invert solver returned (both sparse
+// paths and the distributed backend share it). Where every eigenvalue below
+// b = `complete_below` (a passed completeness check's bound; +∞ where none
+// passed) is among the returned modes, each within its δ of one, a Rayleigh
+// quotient's error is quadratic: |λ_j − λ| ≤ δ_j²/g_j with g_j = min(b − λ_j,
+// min_i |λ_i − λ_j| − δ_i) > δ_j (Parlett, The Symmetric Eigenvalue
+// Problem, thm 11.7.1). `bound` and `typical`: each mode's δ as its
+// residual_bound and its error_estimate carry it (worst case and typical
+// size of r's rounding); replaced there by δ²/g for the modes below b that
+// are not zero modes and have such a gap, with the other modes' intervals
+// taken at the same size. Returns the estimate's new residual share, δ²/g
+// (typical), where it was replaced and NaN elsewhere. Any order of modes.
+std::vector<double> kato_temple(std::vector<Mode>& modes, const std::vector<double>& bound,
+                                const std::vector<double>& typical, double complete_below);
+
 // What the inertia of K − σM says about the modes a shift-invert solver did
 // not return (solve_sparse_modes and the distributed backend share it).
 struct InertiaAccount {
