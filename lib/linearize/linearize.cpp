@@ -185,7 +185,9 @@ LinearModel linearize(const System& s, const VectorX& q, const LinearizeOptions&
   // |T_ij|) ψ, T symmetric); the form is projected with the rest below.
   if (!model.circulatory && options.derivatives == DerivativeMethod::exact && !s.is_map()) {
     model.K_rounding_form = sparse_rounding_form(s, ws, q);
-    if (!s.has_constraints()) model.K_spring_rounding = spring_rounding(s, ws, q);
+    // Spring by spring for the symmetric path's estimates; not for a damped
+    // scene, which the first-order solver takes (it does not use it).
+    if (!s.has_constraints() && !s.has_damping()) model.K_spring_rounding = spring_rounding(s, ws, q);
     if (s.has_constraints() && model.K_rounding_form.size() > 0) {
       const VectorX rows = multiplier_term.cwiseAbs().rowwise().sum();
       model.K_rounding_form += SparseMatrix(rows.asDiagonal());

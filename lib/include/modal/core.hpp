@@ -64,8 +64,8 @@
 #include <Eigen/SparseCore>
 
 #include <array>
-#include <new>
 #include <limits>
+#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>

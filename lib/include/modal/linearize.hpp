@@ -73,7 +73,8 @@ struct LinearModel {
   // entrywise worst case, which leaves out the positions' rounding.
   SparseMatrix K_rounding_form;
   // spring_rounding at q (F kept spring by spring) where K_rounding_form is
-  // given and the scene has no constraints; empty otherwise. The symmetric
+  // given and the scene has neither constraints nor damping (a damped scene
+  // takes the first-order solver, which does not use it); empty otherwise. The symmetric
   // solver's estimates take the springs' rounding at its typical size with
   // it (detail::spring_by_spring).
   SpringRounding K_spring_rounding;
