@@ -1716,6 +1716,7 @@ Point solve_point(const System& held, const Scene& scene, const VectorX& start, 
       }
       std::stable_sort(result.modes.begin(), result.modes.end(),
                        [](const Mode& a, const Mode& b) { return a.omega2 < b.omega2; });
+      add_cluster_notes(result.modes, true, result.notes);
       if (completeness && !copies_note.empty())
         replace_note(result.notes, completeness->second, copies_note);
       else if (completeness)

@@ -257,13 +257,6 @@ struct ScaledSprings {
 // (which that doubles): ε(C + R)/8 … see modes.cpp.
 double spring_by_spring(const ScaledSprings& springs, const VectorX& phi);
 
-// Notes about clusters of (nearly) repeated eigenvalues among consecutive
-// entries of `modes` (already sorted). The eigenvalue compared is λ = omega2
-// when `symmetric`, s otherwise; two neighbours belong to one cluster when they
-// differ by less than the sum of their error estimates or by less than 1e-8 of
-// the largest |eigenvalue|.
-void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes);
-
 // Shapes solved in the absolute angles θ of parallel hinges to the model's
 // coordinates, q_c = θ_c − θ_parent(c) (parent: per coordinate, −1 where
 // it is its own), signed again (modes.cpp).

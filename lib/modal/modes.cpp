@@ -285,7 +285,7 @@ ModalResult solve_modes(const LinearModel& model, const ModalOptions& options) {
   result.stability = classify(result.modes);
   if (options.modes >= 0 && static_cast<std::size_t>(options.modes) < result.modes.size())
     result.modes.resize(static_cast<std::size_t>(options.modes));
-  detail::add_cluster_notes(result.modes, symmetric, result.notes);
+  add_cluster_notes(result.modes, symmetric, result.notes);
   if (!asymmetric_note.empty()) result.notes.insert(result.notes.begin(), asymmetric_note);
   result.steady = model.steady;
   unscale_shapes(scale, symmetric, result.modes);
@@ -302,38 +302,6 @@ const char* to_string(DenseSolver s) {
     case DenseSolver::lapack: return "lapack";
   }
   return "?";
-}
-
-namespace detail {
-
-// Shapes solved in the absolute angles θ of parallel hinges (LinearModel::
-// absolute) to the model's coordinates: φ_q = T φ_θ, q_c = θ_c − θ_parent(c)
-// (M-normalization carries over: φ_qᵀMφ_q = φ_θᵀ(TᵀMT)φ_θ), real shapes
-// signed again so that their largest component is positive.
-void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes) {
-  for (Mode& m : modes) {
-    if (m.shape.size() != static_cast<Eigen::Index>(parent.size())) continue;
-    const Eigen::VectorXcd theta = m.shape;
-    for (std::size_t c = 0; c < parent.size(); ++c)
-      if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
-    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
-    if (real && top.real() < 0) m.shape = -m.shape;
-    if (!real && top != std::complex<double>(0)) m.shape /= top;  // largest component 1, as solve_first_order's
-  }
-}
-
-Mode make_mode(std::complex<double> s, double error, ModeKind kind) {
-  Mode m;
-  m.omega2 = nan;
-  m.s = s;
-  m.growth_rate = s.real();
-  m.omega = s.imag();
-  m.frequency_hz = m.omega / (2 * std::numbers::pi);
-  m.period = m.omega > 0 ? 2 * std::numbers::pi / m.omega : std::numeric_limits<double>::infinity();
-  m.damping_ratio = (kind == ModeKind::zero || std::abs(s) == 0) ? nan : -s.real() / std::abs(s);
-  m.error_estimate = error;
-  m.kind = kind;
-  return m;
 }
 
 void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes) {
@@ -377,13 +345,13 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
     // true repeat (by symmetry) and two close eigenvalues look alike here.
     out << "modes " << first + 1 << "–" << last + 1 << " are not resolved: their eigenvalues ";
     if (symmetric)
-      out << "(λ ≈ " << format_number(modes[first].omega2, 10)
+      out << "(λ ≈ " << detail::format_number(modes[first].omega2, 10)
           << ") lie within each other's error estimates, so they may be one repeated eigenvalue; if so, their "
              "shapes are one M-orthonormal basis of the eigenspace, not unique (any M-orthonormal combination "
              "of them is equally valid)";
     else
-      out << "(s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
-          << format_number(std::abs(modes[first].s.imag()), 8)
+      out << "(s ≈ " << detail::format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
+          << detail::format_number(std::abs(modes[first].s.imag()), 8)
           << "i) lie within each other's error estimates; if they are one eigenvalue, their shapes span the "
              "invariant subspace and are not unique, and if it is defective (coalescing modes, as at critical "
              "damping or at the onset of flutter) it is accurate only to about the square root of the rounding "
@@ -404,19 +372,52 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
     std::ostringstream out;
     out << "modes " << first + 1 << "–" << last + 1 << ": their eigenvalues ";
     if (symmetric)
-      out << "(λ from " << format_number(modes[first].omega2, 10) << " to " << format_number(modes[last].omega2, 10)
+      out << "(λ from " << detail::format_number(modes[first].omega2, 10) << " to " << detail::format_number(modes[last].omega2, 10)
           << ")";
     else
-      out << "(|s| from " << format_number(std::abs(modes[first].s), 8) << " to "
-          << format_number(std::abs(modes[last].s), 8) << ")";
+      out << "(|s| from " << detail::format_number(std::abs(modes[first].s), 8) << " to "
+          << detail::format_number(std::abs(modes[last].s), 8) << ")";
     out << " are closer together than the systematic part of their error estimates (up to "
-        << format_number(systematic, 2)
+        << detail::format_number(systematic, 2)
         << ", from an equilibrium accepted at a loose tolerance or from derivatives by differences), so their "
            "spacing and order at the exact equilibrium are known only to within it; for the matrices as formed "
            "the solver's error tells them apart (but for any group of them that another note names)";
     notes.push_back(out.str());
   }
 }
+
+namespace detail {
+
+// Shapes solved in the absolute angles θ of parallel hinges (LinearModel::
+// absolute) to the model's coordinates: φ_q = T φ_θ, q_c = θ_c − θ_parent(c)
+// (M-normalization carries over: φ_qᵀMφ_q = φ_θᵀ(TᵀMT)φ_θ), real shapes
+// signed again so that their largest component is positive.
+void absolute_to_relative(const std::vector<int>& parent, bool real, std::vector<Mode>& modes) {
+  for (Mode& m : modes) {
+    if (m.shape.size() != static_cast<Eigen::Index>(parent.size())) continue;
+    const Eigen::VectorXcd theta = m.shape;
+    for (std::size_t c = 0; c < parent.size(); ++c)
+      if (parent[c] >= 0) m.shape[static_cast<Eigen::Index>(c)] -= theta[parent[c]];
+    const std::complex<double> top = m.shape(detail::dominant_index(m.shape));
+    if (real && top.real() < 0) m.shape = -m.shape;
+    if (!real && top != std::complex<double>(0)) m.shape /= top;  // largest component 1, as solve_first_order's
+  }
+}
+
+Mode make_mode(std::complex<double> s, double error, ModeKind kind) {
+  Mode m;
+  m.omega2 = nan;
+  m.s = s;
+  m.growth_rate = s.real();
+  m.omega = s.imag();
+  m.frequency_hz = m.omega / (2 * std::numbers::pi);
+  m.period = m.omega > 0 ? 2 * std::numbers::pi / m.omega : std::numeric_limits<double>::infinity();
+  m.damping_ratio = (kind == ModeKind::zero || std::abs(s) == 0) ? nan : -s.real() / std::abs(s);
+  m.error_estimate = error;
+  m.kind = kind;
+  return m;
+}
+
 
 Magnitudes magnitudes(double largest_M, double largest_K) {
   // 4^k near 1/x: k = −⌊(e + 1)/2⌋ with e = ⌊log₂ x⌋, as equilibrating_scale.

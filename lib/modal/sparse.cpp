@@ -1264,7 +1264,7 @@ class SparsePencil {
 // their largest component positive.
 void finish_scaled(ModalResult& result, const detail::Magnitudes& magnitude, const VectorX& scale) {
   detail::restore_magnitudes(result, magnitude, true);
-  detail::add_cluster_notes(result.modes, true, result.notes);
+  add_cluster_notes(result.modes, true, result.notes);
   for (Mode& mode : result.modes) {
     mode.shape = scale.cast<std::complex<double>>().cwiseProduct(mode.shape);
     if (mode.shape(detail::dominant_index(mode.shape)).real() < 0) mode.shape = -mode.shape;

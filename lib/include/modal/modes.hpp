@@ -262,6 +262,14 @@ struct QuotientSums {
 // terms in each entry of Kφ, n + 1 in the sums).
 Mode quotient_mode(VectorX phi, double lambda, const QuotientSums& sums);
 
+// Notes about clusters of (nearly) repeated eigenvalues among consecutive
+// entries of `modes` (already sorted), appended to `notes` (every solver
+// adds them once, the distributed backend too). The eigenvalue compared is
+// λ = omega2 when `symmetric`, s otherwise; two neighbours belong to one
+// cluster when they differ by less than the sum of their error estimates or
+// by less than 1e-8 of the largest |eigenvalue|.
+void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes);
+
 // Kato–Temple for the modes a shift-invert solver returned (both sparse
 // paths and the distributed backend share it). Where every eigenvalue below
 // b = `complete_below` (a passed completeness check's bound; +∞ where none
