@@ -305,6 +305,7 @@ const char* to_string(DenseSolver s) {
 }
 
 void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vector<std::string>& notes) {
+  using detail::format_number;
   auto value = [&](const Mode& m) { return symmetric ? std::complex<double>(m.omega2, 0) : m.s; };
   // Modes are one eigenvalue when every member of the group lies within the
   // error estimates of the first (the group's whole spread, not a chain of
@@ -345,13 +346,13 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
     // true repeat (by symmetry) and two close eigenvalues look alike here.
     out << "modes " << first + 1 << "–" << last + 1 << " are not resolved: their eigenvalues ";
     if (symmetric)
-      out << "(λ ≈ " << detail::format_number(modes[first].omega2, 10)
+      out << "(λ ≈ " << format_number(modes[first].omega2, 10)
           << ") lie within each other's error estimates, so they may be one repeated eigenvalue; if so, their "
              "shapes are one M-orthonormal basis of the eigenspace, not unique (any M-orthonormal combination "
              "of them is equally valid)";
     else
-      out << "(s ≈ " << detail::format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
-          << detail::format_number(std::abs(modes[first].s.imag()), 8)
+      out << "(s ≈ " << format_number(modes[first].s.real(), 8) << (modes[first].s.imag() < 0 ? " − " : " + ")
+          << format_number(std::abs(modes[first].s.imag()), 8)
           << "i) lie within each other's error estimates; if they are one eigenvalue, their shapes span the "
              "invariant subspace and are not unique, and if it is defective (coalescing modes, as at critical "
              "damping or at the onset of flutter) it is accurate only to about the square root of the rounding "
@@ -372,13 +373,13 @@ void add_cluster_notes(const std::vector<Mode>& modes, bool symmetric, std::vect
     std::ostringstream out;
     out << "modes " << first + 1 << "–" << last + 1 << ": their eigenvalues ";
     if (symmetric)
-      out << "(λ from " << detail::format_number(modes[first].omega2, 10) << " to " << detail::format_number(modes[last].omega2, 10)
+      out << "(λ from " << format_number(modes[first].omega2, 10) << " to " << format_number(modes[last].omega2, 10)
           << ")";
     else
-      out << "(|s| from " << detail::format_number(std::abs(modes[first].s), 8) << " to "
-          << detail::format_number(std::abs(modes[last].s), 8) << ")";
+      out << "(|s| from " << format_number(std::abs(modes[first].s), 8) << " to "
+          << format_number(std::abs(modes[last].s), 8) << ")";
     out << " are closer together than the systematic part of their error estimates (up to "
-        << detail::format_number(systematic, 2)
+        << format_number(systematic, 2)
         << ", from an equilibrium accepted at a loose tolerance or from derivatives by differences), so their "
            "spacing and order at the exact equilibrium are known only to within it; for the matrices as formed "
            "the solver's error tells them apart (but for any group of them that another note names)";
@@ -417,7 +418,6 @@ Mode make_mode(std::complex<double> s, double error, ModeKind kind) {
   m.kind = kind;
   return m;
 }
-
 
 Magnitudes magnitudes(double largest_M, double largest_K) {
   // 4^k near 1/x: k = −⌊(e + 1)/2⌋ with e = ⌊log₂ x⌋, as equilibrating_scale.

@@ -912,7 +912,7 @@ Projection projection(const MatrixX& Phi, double entries, double sums, K&& K_of,
     const VectorX phi = Phi.col(b), a = phi.cwiseAbs();
     const VectorX Kphi = K_of(phi), Mphi = M_of(phi), aK = absK_of(a), aM = absM_of(a);
     for (Index i = 0; i < g; ++i) {
-      const VectorX other = Phi.col(i);
+      const auto other = Phi.col(i);
       p.A(i, b) = dot(other, Kphi);
       p.B(i, b) = dot(other, Mphi);
       p.A_rounding(i, b) = entries * other.cwiseAbs().dot(aK) + sums * other.cwiseProduct(Kphi).cwiseAbs().sum();
